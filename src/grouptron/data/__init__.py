@@ -1,0 +1,1 @@
+"""Reading, validating, downloading and preprocessing the ETH/UCY benchmark."""

@@ -1,0 +1,40 @@
+"""Facts of the ETH/UCY benchmark protocol, as typed constants."""
+
+from __future__ import annotations
+
+from typing import Final
+
+DT_S: Final = 0.4
+"""Seconds per step (the benchmark convention, also for biwi_eth; see the data README)."""
+
+FRAMES_PER_STEP: Final = 10
+"""Video frames between two annotated steps in the benchmark files."""
+
+HISTORY_STEPS: Final = 8
+"""Observed steps t-7..t (3.2 s)."""
+
+HORIZON_STEPS: Final = 12
+"""Predicted steps t+1..t+12 (4.8 s)."""
+
+PERCEPTION_RADIUS_M: Final = 3.0
+"""Pedestrians within this distance of the ego at t are its neighbours."""
+
+EDGE_RAMP_WEIGHTS: Final = (0.25, 0.5, 0.75, 1.0)
+"""Weights of e_t, e_{t-1}, e_{t-2}, e_{t-3} in a new edge's ramp-in (clipped at 1)."""
+
+SPLITS: Final = ("eth", "hotel", "univ", "zara1", "zara2")
+"""The five leave-one-location-out splits."""
+
+PARTS: Final = ("train", "val", "test")
+
+EXPECTED_TEST_SAMPLES: Final = {
+    "eth": 364,
+    "hotel": 1197,
+    "univ": 24334,
+    "zara1": 2356,
+    "zara2": 5910,
+}
+"""Test samples (exactly 8 observed + 12 future steps) of the reference protocol."""
+
+UNIV_N_PAPER: Final = (40, 45, 50)
+"""The dense UNIV subsets of the Grouptron paper (at least N pedestrians in the scene at t)."""

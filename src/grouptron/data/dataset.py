@@ -1,0 +1,141 @@
+"""The five leave-one-location-out splits as cached sample sets."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import tempfile
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from grouptron.config import DataConfig, config_to_dict
+from grouptron.data.locate import preprocessed_cache_dir, split_files
+from grouptron.data.reader import read_tracks
+from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
+from grouptron.data.scene import Scene, build_scene
+
+log = logging.getLogger(__name__)
+
+CACHE_FORMAT_VERSION = 1
+"""Bump when the content of cached sample sets changes."""
+
+
+@dataclass(frozen=True)
+class SceneSummary:
+    """Counts describing one scene, kept with the cached samples."""
+
+    name: str
+    num_tracks: int
+    num_steps: int
+    max_present: int
+
+
+@dataclass(frozen=True)
+class PartData:
+    """The samples and scene summaries of one part (train, val or test) of a split."""
+
+    samples: SampleSet
+    scenes: tuple[SceneSummary, ...]
+
+
+def min_history_for(part: str, config: DataConfig) -> int:
+    """Observed points a sample needs: all ``history_steps`` for test, fewer for train/val."""
+    return config.history_steps if part == "test" else config.min_history_train
+
+
+def load_scenes(files: list[Path], config: DataConfig) -> list[Scene]:
+    """Read and build the scenes of a list of track files."""
+    return [
+        build_scene(read_tracks(f, config.frames_per_step, config.on_gap), config) for f in files
+    ]
+
+
+def build_part(files: list[Path], config: DataConfig, min_history: int) -> PartData:
+    """Samples of several scene files, uncached."""
+    scenes = load_scenes(files, config)
+    samples = concatenate_samples(
+        [scene_samples(s, config, min_history, index) for index, s in enumerate(scenes)]
+    )
+    summaries = tuple(
+        SceneSummary(s.name, s.num_tracks, s.num_steps, int(s.present_per_step().max()))
+        for s in scenes
+    )
+    return PartData(samples, summaries)
+
+
+def _file_digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def cache_key(files: list[Path], config: DataConfig, min_history: int) -> str:
+    """Hash of the input files' contents, the protocol and the cache format."""
+    payload = {
+        "format": CACHE_FORMAT_VERSION,
+        "config": config_to_dict(config),
+        "min_history": min_history,
+        "files": [[f.name, _file_digest(f)] for f in files],
+    }
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:32]
+
+
+def _save_part(path: Path, part: PartData) -> None:
+    arrays = {f"samples.{k}": v for k, v in part.samples.to_arrays().items()}
+    arrays["scenes.name"] = np.asarray([s.name for s in part.scenes])
+    for field in ("num_tracks", "num_steps", "max_present"):
+        arrays[f"scenes.{field}"] = np.asarray([getattr(s, field) for s in part.scenes])
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # Write to a temporary file in the same folder, then rename: never a half-written cache.
+    with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".tmp", delete=False) as handle:
+        np.savez(handle, **arrays)  # type: ignore[arg-type]
+    os.replace(handle.name, path)
+
+
+def _load_part(path: Path) -> PartData:
+    with np.load(path, allow_pickle=False) as npz:
+        arrays = {k: npz[k] for k in npz.files}
+    samples = SampleSet.from_arrays(
+        {k.removeprefix("samples."): v for k, v in arrays.items() if k.startswith("samples.")}
+    )
+    scenes = tuple(
+        SceneSummary(str(name), int(tracks), int(steps), int(present))
+        for name, tracks, steps, present in zip(
+            arrays["scenes.name"],
+            arrays["scenes.num_tracks"],
+            arrays["scenes.num_steps"],
+            arrays["scenes.max_present"],
+            strict=True,
+        )
+    )
+    return PartData(samples, scenes)
+
+
+def load_part(
+    data_dir: Path, split: str, part: str, config: DataConfig, use_cache: bool = True
+) -> PartData:
+    """Samples of one part of a split, from the on-disk cache when it is there.
+
+    The cache key hashes the files' contents and the config, so edited files or a different
+    derivative scheme never reuse stale samples. Cache files are ``.npz`` read without pickle.
+    """
+    files = split_files(data_dir, split, part)
+    min_history = min_history_for(part, config)
+    if not use_cache:
+        return build_part(files, config, min_history)
+    key = cache_key(files, config, min_history)
+    path = preprocessed_cache_dir() / f"{split}-{part}-{config.derivatives}-{key}.npz"
+    if path.exists():
+        try:
+            return _load_part(path)
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
+            log.warning("ignoring unreadable cache file %s (%s); rebuilding", path, exc)
+    data = build_part(files, config, min_history)
+    try:
+        _save_part(path, data)
+    except OSError as exc:  # a read-only or full cache folder only costs speed
+        log.warning("could not write the preprocessing cache %s: %s", path, exc)
+    return data

@@ -1,0 +1,92 @@
+"""Who is near whom: perception-range edges between pedestrians and their ramp-in weights.
+
+Everything is computed for all steps of a scene at once from the rows that share a step, with
+no Python loop over steps, agents or pairs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from grouptron.data.scene import Scene
+
+
+@dataclass(frozen=True)
+class Edges:
+    """Directed edges ``src -> dst`` (both directions are present), sorted by (src, step, dst).
+
+    Attributes:
+        src: (E,) track of the ego.
+        dst: (E,) track of the neighbour.
+        step: (E,) step at which the two are within the perception radius.
+        weight: (E,) ramp-in weight ``min(1, sum_k w_k e_{t-k})`` in (0, 1].
+    """
+
+    src: np.ndarray
+    dst: np.ndarray
+    step: np.ndarray
+    weight: np.ndarray
+
+
+def ranges_to_indices(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Concatenate ``arange(start, start + count)`` for every pair, vectorised."""
+    total = int(counts.sum())
+    if total == 0:
+        return np.zeros(0, dtype=np.int64)
+    offsets = np.cumsum(counts) - counts  # where every range begins in the output
+    return np.repeat(starts - offsets, counts) + np.arange(total)
+
+
+def co_present_pairs(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """All ordered pairs of distinct rows that share a step.
+
+    Returns:
+        Two (P,) arrays of row indices into the scene's rows.
+    """
+    by_step = np.argsort(scene.step, kind="stable")  # rows grouped by step
+    steps_sorted = scene.step[by_step]
+    block_start = np.searchsorted(steps_sorted, np.arange(scene.num_steps))
+    block_size = np.bincount(steps_sorted, minlength=scene.num_steps)
+    size_of_row = block_size[steps_sorted]
+    first = np.repeat(np.arange(len(by_step)), size_of_row)
+    second = ranges_to_indices(block_start[steps_sorted], size_of_row)
+    distinct = first != second
+    return by_step[first[distinct]], by_step[second[distinct]]
+
+
+def perception_edges(
+    scene: Scene, radius_m: float, ramp_weights: tuple[float, ...]
+) -> Edges:
+    """Edges between pedestrians present at the same step within ``radius_m`` of each other.
+
+    The weight ramps a new edge in: ``min(1, w_0 e_t + w_1 e_{t-1} + ...)`` with ``e_s`` = 1
+    where the pair was within range at step ``s``; an edge leaves at once when out of range.
+    """
+    row_a, row_b = co_present_pairs(scene)
+    pos = scene.state_scene[:, :2]
+    within = np.linalg.norm(pos[row_a] - pos[row_b], axis=-1) <= radius_m
+    row_a, row_b = row_a[within], row_b[within]
+    src, dst, step = scene.track[row_a], scene.track[row_b], scene.step[row_a]
+
+    num_tracks, num_steps = scene.num_tracks, scene.num_steps
+    key = (src.astype(np.int64) * num_tracks + dst) * num_steps + step
+    order = np.argsort(key)
+    key, src, dst, step = key[order], src[order], dst[order], step[order]
+
+    weight = np.full(len(key), ramp_weights[0])
+    for lag, w in enumerate(ramp_weights[1:], start=1):  # a handful of lags, not a data loop
+        query = key - lag
+        at = np.minimum(np.searchsorted(key, query), max(len(key) - 1, 0))
+        was_edge = (step >= lag) & (key[at] == query) if len(key) else np.zeros(0, bool)
+        weight = weight + w * was_edge
+    weight = np.minimum(weight, 1.0)
+
+    by_src_step = np.lexsort((dst, step, src))
+    return Edges(
+        src=src[by_src_step],
+        dst=dst[by_src_step],
+        step=step[by_src_step],
+        weight=weight[by_src_step],
+    )

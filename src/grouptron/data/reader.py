@@ -1,0 +1,211 @@
+"""Reading and validating ``frame id x y`` track files.
+
+Every problem is reported as a :class:`~grouptron.errors.DataFormatError` that names the file and,
+where there is one, the line. The fast path parses the whole file with NumPy; only when that
+fails is the file walked line by line to find the culprit.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from grouptron.data.constants import FRAMES_PER_STEP
+from grouptron.errors import DataFormatError
+
+log = logging.getLogger(__name__)
+
+COLUMNS = ("frame", "id", "x", "y")
+GapPolicy = Literal["split", "error"]
+
+
+@dataclass(frozen=True)
+class TrackTable:
+    """All observations of one file, one row per (pedestrian, step), sorted by (track, step).
+
+    Attributes:
+        path: the file read.
+        first_frame: frame number of step 0.
+        frames_per_step: frames between consecutive steps.
+        ped_id: (R,) pedestrian id as written in the file.
+        track: (R,) contiguous track index; a pedestrian whose track has gaps gets one track per
+            gap-free piece.
+        step: (R,) step index, ``(frame - first_frame) // frames_per_step``.
+        pos_m: (R, 2) x, y in metres, in the file's world frame.
+    """
+
+    path: Path
+    first_frame: int
+    frames_per_step: int
+    ped_id: np.ndarray
+    track: np.ndarray
+    step: np.ndarray
+    pos_m: np.ndarray
+
+    @property
+    def num_tracks(self) -> int:
+        return int(self.track.max()) + 1 if self.track.size else 0
+
+    @property
+    def frame(self) -> np.ndarray:
+        """(R,) frame number of every row."""
+        return self.first_frame + self.step * self.frames_per_step
+
+
+def _data_lines(path: Path, text: str) -> tuple[list[int], list[list[str]]]:
+    """Line numbers and tokens of the non-blank lines, checking the column count."""
+    numbers: list[int] = []
+    rows: list[list[str]] = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        tokens = line.split()
+        if not tokens:
+            continue
+        if len(tokens) != len(COLUMNS):
+            raise DataFormatError(
+                path,
+                f"expected 4 columns (frame id x y), found {len(tokens)}: {line.strip()[:60]!r}",
+                number,
+            )
+        numbers.append(number)
+        rows.append(tokens)
+    return numbers, rows
+
+
+def _find_bad_value(path: Path, numbers: list[int], rows: list[list[str]]) -> DataFormatError:
+    """Locate the first token that is not a finite number (slow path, only after a failure)."""
+    for number, tokens in zip(numbers, rows, strict=True):
+        for name, token in zip(COLUMNS, tokens, strict=True):
+            try:
+                value = float(token)
+            except ValueError:
+                return DataFormatError(path, f"{name} is not a number: {token[:40]!r}", number)
+            if not math.isfinite(value):
+                return DataFormatError(path, f"{name} is not finite: {token!r}", number)
+    return DataFormatError(path, "could not parse the file")  # pragma: no cover
+
+
+def _parse(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(R, 4) float64 values and (R,) line numbers of a file, all finite."""
+    if not path.exists():
+        raise DataFormatError(path, "file not found")
+    if not path.is_file():
+        raise DataFormatError(path, "not a regular file")
+    raw = path.read_bytes()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise DataFormatError(path, "not a text file (invalid UTF-8)", line) from None
+    if "\x00" in text:
+        line = text[: text.index("\x00")].count("\n") + 1
+        raise DataFormatError(path, "not a text file (contains NUL bytes)", line)
+    numbers, rows = _data_lines(path, text)
+    if not rows:
+        raise DataFormatError(path, "file is empty (no 'frame id x y' rows)")
+    try:
+        values = np.array(rows, dtype=np.float64)
+    except ValueError:
+        raise _find_bad_value(path, numbers, rows) from None
+    if not np.isfinite(values).all():
+        raise _find_bad_value(path, numbers, rows)
+    return values, np.asarray(numbers)
+
+
+def _check_integers(path: Path, values: np.ndarray, lines: np.ndarray) -> None:
+    for column in (0, 1):
+        bad = np.flatnonzero(values[:, column] != np.round(values[:, column]))
+        if bad.size:
+            row = int(bad[0])
+            raise DataFormatError(
+                path,
+                f"{COLUMNS[column]} must be an integer, found {values[row, column]!r}",
+                int(lines[row]),
+            )
+        too_big = np.flatnonzero(np.abs(values[:, column]) > 2**53)
+        if too_big.size:
+            row = int(too_big[0])
+            raise DataFormatError(path, f"{COLUMNS[column]} is out of range", int(lines[row]))
+
+
+def read_tracks(
+    path: str | Path,
+    frames_per_step: int = FRAMES_PER_STEP,
+    on_gap: GapPolicy = "split",
+) -> TrackTable:
+    """Read and validate a ``frame id x y`` file (tabs or spaces).
+
+    Args:
+        path: the file.
+        frames_per_step: frames between consecutive annotated steps (10 in ETH/UCY).
+        on_gap: what to do with a track that misses steps in the middle: ``"split"`` it into
+            separate tracks (with a warning) or raise an ``"error"``.
+
+    Raises:
+        DataFormatError: naming the file and line, for wrong column counts, non-numeric or
+            non-finite values, non-integer frames or ids, duplicate (frame, id) rows, frames off
+            the step grid, an empty or a missing file, and (with ``on_gap="error"``) gaps.
+    """
+    path = Path(path)
+    values, lines = _parse(path)
+    _check_integers(path, values, lines)
+    frame = values[:, 0].astype(np.int64)
+    ped_id = values[:, 1].astype(np.int64)
+    pos_m = values[:, 2:4].copy()
+
+    first_frame = int(frame.min())
+    off_grid = np.flatnonzero((frame - first_frame) % frames_per_step)
+    if off_grid.size:
+        row = int(off_grid[0])
+        raise DataFormatError(
+            path,
+            f"frame {frame[row]} is not on the {frames_per_step}-frame grid that starts at frame "
+            f"{first_frame} (every frame must be first_frame + a multiple of {frames_per_step})",
+            int(lines[row]),
+        )
+    step = (frame - first_frame) // frames_per_step
+
+    order = np.lexsort((step, ped_id))  # sort by id, then step
+    ped_id, step, pos_m, lines = ped_id[order], step[order], pos_m[order], lines[order]
+    same_ped = ped_id[1:] == ped_id[:-1]
+    duplicate = np.flatnonzero(same_ped & (step[1:] == step[:-1]))
+    if duplicate.size:
+        first, second = sorted((int(lines[duplicate[0]]), int(lines[duplicate[0] + 1])))
+        raise DataFormatError(
+            path,
+            f"duplicate row for pedestrian {ped_id[duplicate[0]]} at frame "
+            f"{first_frame + step[duplicate[0]] * frames_per_step} (also on line {first})",
+            second,
+        )
+
+    gap = same_ped & (step[1:] - step[:-1] > 1)
+    if gap.any():
+        where = int(np.flatnonzero(gap)[0])
+        message = (
+            f"pedestrian {ped_id[where]} has a gap between frames "
+            f"{first_frame + step[where] * frames_per_step} and "
+            f"{first_frame + step[where + 1] * frames_per_step}"
+        )
+        if on_gap == "error":
+            raise DataFormatError(path, message, int(lines[where + 1]))
+        log.warning(
+            "%s: %d track gap(s); split into separate tracks (first: %s)",
+            path,
+            int(gap.sum()),
+            message,
+        )
+    new_track = np.concatenate([[True], ~same_ped | gap])
+    track = np.cumsum(new_track) - 1
+    return TrackTable(
+        path=path,
+        first_frame=first_frame,
+        frames_per_step=frames_per_step,
+        ped_id=ped_id,
+        track=track,
+        step=step,
+        pos_m=pos_m,
+    )

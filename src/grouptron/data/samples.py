@@ -1,0 +1,207 @@
+"""Samples: one ego pedestrian at one step, with its standardised history, future and neighbours.
+
+Built for a whole scene at once from a dense (track, step) grid by gathering, never by looping
+over samples or neighbours.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from grouptron.config import DataConfig
+from grouptron.data.neighbours import perception_edges, ranges_to_indices
+from grouptron.data.scene import Scene
+
+
+@dataclass(frozen=True)
+class SampleSet:
+    """Flat arrays of ``S`` samples (``T`` history steps, ``H`` future steps).
+
+    Relative positions are in the ego's frame of origin (its position at ``t``) but with the
+    scene's axes; standardised (``_st``) values follow SPEC section 2.
+
+    Attributes:
+        scene_names: (num_scenes,) names of the scenes the samples come from.
+        scene_index: (S,) scene of each sample.
+        track: (S,) ego track inside its scene.
+        step: (S,) the current step ``t``.
+        num_present: (S,) pedestrians present in the scene at ``t``.
+        pos_now_scene_m: (S, 2) ego position at ``t`` in the centred scene frame.
+        hist_mask: (S, T) True where the ego was observed (t-T+1..t).
+        hist_rel_m: (S, T, 2) ego positions minus its position at ``t``; 0 where masked.
+        hist_st: (S, T, 6) standardised ego states: positions relative to ``t`` / 3 m,
+            velocities / 2 m/s, accelerations / 1 m/s^2; 0 where masked.
+        fut_rel_m: (S, H, 2) future positions minus the position at ``t``.
+        nbr_sum_st: (S, T, 6) sum over the neighbours at ``t`` of their standardised states
+            ``(state_n - state_ego(t)) / scale``, each neighbour counted at the steps where it
+            was observed; 0 where the ego is masked.
+        edge_weight_sum: (S,) sum of the neighbours' ramp-in edge weights (not clipped).
+        nbr_offsets: (S + 1,) sample ``s`` has neighbours ``nbr_offsets[s]:nbr_offsets[s+1]``.
+        nbr_track: (E,) neighbour tracks (same scene as their sample).
+        nbr_weight: (E,) their edge weights.
+    """
+
+    scene_names: np.ndarray
+    scene_index: np.ndarray
+    track: np.ndarray
+    step: np.ndarray
+    num_present: np.ndarray
+    pos_now_scene_m: np.ndarray
+    hist_mask: np.ndarray
+    hist_rel_m: np.ndarray
+    hist_st: np.ndarray
+    fut_rel_m: np.ndarray
+    nbr_sum_st: np.ndarray
+    edge_weight_sum: np.ndarray
+    nbr_offsets: np.ndarray
+    nbr_track: np.ndarray
+    nbr_weight: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.step)
+
+    @property
+    def num_neighbours(self) -> np.ndarray:
+        """(S,) neighbours of every sample at ``t``."""
+        return np.diff(self.nbr_offsets)
+
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """The fields as a flat dict of arrays (for ``np.savez``)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> SampleSet:
+        return cls(**{f.name: arrays[f.name] for f in dataclasses.fields(cls)})
+
+    def subset(self, keep: np.ndarray) -> SampleSet:
+        """The samples where the boolean (S,) mask ``keep`` is True, neighbours included."""
+        index = np.flatnonzero(keep)
+        counts = self.num_neighbours[index]
+        edge_index = ranges_to_indices(self.nbr_offsets[index], counts)
+        per_sample = {
+            f.name: getattr(self, f.name)[index]
+            for f in dataclasses.fields(self)
+            if f.name not in ("scene_names", "nbr_offsets", "nbr_track", "nbr_weight")
+        }
+        return SampleSet(
+            scene_names=self.scene_names,
+            nbr_offsets=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+            nbr_track=self.nbr_track[edge_index],
+            nbr_weight=self.nbr_weight[edge_index],
+            **per_sample,
+        )
+
+
+def _dense_grid(scene: Scene, pad_before: int, pad_after: int) -> tuple[np.ndarray, np.ndarray]:
+    """(A, pad_before + num_steps + pad_after, 6) states and the matching presence mask."""
+    width = pad_before + scene.num_steps + pad_after
+    state = np.zeros((scene.num_tracks, width, 6))
+    present = np.zeros((scene.num_tracks, width), dtype=bool)
+    state[scene.track, scene.step + pad_before] = scene.state_scene
+    present[scene.track, scene.step + pad_before] = True
+    return state, present
+
+
+def scene_samples(
+    scene: Scene, config: DataConfig, min_history: int, scene_index: int = 0
+) -> SampleSet:
+    """All samples of a scene whose ego has ``min_history`` observed points up to ``t`` and a
+    full future of ``config.horizon_steps``.
+
+    Args:
+        scene: the scene.
+        config: the data protocol.
+        min_history: 2 for training/validation (t-1, t), ``history_steps`` for testing.
+        scene_index: stored in ``SampleSet.scene_index``.
+    """
+    T, H = config.history_steps, config.horizon_steps
+    scale = np.asarray(config.state_scale)
+    pad_before = T - 1
+    state_grid, present_grid = _dense_grid(scene, pad_before, H)
+
+    # A row is a sample when its track has enough points before and after it.
+    first, last = scene.track_first_step[scene.track], scene.track_last_step[scene.track]
+    is_sample = (scene.step - first >= min_history - 1) & (last - scene.step >= H)
+    track, step = scene.track[is_sample], scene.step[is_sample]
+    ego_now = scene.state_scene[is_sample]  # (S, 6)
+
+    hist_cols = step[:, None] + np.arange(T)  # grid columns of t-T+1..t, (S, T)
+    hist_state = state_grid[track[:, None], hist_cols]  # (S, T, 6)
+    hist_mask = present_grid[track[:, None], hist_cols]  # (S, T)
+    hist_rel = (hist_state[..., :2] - ego_now[:, None, :2]) * hist_mask[..., None]
+    hist_st = hist_state.copy()
+    hist_st[..., :2] = hist_rel
+    hist_st = hist_st / scale * hist_mask[..., None]
+
+    fut_cols = step[:, None] + pad_before + 1 + np.arange(H)  # (S, H)
+    fut_rel = state_grid[track[:, None], fut_cols, :2] - ego_now[:, None, :2]  # (S, H, 2)
+
+    # Neighbours at t: the ego's outgoing edges at its step, already sorted by (src, step).
+    edges = perception_edges(scene, config.perception_radius_m, config.edge_ramp_weights)
+    edge_key = edges.src.astype(np.int64) * scene.num_steps + edges.step
+    sample_key = track.astype(np.int64) * scene.num_steps + step
+    lo = np.searchsorted(edge_key, sample_key, side="left")
+    hi = np.searchsorted(edge_key, sample_key, side="right")
+    counts = hi - lo
+    edge_index = ranges_to_indices(lo, counts)
+    nbr_track, nbr_weight = edges.dst[edge_index], edges.weight[edge_index]
+    nbr_offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+
+    # Sum of neighbour states per history step, via prefix sums over the flat edge list.
+    edge_sample = np.repeat(np.arange(len(step)), counts)
+    nbr_cols = hist_cols[edge_sample]  # (E, T)
+    nbr_present = present_grid[nbr_track[:, None], nbr_cols]  # (E, T)
+    nbr_state = state_grid[nbr_track[:, None], nbr_cols] * nbr_present[..., None]  # (E, T, 6)
+    zeros = np.zeros((1, T, 6))
+    state_prefix = np.concatenate([zeros, np.cumsum(nbr_state, axis=0)])
+    count_prefix = np.concatenate([zeros[..., 0], np.cumsum(nbr_present, axis=0)])
+    state_sum = state_prefix[nbr_offsets[1:]] - state_prefix[nbr_offsets[:-1]]  # (S, T, 6)
+    present_sum = count_prefix[nbr_offsets[1:]] - count_prefix[nbr_offsets[:-1]]  # (S, T)
+    nbr_sum_st = (state_sum - present_sum[..., None] * ego_now[:, None, :]) / scale
+    nbr_sum_st = nbr_sum_st * hist_mask[..., None]
+    weight_prefix = np.concatenate([[0.0], np.cumsum(nbr_weight)])
+    edge_weight_sum = weight_prefix[nbr_offsets[1:]] - weight_prefix[nbr_offsets[:-1]]
+
+    return SampleSet(
+        scene_names=np.asarray([scene.name]),
+        scene_index=np.full(len(step), scene_index, dtype=np.int32),
+        track=track.astype(np.int32),
+        step=step.astype(np.int32),
+        num_present=scene.present_per_step()[step].astype(np.int32),
+        pos_now_scene_m=ego_now[:, :2].copy(),
+        hist_mask=hist_mask,
+        hist_rel_m=hist_rel.astype(np.float32),
+        hist_st=hist_st.astype(np.float32),
+        fut_rel_m=fut_rel.astype(np.float32),
+        nbr_sum_st=nbr_sum_st.astype(np.float32),
+        edge_weight_sum=edge_weight_sum.astype(np.float32),
+        nbr_offsets=nbr_offsets,
+        nbr_track=nbr_track.astype(np.int32),
+        nbr_weight=nbr_weight.astype(np.float32),
+    )
+
+
+def concatenate_samples(parts: list[SampleSet]) -> SampleSet:
+    """Join sample sets of different scenes, renumbering scenes and neighbour offsets."""
+    if not parts:
+        raise ValueError("nothing to concatenate")
+    scene_shift = np.cumsum([0] + [len(p.scene_names) for p in parts[:-1]])
+    edge_shift = np.cumsum([0] + [int(p.nbr_offsets[-1]) for p in parts[:-1]])
+    per_sample = {
+        f.name: np.concatenate([getattr(p, f.name) for p in parts])
+        for f in dataclasses.fields(SampleSet)
+        if f.name not in ("scene_names", "scene_index", "nbr_offsets")
+    }
+    return SampleSet(
+        scene_names=np.concatenate([p.scene_names for p in parts]),
+        scene_index=np.concatenate(
+            [p.scene_index + shift for p, shift in zip(parts, scene_shift, strict=True)]
+        ).astype(np.int32),
+        nbr_offsets=np.concatenate(
+            [[0]] + [p.nbr_offsets[1:] + s for p, s in zip(parts, edge_shift, strict=True)]
+        ).astype(np.int64),
+        **per_sample,
+    )

@@ -1,0 +1,91 @@
+"""A scene: one recording's tracks in a centred frame with per-step states."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from grouptron.config import DataConfig
+from grouptron.data.reader import TrackTable
+from grouptron.geometry import track_states
+
+
+@dataclass(frozen=True)
+class Scene:
+    """One recording (one file) as gap-free tracks with position, velocity and acceleration.
+
+    Positions are centred on the mean of all the file's positions (``pos_scene = pos_world -
+    centre_world_m``), as the reference does; this only matters for rotation augmentation.
+
+    Attributes:
+        name: usually the file name without extension.
+        first_frame: frame number of step 0; ``frame = first_frame + step * frames_per_step``.
+        frames_per_step: frames between steps.
+        centre_world_m: (2,) mean position subtracted from the world coordinates.
+        ped_id: (A,) pedestrian id of every track as written in the file.
+        track_first_step: (A,) first step of every track.
+        track_num_points: (A,) points of every track (>= 2).
+        num_steps: steps from 0 to the last annotated one, inclusive.
+        track: (R,) track of every row; rows are sorted by (track, step).
+        step: (R,) step of every row.
+        state_scene: (R, 6) x, y, vx, vy, ax, ay in the centred scene frame (m, m/s, m/s^2).
+    """
+
+    name: str
+    first_frame: int
+    frames_per_step: int
+    centre_world_m: np.ndarray
+    ped_id: np.ndarray
+    track_first_step: np.ndarray
+    track_num_points: np.ndarray
+    num_steps: int
+    track: np.ndarray
+    step: np.ndarray
+    state_scene: np.ndarray
+
+    @property
+    def num_tracks(self) -> int:
+        return len(self.ped_id)
+
+    @property
+    def track_last_step(self) -> np.ndarray:
+        """(A,) last step of every track."""
+        return self.track_first_step + self.track_num_points - 1
+
+    def present_per_step(self) -> np.ndarray:
+        """(num_steps,) pedestrians present at every step."""
+        return np.bincount(self.step, minlength=self.num_steps)
+
+
+def build_scene(table: TrackTable, config: DataConfig, name: str | None = None) -> Scene:
+    """Turn a validated track table into a :class:`Scene`.
+
+    Tracks with fewer than 2 points are dropped (they have no velocity), after the centre is
+    taken over all of the file's positions.
+    """
+    centre = table.pos_m.mean(axis=0)
+    points_per_track = np.bincount(table.track)
+    keep_track = points_per_track >= 2
+    keep_row = keep_track[table.track]
+    new_index = np.cumsum(keep_track) - 1  # old track -> new contiguous track
+    track = new_index[table.track[keep_row]]
+    step = table.step[keep_row]
+    pos_scene = table.pos_m[keep_row] - centre
+    state = track_states(pos_scene, track, config.dt_s, config.derivatives)
+
+    num_tracks = int(keep_track.sum())
+    first_row = np.searchsorted(track, np.arange(num_tracks))
+    return Scene(
+        name=name if name is not None else table.path.stem,
+        first_frame=table.first_frame,
+        frames_per_step=table.frames_per_step,
+        centre_world_m=centre,
+        ped_id=table.ped_id[keep_row][first_row],
+        track_first_step=step[first_row],
+        track_num_points=points_per_track[keep_track],
+        num_steps=int(table.step.max()) + 1,
+        track=track,
+        step=step,
+        state_scene=state,
+    )
