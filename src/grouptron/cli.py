@@ -1,0 +1,289 @@
+"""The ``grouptron`` command: data, evaluation and (later) training subcommands.
+
+Errors caused by input are printed on one line and end the program with exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from grouptron import __version__
+from grouptron.baselines.constant_velocity import constant_velocity
+from grouptron.config import DataConfig
+from grouptron.data.constants import SPLITS, UNIV_N_PAPER
+from grouptron.data.dataset import load_part
+from grouptron.data.download import fetch_dataset
+from grouptron.data.locate import resolve_data_dir
+from grouptron.data.subsets import parse_univ_n, univ_n_mask
+from grouptron.errors import GrouptronError
+from grouptron.evaluation.results import (
+    EvaluationResult,
+    mean_over_splits,
+    results_json,
+    results_table,
+    score,
+)
+from grouptron.geometry import DERIVATIVE_SCHEMES
+
+log = logging.getLogger("grouptron")
+EXIT_USAGE = 2
+
+
+class _Formatter(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefaultsHelpFormatter):
+    """Keep the examples' line breaks and show defaults."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.print_usage(sys.stderr)
+        raise GrouptronError(message)
+
+
+def _add_data_options(parser: argparse.ArgumentParser, derivatives: bool = True) -> None:
+    parser.add_argument(
+        "--data-dir",
+        help="ETH/UCY folder (default: $GROUPTRON_DATA, else ~/.cache/grouptron/eth_ucy)",
+    )
+    if derivatives:
+        parser.add_argument(
+            "--derivatives",
+            choices=DERIVATIVE_SCHEMES,
+            default="central",
+            help="velocity/acceleration scheme: 'central' (the papers' protocol, looks one step "
+            "ahead) or 'backward' (causal)",
+        )
+    parser.add_argument(
+        "--no-cache", action="store_true", help="rebuild samples instead of using the cache"
+    )
+
+
+def _splits(value: str) -> list[str]:
+    if value == "all":
+        return list(SPLITS)
+    if value not in SPLITS:
+        raise GrouptronError(f"unknown split {value!r}; choose from {', '.join(SPLITS)} or all")
+    return [value]
+
+
+def _int_list(value: str) -> list[int]:
+    try:
+        numbers = [int(v) for v in value.split(",") if v.strip()]
+    except ValueError:
+        raise GrouptronError(f"expected comma-separated integers, got {value!r}") from None
+    if any(n < 1 for n in numbers):
+        raise GrouptronError(f"expected positive integers, got {value!r}")
+    return numbers
+
+
+# --- data -------------------------------------------------------------------------------------
+
+
+def cmd_data_fetch(args: argparse.Namespace) -> int:
+    data_dir = resolve_data_dir(args.data_dir)
+    report = fetch_dataset(data_dir, base_url=args.base_url, timeout_s=args.timeout)
+    print(
+        f"{data_dir}: {len(report.verified)} files verified, {len(report.downloaded)} "
+        f"downloaded, {len(report.replaced)} corrupt files replaced"
+    )
+    return 0
+
+
+def cmd_data_stats(args: argparse.Namespace) -> int:
+    data_dir = resolve_data_dir(args.data_dir)
+    config = DataConfig(derivatives=args.derivatives)
+    univ_n = _int_list(args.univ_n)
+    stats: dict[str, dict[str, object]] = {}
+    for split in _splits(args.split):
+        parts = {
+            part: load_part(data_dir, split, part, config, use_cache=not args.no_cache)
+            for part in ("train", "val", "test")
+        }
+        scenes = [s for p in parts.values() for s in p.scenes]
+        entry: dict[str, object] = {
+            "scenes": len(scenes),
+            "tracks": sum(s.num_tracks for s in scenes),
+            "train_samples": len(parts["train"].samples),
+            "val_samples": len(parts["val"].samples),
+            "test_samples": len(parts["test"].samples),
+            "test_max_pedestrians_per_step": max(s.max_present for s in parts["test"].scenes),
+        }
+        if split == "univ":
+            test = parts["test"].samples
+            entry["univ_n"] = {str(n): int(univ_n_mask(test, n).sum()) for n in univ_n}
+        stats[split] = entry
+    if args.format == "json":
+        print(json.dumps(stats, indent=2))
+        return 0
+    header = (
+        f"{'split':<6} {'scenes':>6} {'tracks':>7} {'train':>8} {'val':>7} {'test':>7} "
+        f"{'max peds/step (test)':>21}"
+    )
+    print(f"ETH/UCY samples ({config.derivatives} derivatives) from {data_dir}")
+    print(header)
+    print("-" * len(header))
+    for split, e in stats.items():
+        print(
+            f"{split:<6} {e['scenes']:>6} {e['tracks']:>7} {e['train_samples']:>8} "
+            f"{e['val_samples']:>7} {e['test_samples']:>7} "
+            f"{e['test_max_pedestrians_per_step']:>21}"
+        )
+    if "univ" in stats:
+        counts = stats["univ"]["univ_n"]
+        assert isinstance(counts, dict)
+        print("UNIV-N test samples: " + ", ".join(f"N={n}: {c}" for n, c in counts.items()))
+    return 0
+
+
+# --- evaluate ---------------------------------------------------------------------------------
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    if args.model != "constant-velocity":  # pragma: no cover - guarded by argparse choices
+        raise GrouptronError(f"unknown model {args.model!r}")
+    splits = _splits(args.split)
+    min_present = None
+    if args.subset:
+        min_present = parse_univ_n(args.subset)
+        if splits != ["univ"]:
+            raise GrouptronError("--subset univ-N needs --split univ")
+    data_dir = resolve_data_dir(args.data_dir)
+    config = DataConfig(derivatives=args.derivatives)
+    results: list[EvaluationResult] = []
+    for split in splits:
+        samples = load_part(data_dir, split, "test", config, use_cache=not args.no_cache).samples
+        if min_present is not None:
+            samples = samples.subset(univ_n_mask(samples, min_present))
+            if not len(samples):
+                raise GrouptronError(f"no univ test sample has {min_present} pedestrians or more")
+        pred = constant_velocity(samples.hist_rel_m.astype("float64"), config.horizon_steps)
+        results.append(score(split, args.model, args.subset, pred, samples))
+    if len(results) == len(SPLITS):
+        results.append(mean_over_splits(results))
+    print(results_json(results) if args.format == "json" else results_table(results))
+    return 0
+
+
+# --- parser -----------------------------------------------------------------------------------
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="grouptron",
+        description="Group-aware pedestrian trajectory forecasting on ETH/UCY "
+        "(Grouptron and Trajectron++).",
+        formatter_class=_Formatter,
+        epilog="examples:\n"
+        "  grouptron data fetch\n"
+        "  grouptron data stats --split all\n"
+        "  grouptron evaluate --model constant-velocity --split all\n\n"
+        "Run 'grouptron COMMAND --help' for the options of a command.",
+    )
+    parser.add_argument("--version", action="version", version=f"grouptron {__version__}")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log more detail")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    data = commands.add_parser(
+        "data",
+        help="get and inspect the ETH/UCY benchmark",
+        description="Get and inspect the ETH/UCY benchmark files.",
+        formatter_class=_Formatter,
+        epilog="examples:\n  grouptron data fetch\n  grouptron data stats --split univ",
+    )
+    data_commands = data.add_subparsers(dest="data_command", metavar="ACTION", parser_class=_Parser)
+
+    fetch = data_commands.add_parser(
+        "fetch",
+        help="download the benchmark files and verify their checksums",
+        description="Download the ETH/UCY files (Trajectron++ repository, fixed commit) into the "
+        "data folder and verify every file against the SHA256 list shipped with grouptron. "
+        "Files that already verify are kept; nothing half-written is ever left behind.",
+        formatter_class=_Formatter,
+        epilog="examples:\n"
+        "  grouptron data fetch\n"
+        "  grouptron data fetch --data-dir ~/datasets/eth_ucy",
+    )
+    fetch.add_argument("--data-dir", help="target folder (default: $GROUPTRON_DATA or the cache)")
+    fetch.add_argument(
+        "--base-url", help="download from this URL prefix instead (or $GROUPTRON_DATA_URL)"
+    )
+    fetch.add_argument("--timeout", type=float, default=60.0, help="seconds per request")
+    fetch.set_defaults(handler=cmd_data_fetch)
+
+    stats = data_commands.add_parser(
+        "stats",
+        help="scenes, tracks and sample counts per split",
+        description="Per split: scenes, tracks, training/validation/test samples, the most "
+        "pedestrians in one step of the test recording(s), and for univ the UNIV-N subsets "
+        "(test samples whose scene has at least N pedestrians at the current step).",
+        formatter_class=_Formatter,
+        epilog="examples:\n"
+        "  grouptron data stats --split all\n"
+        "  grouptron data stats --split univ --univ-n 30,40,50 --format json",
+    )
+    stats.add_argument("--split", default="all", help=f"one of {', '.join(SPLITS)} or all")
+    stats.add_argument(
+        "--univ-n",
+        default=",".join(str(n) for n in UNIV_N_PAPER),
+        help="comma-separated N for the UNIV-N counts",
+    )
+    stats.add_argument("--format", choices=("table", "json"), default="table")
+    _add_data_options(stats)
+    stats.set_defaults(handler=cmd_data_stats)
+
+    evaluate = commands.add_parser(
+        "evaluate",
+        help="score a model on the test sets (ADE/FDE in metres)",
+        description="Score a predictor on the test samples of one or all splits (exactly 8 "
+        "observed and 12 future steps). With --split all the unweighted mean over the five "
+        "splits is added.",
+        formatter_class=_Formatter,
+        epilog="examples:\n"
+        "  grouptron evaluate --model constant-velocity --split all\n"
+        "  grouptron evaluate --model constant-velocity --split univ --subset univ-45 "
+        "--format json",
+    )
+    evaluate.add_argument(
+        "--model", choices=("constant-velocity",), required=True, help="predictor to score"
+    )
+    evaluate.add_argument("--split", default="all", help=f"one of {', '.join(SPLITS)} or all")
+    evaluate.add_argument(
+        "--subset", help="univ-N: only univ test samples with >= N pedestrians in the scene"
+    )
+    evaluate.add_argument("--format", choices=("table", "json"), default="table")
+    _add_data_options(evaluate)
+    evaluate.set_defaults(handler=cmd_evaluate)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``grouptron`` console script; returns the exit code."""
+    logging.basicConfig(format="grouptron: %(levelname)s: %(message)s", level=logging.WARNING)
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        if args.verbose:
+            logging.getLogger().setLevel(logging.INFO)
+        handler: Callable[[argparse.Namespace], int] | None = getattr(args, "handler", None)
+        if handler is None:
+            # A command group without an action: show its help.
+            target = {"data": "data"}.get(args.command or "")
+            if target:
+                parser.parse_args([target, "--help"])
+            parser.print_help()
+            return EXIT_USAGE
+        return handler(args)
+    except GrouptronError as exc:
+        print(f"grouptron: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("grouptron: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
