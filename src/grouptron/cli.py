@@ -10,7 +10,6 @@ import json
 import logging
 import sys
 from collections.abc import Callable, Sequence
-from pathlib import Path
 
 from grouptron import __version__
 from grouptron.baselines.constant_velocity import constant_velocity

@@ -71,14 +71,15 @@ def file_sha256(path: Path) -> str:
 
 def _download_one(url: str, target: Path, expected_sha256: str, timeout_s: float) -> None:
     target.parent.mkdir(parents=True, exist_ok=True)
-    handle = tempfile.NamedTemporaryFile(dir=target.parent, prefix=".part-", delete=False)
+    descriptor, part_name = tempfile.mkstemp(dir=target.parent, prefix=".part-")
     try:
         digest = hashlib.sha256()
-        with handle, urllib.request.urlopen(url, timeout=timeout_s) as response:
+        with (
+            os.fdopen(descriptor, "wb") as handle,
+            urllib.request.urlopen(url, timeout=timeout_s) as response,
+        ):
             total = int(response.headers.get("Content-Length") or 0) or None
-            with tqdm(
-                total=total, unit="B", unit_scale=True, desc=target.name, leave=False
-            ) as bar:
+            with tqdm(total=total, unit="B", unit_scale=True, desc=target.name, leave=False) as bar:
                 for chunk in iter(lambda: response.read(CHUNK_BYTES), b""):
                     handle.write(chunk)
                     digest.update(chunk)
@@ -88,12 +89,12 @@ def _download_one(url: str, target: Path, expected_sha256: str, timeout_s: float
                 f"{url}: checksum mismatch (expected {expected_sha256[:12]}..., "
                 f"got {digest.hexdigest()[:12]}...); the file was not saved"
             )
-        os.replace(handle.name, target)
+        os.replace(part_name, target)
     except (urllib.error.URLError, OSError, TimeoutError) as exc:
         raise DownloadError(f"{url}: download failed: {exc}") from None
     finally:
-        if os.path.exists(handle.name):
-            os.unlink(handle.name)
+        if os.path.exists(part_name):
+            os.unlink(part_name)
 
 
 def fetch_dataset(

@@ -56,9 +56,7 @@ def co_present_pairs(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     return by_step[first[distinct]], by_step[second[distinct]]
 
 
-def perception_edges(
-    scene: Scene, radius_m: float, ramp_weights: tuple[float, ...]
-) -> Edges:
+def perception_edges(scene: Scene, radius_m: float, ramp_weights: tuple[float, ...]) -> Edges:
     """Edges between pedestrians present at the same step within ``radius_m`` of each other.
 
     The weight ramps a new edge in: ``min(1, w_0 e_t + w_1 e_{t-1} + ...)`` with ``e_s`` = 1

@@ -74,13 +74,16 @@ def kde_log_density(samples: np.ndarray, points: np.ndarray) -> np.ndarray:
     det = cov[..., 0, 0] * cov[..., 1, 1] - cov[..., 0, 1] * cov[..., 1, 0]
     singular = ~(det > 1e-300)
     safe_det = np.where(singular, 1.0, det)
-    inv = np.stack(
-        [
-            np.stack([cov[..., 1, 1], -cov[..., 0, 1]], -1),
-            np.stack([-cov[..., 1, 0], cov[..., 0, 0]], -1),
-        ],
-        -2,
-    ) / safe_det[..., None, None]
+    inv = (
+        np.stack(
+            [
+                np.stack([cov[..., 1, 1], -cov[..., 0, 1]], -1),
+                np.stack([-cov[..., 1, 0], cov[..., 0, 0]], -1),
+            ],
+            -2,
+        )
+        / safe_det[..., None, None]
+    )
     diff = points[..., None, :] - samples  # (..., K, 2)
     maha = np.einsum("...ki,...ij,...kj->...k", diff, inv, diff)  # (..., K)
     log_kernel = -0.5 * maha - np.log(2.0 * np.pi) - 0.5 * np.log(safe_det)[..., None]

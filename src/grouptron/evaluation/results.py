@@ -36,7 +36,11 @@ class EvaluationResult:
 
 
 def score(
-    split: str, model: str, subset: str | None, pred_rel_m: np.ndarray, samples: SampleSet,
+    split: str,
+    model: str,
+    subset: str | None,
+    pred_rel_m: np.ndarray,
+    samples: SampleSet,
     mode: str | None = None,
 ) -> EvaluationResult:
     """Mean ADE/FDE of (S, H, 2) predictions against the samples' futures."""

@@ -1,0 +1,144 @@
+"""The command line: help everywhere, one-line errors with exit code 2, real tables."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from grouptron.cli import main
+from tests.conftest import write_tracks
+
+COMMANDS = [[], ["data"], ["data", "fetch"], ["data", "stats"], ["evaluate"]]
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_help_explains_with_an_example(
+    command: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as info:
+        main([*command, "--help"])
+    assert info.value.code == 0
+    out = capsys.readouterr().out
+    assert "usage: grouptron" in out and "examples:" in out
+
+
+def run_error(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
+    code = main(argv)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert "Traceback" not in "\n".join(err)
+    assert err[-1].startswith("grouptron: error: ")
+    return err[-1]
+
+
+def test_bad_track_file_is_one_line_and_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    folder = tmp_path / "eth" / "test"
+    folder.mkdir(parents=True)
+    (folder / "broken.txt").write_text("0\t1\t0.0\t0.0\n10\t1\tfoo\t0.0\n")
+    message = run_error(
+        ["evaluate", "--model", "constant-velocity", "--split", "eth", "--data-dir", str(tmp_path)],
+        capsys,
+    )
+    assert f"{folder / 'broken.txt'}:2: x is not a number" in message
+
+
+@pytest.mark.parametrize(
+    ("argv", "fragment"),
+    [
+        (["evaluate", "--model", "constant-velocity", "--split", "mars"], "unknown split"),
+        (["evaluate", "--model", "oracle"], "invalid choice"),
+        (
+            ["evaluate", "--model", "constant-velocity", "--split", "eth", "--subset", "univ-40"],
+            "needs --split univ",
+        ),
+        (
+            ["evaluate", "--model", "constant-velocity", "--split", "univ", "--subset", "dense"],
+            "expected univ-N",
+        ),
+        (["data", "stats", "--univ-n", "forty"], "comma-separated integers"),
+    ],
+)
+def test_usage_errors(argv: list[str], fragment: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert fragment in run_error(argv, capsys)
+
+
+def test_missing_data_points_to_fetch(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    message = run_error(["data", "stats", "--split", "eth", "--data-dir", str(tmp_path)], capsys)
+    assert "grouptron data fetch" in message
+
+
+def test_evaluate_on_a_tiny_split(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rows = [(s * 10, p, 0.4 * s, float(p)) for s in range(25) for p in range(2)]
+    write_tracks(tmp_path / "eth/test/a.txt", rows)
+    code = main(
+        [
+            "evaluate",
+            "--model",
+            "constant-velocity",
+            "--split",
+            "eth",
+            "--data-dir",
+            str(tmp_path),
+            "--format",
+            "json",
+        ]
+    )
+    assert code == 0
+    (row,) = json.loads(capsys.readouterr().out)["results"]
+    assert row == {
+        "split": "eth",
+        "model": "constant-velocity",
+        "subset": None,
+        "samples": 12,
+        "ade": pytest.approx(0.0, abs=1e-6),
+        "fde": pytest.approx(0.0, abs=1e-6),
+    }
+
+
+@pytest.mark.realdata
+def test_stats_json_shape(eth_ucy_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["data", "stats", "--data-dir", str(eth_ucy_dir), "--format", "json"]) == 0
+    stats = json.loads(capsys.readouterr().out)
+    assert list(stats) == ["eth", "hotel", "univ", "zara1", "zara2"]
+    assert stats["eth"]["test_samples"] == 364
+    assert set(stats["univ"]["univ_n"]) == {"40", "45", "50"}
+    assert stats["univ"]["test_max_pedestrians_per_step"] == 75
+
+
+@pytest.mark.realdata
+def test_console_script_prints_the_constant_velocity_table(eth_ucy_dir: Path) -> None:
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "grouptron.cli",
+            "evaluate",
+            "--model",
+            "constant-velocity",
+            "--split",
+            "all",
+            "--data-dir",
+            str(eth_ucy_dir),
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    lines = done.stdout.strip().splitlines()
+    assert [line.split()[0] for line in lines[2:]] == [
+        "eth",
+        "hotel",
+        "univ",
+        "zara1",
+        "zara2",
+        "mean",
+    ]
+    ade_by_split = {line.split()[0]: float(line.split()[-2]) for line in lines[2:]}
+    # Constant velocity is a weak but sane baseline: metres, not kilometres, and not zero.
+    assert all(0.1 < v < 2.0 for v in ade_by_split.values())

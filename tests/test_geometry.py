@@ -1,0 +1,66 @@
+"""Derivatives on hand-computed tracks, for both schemes, and rotations."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grouptron.geometry import rotate_xy_pairs, rotation_matrix, track_derivative, track_states
+
+DT = 0.5
+# Two tracks: x = 0, 1, 4, 9 (y = 0) and a two-point track.
+POS = np.array([[0, 0], [1, 0], [4, 0], [9, 0], [2, 2], [3, 4]], dtype=float)
+TRACK = np.array([0, 0, 0, 0, 1, 1])
+
+
+def test_central_matches_hand_values_and_np_gradient() -> None:
+    states = track_states(POS, TRACK, DT, "central")
+    np.testing.assert_allclose(states[:4, 2], [2, 4, 8, 10])  # (x[t+1] - x[t-1]) / 2dt inside
+    np.testing.assert_allclose(states[:4, 4], [4, 6, 6, 4])
+    np.testing.assert_allclose(states[4:, 2:4], [[2, 4], [2, 4]])
+    np.testing.assert_allclose(states[4:, 4:], 0)
+    np.testing.assert_allclose(states[:4, 2], np.gradient(POS[:4, 0], DT))
+
+
+def test_backward_matches_hand_values() -> None:
+    states = track_states(POS, TRACK, DT, "backward")
+    np.testing.assert_allclose(states[:4, 2], [2, 2, 6, 10])  # v[0] = v[1]
+    np.testing.assert_allclose(states[:4, 4], [0, 0, 8, 8])  # a[0] = a[1] = 0
+    np.testing.assert_allclose(states[4:, 2:4], [[2, 4], [2, 4]])
+
+
+def test_backward_is_causal() -> None:
+    changed = POS.copy()
+    changed[3] = [100, -7]  # only the last point of track 0 changes
+    before = track_states(POS, TRACK, DT, "backward")
+    after = track_states(changed, TRACK, DT, "backward")
+    np.testing.assert_allclose(before[:3], after[:3])
+    central_after = track_states(changed, TRACK, DT, "central")
+    assert not np.allclose(track_states(POS, TRACK, DT, "central")[2], central_after[2])
+
+
+def test_single_point_track_gets_zero_derivative() -> None:
+    assert track_derivative(np.array([[3.0, 4.0]]), np.array([0]), DT, "central").tolist() == [
+        [0.0, 0.0]
+    ]
+
+
+def test_unknown_scheme_is_refused() -> None:
+    with pytest.raises(ValueError, match="unknown derivative scheme"):
+        track_derivative(POS, TRACK, DT, "forward")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("scheme", ["central", "backward"])
+def test_rotating_states_equals_recomputing_from_rotated_positions(scheme: str) -> None:
+    rotation = rotation_matrix(np.deg2rad(75.0))
+    from_rotated = track_states(POS @ rotation.T, TRACK, DT, scheme)  # type: ignore[arg-type]
+    rotated = rotate_xy_pairs(track_states(POS, TRACK, DT, scheme), rotation)  # type: ignore[arg-type]
+    np.testing.assert_allclose(from_rotated, rotated, atol=1e-12)
+
+
+def test_rotation_by_90_degrees() -> None:
+    np.testing.assert_allclose(
+        rotate_xy_pairs(np.array([1.0, 0.0, 0.0, 2.0]), rotation_matrix(np.pi / 2)),
+        [0.0, 1.0, -2.0, 0.0],
+        atol=1e-12,
+    )
