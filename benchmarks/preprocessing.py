@@ -39,7 +39,10 @@ def main() -> None:
     args = parser.parse_args()
     data_dir = resolve_data_dir(args.data_dir)
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cpus")
-    print("| scheme | samples | cold, all 5 splits (s) | warm cache load (s) | CV eval, 5 splits (s) |")
+    print(
+        "| scheme | samples | cold, all 5 splits (s) | warm cache load (s) "
+        "| CV eval, 5 splits (s) |"
+    )
     print("|---|---|---|---|---|")
     for scheme in ("central", "backward"):
         config = DataConfig(derivatives=scheme)
