@@ -68,6 +68,29 @@ def test_usage_errors(argv: list[str], fragment: str, capsys: pytest.CaptureFixt
     assert fragment in run_error(argv, capsys)
 
 
+def test_gap_policy_flag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rows = [(s * 10, 1, 0.4 * s, 0.0) for s in range(45) if s != 9]
+    write_tracks(tmp_path / "eth/test/gap.txt", rows)
+    argv = [
+        "evaluate",
+        "--model",
+        "constant-velocity",
+        "--split",
+        "eth",
+        "--data-dir",
+        str(tmp_path),
+    ]
+    assert main([*argv, "--no-cache"]) == 0  # split into steps 0..8 and 10..44: t = 17..32
+    assert "16" in capsys.readouterr().out.splitlines()[2].split()
+    assert "has a gap between frames 80 and 100" in run_error([*argv, "--on-gap", "error"], capsys)
+
+
+def test_no_test_samples_is_an_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    write_tracks(tmp_path / "eth/test/short.txt", [(s * 10, 1, 0.4 * s, 0.0) for s in range(5)])
+    argv = ["evaluate", "--model", "constant-velocity", "--split", "eth"]
+    assert "no test samples" in run_error([*argv, "--data-dir", str(tmp_path)], capsys)
+
+
 def test_missing_data_points_to_fetch(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     message = run_error(["data", "stats", "--split", "eth", "--data-dir", str(tmp_path)], capsys)
     assert "grouptron data fetch" in message

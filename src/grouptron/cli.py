@@ -57,6 +57,13 @@ def _add_data_options(parser: argparse.ArgumentParser, derivatives: bool = True)
             "ahead) or 'backward' (causal)",
         )
     parser.add_argument(
+        "--on-gap",
+        choices=("split", "error"),
+        default="split",
+        help="a track that misses steps in the middle: split it into two tracks (with a "
+        "warning) or stop with an error",
+    )
+    parser.add_argument(
         "--no-cache", action="store_true", help="rebuild samples instead of using the cache"
     )
 
@@ -94,7 +101,7 @@ def cmd_data_fetch(args: argparse.Namespace) -> int:
 
 def cmd_data_stats(args: argparse.Namespace) -> int:
     data_dir = resolve_data_dir(args.data_dir)
-    config = DataConfig(derivatives=args.derivatives)
+    config = DataConfig(derivatives=args.derivatives, on_gap=args.on_gap)
     univ_n = _int_list(args.univ_n)
     stats: dict[str, dict[str, object]] = {}
     for split in _splits(args.split):
@@ -151,10 +158,15 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         if splits != ["univ"]:
             raise GrouptronError("--subset univ-N needs --split univ")
     data_dir = resolve_data_dir(args.data_dir)
-    config = DataConfig(derivatives=args.derivatives)
+    config = DataConfig(derivatives=args.derivatives, on_gap=args.on_gap)
     results: list[EvaluationResult] = []
     for split in splits:
         samples = load_part(data_dir, split, "test", config, use_cache=not args.no_cache).samples
+        if not len(samples):
+            raise GrouptronError(
+                f"{split}: no test samples (every test sample needs {config.history_steps} "
+                f"observed and {config.horizon_steps} future steps)"
+            )
         if min_present is not None:
             samples = samples.subset(univ_n_mask(samples, min_present))
             if not len(samples):

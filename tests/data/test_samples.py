@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from grouptron.config import DataConfig
+from grouptron.data.augment import ROTATION_ANGLES_DEG, draw_rotation_angles, rotate_samples
 from grouptron.data.reader import read_tracks
 from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
 from grouptron.data.scene import Scene, build_scene
@@ -139,6 +140,24 @@ def test_rotating_the_scene_rotates_every_sample_vector(tmp_path: Path, scheme: 
         np.testing.assert_allclose(
             rotate_xy_pairs(getattr(plain, name), rotation), getattr(turned, name), atol=1e-5
         )
+    augmented = rotate_samples(plain, np.full(len(plain), np.deg2rad(135.0)))
+    for name in ("hist_st", "nbr_sum_st", "fut_rel_m", "hist_rel_m", "pos_now_scene_m"):
+        np.testing.assert_allclose(getattr(augmented, name), getattr(turned, name), atol=1e-5)
+
+
+def test_augmentation_angles_are_the_24_reference_ones(tmp_path: Path) -> None:
+    angles = draw_rotation_angles(np.random.default_rng(0), 5000)
+    assert set(np.round(np.rad2deg(angles)).astype(int)) == set(ROTATION_ANGLES_DEG.astype(int))
+    samples = scene_samples(walking_scene(tmp_path), CONFIG, 2)
+    angles = np.deg2rad(np.arange(len(samples)) * 15.0 % 360)
+    turned = rotate_samples(samples, angles)
+    # Each sample turns by its own angle; lengths are unchanged.
+    np.testing.assert_allclose(
+        np.linalg.norm(turned.fut_rel_m, axis=-1),
+        np.linalg.norm(samples.fut_rel_m, axis=-1),
+        atol=1e-5,
+    )
+    np.testing.assert_allclose(turned.fut_rel_m[6, -1], [0, 4.8], atol=1e-5)  # 90 degrees
 
 
 def test_subset_and_concatenate_keep_neighbours(tmp_path: Path) -> None:

@@ -1,0 +1,42 @@
+"""Rotation augmentation: turn a sample's whole scene (ego and neighbours together).
+
+The reference rotates the centred scene by one of 24 angles and recomputes the derivatives. Both
+derivative schemes are linear in the positions, so that equals rotating every (x, y) pair of
+the samples' vectors, which is what is done here, with no rebuilding. (The reference rotates the
+ego but not its neighbours; here both turn.)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from grouptron.data.samples import SampleSet
+from grouptron.geometry import rotate_xy_pairs, rotation_matrix
+
+ROTATION_ANGLES_DEG = np.arange(0.0, 360.0, 15.0)
+"""The 24 augmentation angles of the reference: 0, 15, ..., 345 degrees."""
+
+_ROTATED_FIELDS = ("pos_now_scene_m", "hist_rel_m", "hist_st", "fut_rel_m", "nbr_sum_st")
+
+
+def draw_rotation_angles(rng: np.random.Generator, count: int) -> np.ndarray:
+    """(count,) angles in radians, each one of the 24 reference angles, uniformly."""
+    return np.deg2rad(rng.choice(ROTATION_ANGLES_DEG, size=count))
+
+
+def rotate_samples(samples: SampleSet, angles_rad: np.ndarray) -> SampleSet:
+    """Rotate every sample's scene about the scene centre by its own angle.
+
+    Args:
+        samples: S samples.
+        angles_rad: (S,) counter-clockwise angles.
+    """
+    rotation = rotation_matrix(angles_rad)  # (S, 2, 2)
+    changes = {}
+    for name in _ROTATED_FIELDS:
+        values = getattr(samples, name)
+        per_sample = rotation.reshape(len(samples), *([1] * (values.ndim - 2)), 2, 2)
+        changes[name] = rotate_xy_pairs(values, per_sample).astype(values.dtype)
+    return dataclasses.replace(samples, **changes)
