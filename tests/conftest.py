@@ -38,3 +38,30 @@ def write_tracks(path: Path, rows: list[tuple[float, float, float, float]]) -> P
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("".join(f"{f}\t{i}\t{x}\t{y}\n" for f, i, x, y in rows))
     return path
+
+
+def synthetic_recording(path: Path, seed: int, pedestrians: int = 8, steps: int = 40) -> Path:
+    """A recording of pedestrians walking roughly straight, some in pairs, entering at random."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    rows = []
+    for ped in range(pedestrians):
+        start = int(rng.integers(0, steps // 2))
+        pos = rng.uniform(-4, 4, size=2)
+        vel = rng.normal(0, 0.5, size=2)
+        for step in range(start, steps):
+            vel = vel + rng.normal(0, 0.03, size=2)
+            pos = pos + vel * 0.4
+            rows.append((step * 10, ped, round(float(pos[0]), 3), round(float(pos[1]), 3)))
+    return write_tracks(path, rows)
+
+
+@pytest.fixture(scope="session")
+def synthetic_data_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An ETH/UCY-shaped folder (split eth) of synthetic recordings."""
+    root = tmp_path_factory.mktemp("synthetic")
+    for part, seeds in {"train": (1, 2, 3), "val": (4,), "test": (5,)}.items():
+        for seed in seeds:
+            synthetic_recording(root / "eth" / part / f"scene{seed}.txt", seed)
+    return root

@@ -51,6 +51,95 @@ class DataConfig:
         return (p, p, v, v, a, a)
 
 
+@dataclass(frozen=True)
+class ModelConfig:
+    """Widths and switches of the CVAE (SPEC section 3). Defaults equal the reference."""
+
+    state_dim: int = 6
+    action_dim: int = 2
+    history_hidden: int = 32
+    edge_hidden: int = 32
+    """The reference code uses 32; the Trajectron++ paper's text says 8."""
+    future_hidden: int = 32
+    latent_modes: int = 25
+    p_z_hidden: int = 32
+    decoder_hidden: int = 128
+    use_edges: bool = True
+    rnn_dropout_keep: float = 0.75
+    mlp_dropout_keep: float = 0.9
+    log_sigma_min: float = -10.0
+    log_sigma_max: float = 10.0
+    corr_max: float = 0.999
+    """|rho| bound of the bivariate Gaussians (keeps the covariance invertible)."""
+
+    def __post_init__(self) -> None:
+        for name in (
+            "history_hidden",
+            "edge_hidden",
+            "future_hidden",
+            "latent_modes",
+            "p_z_hidden",
+            "decoder_hidden",
+        ):
+            if getattr(self, name) < 1:
+                raise GrouptronError(f"model.{name} must be >= 1")
+        for name in ("rnn_dropout_keep", "mlp_dropout_keep"):
+            if not 0.0 < getattr(self, name) <= 1.0:
+                raise GrouptronError(f"model.{name} must be in (0, 1]")
+
+
+@dataclass(frozen=True)
+class LossConfig:
+    """The ELBO terms and their schedules (SPEC section 3, "Loss and training")."""
+
+    log_likelihood_max: float = 6.0
+    """Per-step clamp of log p(y_k | x)."""
+    kl_free_bits: float = 0.07
+    kl_weight_final: float = 100.0
+    kl_weight_centre_iter: float = 400.0
+    kl_weight_divisor: float = 100.0
+    mutual_info_weight: float = 1.0
+    logit_clip_start: float = 0.05
+    logit_clip_final: float = 5.0
+    logit_clip_centre_iter: float = 300.0
+    logit_clip_divisor: float = 60.0
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Optimisation (SPEC section 3). Defaults equal the reference except the epoch count."""
+
+    epochs: int = 100
+    batch_size: int = 256
+    learning_rate: float = 1e-3
+    lr_decay_per_iter: float = 0.9999
+    grad_clip_value: float = 1.0
+    rotation_augmentation: bool = True
+    seed: int = 0
+    threads: int = 2
+    eval_batch_size: int = 256
+    bf16: bool = False
+    """Run the decoder recurrence in bfloat16 autocast (CPU); fp32 otherwise."""
+
+    def __post_init__(self) -> None:
+        if self.epochs < 1 or self.batch_size < 1:
+            raise GrouptronError("train.epochs and train.batch_size must be >= 1")
+        if not 0.0 < self.lr_decay_per_iter <= 1.0:
+            raise GrouptronError("train.lr_decay_per_iter must be in (0, 1]")
+
+
+@dataclass(frozen=True)
+class ExperimentConfig:
+    """Everything a training run needs; stored in every checkpoint as JSON."""
+
+    split: str = "eth"
+    model_name: str = "trajectron++"
+    data: DataConfig = dataclasses.field(default_factory=DataConfig)
+    model: ModelConfig = dataclasses.field(default_factory=ModelConfig)
+    loss: LossConfig = dataclasses.field(default_factory=LossConfig)
+    train: TrainConfig = dataclasses.field(default_factory=TrainConfig)
+
+
 ConfigT = TypeVar("ConfigT")
 
 
@@ -69,13 +158,27 @@ def config_from_dict(cls: type[ConfigT], values: dict[str, Any]) -> ConfigT:
         raise GrouptronError(f"unknown {cls.__name__} keys: {', '.join(unknown)}")
     kwargs: dict[str, Any] = {}
     for name, value in values.items():
-        default = getattr(cls, name, None)
-        if dataclasses.is_dataclass(default) and isinstance(value, dict):
-            value = config_from_dict(type(default), value)
+        field_type = fields[name].type
+        nested = _NESTED.get(field_type) if isinstance(field_type, str) else None
+        if nested is not None:
+            if not isinstance(value, dict):
+                raise GrouptronError(f"{cls.__name__}.{name} must be a table of settings")
+            value = config_from_dict(nested, value)
         elif isinstance(value, list):
             value = tuple(value)
         kwargs[name] = value
-    return cls(**kwargs)
+    try:
+        return cls(**kwargs)
+    except TypeError as exc:
+        raise GrouptronError(f"invalid {cls.__name__}: {exc}") from None
+
+
+_NESTED: dict[str, type] = {
+    "DataConfig": DataConfig,
+    "ModelConfig": ModelConfig,
+    "LossConfig": LossConfig,
+    "TrainConfig": TrainConfig,
+}
 
 
 def load_config(cls: type[ConfigT], path: str | Path) -> ConfigT:

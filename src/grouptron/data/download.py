@@ -89,6 +89,7 @@ def _download_one(url: str, target: Path, expected_sha256: str, timeout_s: float
                 f"{url}: checksum mismatch (expected {expected_sha256[:12]}..., "
                 f"got {digest.hexdigest()[:12]}...); the file was not saved"
             )
+        os.chmod(part_name, 0o644)  # mkstemp creates 0600; the data are ordinary files
         os.replace(part_name, target)
     except (urllib.error.URLError, OSError, TimeoutError) as exc:
         raise DownloadError(f"{url}: download failed: {exc}") from None

@@ -1,0 +1,63 @@
+"""Predictions of a trained CVAE: most likely (mixture mode or argmax latent) and samples."""
+
+from __future__ import annotations
+
+import torch
+
+from grouptron.evaluation.mixture_mode import mixture_mode
+from grouptron.model.batch import Batch
+from grouptron.model.cvae import Encoding, TrajectronCVAE
+
+
+def encode_prior(model: TrajectronCVAE, batch: Batch) -> Encoding:
+    """Condition and p(z|x) logits (no posterior, no clipping)."""
+    x = model.encode_condition(batch)
+    return model.encode(batch, x, with_future=False, logit_clip=None)
+
+
+def predict_most_likely(
+    model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float
+) -> torch.Tensor:
+    """The reference's most-likely prediction, (B, H, 2) positions relative to ``t``.
+
+    Every latent value is decoded feeding back its mean; at each step the velocity is the mode
+    of the Z-component mixture weighted by p(z|x); velocities are integrated to positions.
+    """
+    encoding = encode_prior(model, batch)
+    velocity = model.decode(encoding.x, batch.state_now_st, None, horizon, "mean")
+    B, Z = encoding.p_logits.shape
+    log_weights = encoding.p_logits[:, None, :].expand(B, horizon, Z)  # (B, H, Z)
+    mode = mixture_mode(
+        log_weights.reshape(B * horizon, Z),
+        velocity.mean.transpose(1, 2).reshape(B * horizon, Z, 2),  # (B*H, Z, 2)
+        velocity.cov.transpose(1, 2).reshape(B * horizon, Z, 3),
+    ).reshape(B, horizon, 2)
+    return torch.cumsum(mode, dim=1).float() * dt_s
+
+
+def predict_argmax_latent(
+    model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float
+) -> torch.Tensor:
+    """(B, H, 2): decode only the most probable latent value and follow its means."""
+    encoding = encode_prior(model, batch)
+    z_index = encoding.p_logits.argmax(dim=-1, keepdim=True)  # (B, 1)
+    velocity = model.decode(encoding.x, batch.state_now_st, z_index, horizon, "mean")
+    return torch.cumsum(velocity.mean[:, 0], dim=1) * dt_s
+
+
+def predict_samples(
+    model: TrajectronCVAE,
+    batch: Batch,
+    horizon: int,
+    dt_s: float,
+    num_samples: int,
+    generator: torch.Generator | None = None,
+) -> torch.Tensor:
+    """(B, K, H, 2) futures with z ~ p(z|x) and a velocity sample drawn (and fed back) per step."""
+    encoding = encode_prior(model, batch)
+    probs = torch.softmax(encoding.p_logits, dim=-1)
+    z_index = torch.multinomial(probs, num_samples, replacement=True, generator=generator)
+    velocity = model.decode(
+        encoding.x, batch.state_now_st, z_index, horizon, "sample", generator=generator
+    )
+    return torch.cumsum(velocity.fed_back, dim=2) * dt_s

@@ -1,0 +1,1 @@
+"""The Trajectron++ CVAE and Grouptron's group- and scene-level encoders."""

@@ -1,0 +1,213 @@
+"""The Trajectron++ conditional VAE for one pedestrian type, batched over samples.
+
+Read top to bottom: encoders -> latent distributions -> decoder. ``forward`` is stateless: it
+maps a :class:`Batch` to a :class:`CVAEOutput`; losses live in ``grouptron.training.losses``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from grouptron.config import ModelConfig
+from grouptron.model import gaussians
+from grouptron.model.batch import Batch
+from grouptron.model.layers import HoistedGRUDecoder, run_masked_lstm
+
+Feedback = Literal["sample", "mean"]
+
+
+@dataclass(frozen=True)
+class Encoding:
+    """The condition ``x`` and the latent logits of ``B`` samples.
+
+    Attributes:
+        x: (B, Dx) condition ``[edge encoding; history encoding]``.
+        p_logits: (B, Z) centred logits of p(z|x).
+        q_logits: (B, Z) centred logits of q(z|x,y), or None without a future.
+    """
+
+    x: torch.Tensor
+    p_logits: torch.Tensor
+    q_logits: torch.Tensor | None
+
+
+@dataclass(frozen=True)
+class VelocityGaussians:
+    """Per-step velocity Gaussians of ``M`` decoded branches per sample.
+
+    Attributes:
+        mean: (B, M, H, 2) m/s.
+        log_sigma: (B, M, H, 2).
+        corr: (B, M, H).
+        fed_back: (B, M, H, 2) the actions fed back into the decoder (samples or means).
+    """
+
+    mean: torch.Tensor
+    log_sigma: torch.Tensor
+    corr: torch.Tensor
+    fed_back: torch.Tensor
+
+    @property
+    def cov(self) -> torch.Tensor:
+        """(B, M, H, 3) covariance entries."""
+        return gaussians.covariance_entries(self.log_sigma, self.corr)
+
+
+@dataclass(frozen=True)
+class CVAEOutput:
+    """What the loss needs: the encoding and all Z latent branches decoded."""
+
+    encoding: Encoding
+    velocity: VelocityGaussians
+
+
+def centre_logits(logits: torch.Tensor, clip: float | None) -> torch.Tensor:
+    """Subtract the mean logit and optionally clip to [-clip, clip] (the reference's scheme)."""
+    centred = logits - logits.mean(dim=-1, keepdim=True)
+    return centred.clamp(-clip, clip) if clip is not None else centred
+
+
+class TrajectronCVAE(nn.Module):
+    """History LSTM + edge LSTM -> discrete latent -> GRU decoder of velocity Gaussians."""
+
+    def __init__(self, config: ModelConfig, extra_condition_dim: int = 0):
+        super().__init__()
+        self.config = config
+        c = config
+        self.history_encoder = nn.LSTMCell(c.state_dim, c.history_hidden)
+        self.edge_encoder = nn.LSTMCell(2 * c.state_dim, c.edge_hidden) if c.use_edges else None
+        self.condition_dim = c.history_hidden + (c.edge_hidden if c.use_edges else 0)
+        self.condition_dim += extra_condition_dim
+        self.future_encoder = nn.LSTM(
+            c.action_dim, c.future_hidden, batch_first=True, bidirectional=True
+        )
+        self.future_initial_h = nn.Linear(c.state_dim, c.future_hidden)
+        self.future_initial_c = nn.Linear(c.state_dim, c.future_hidden)
+        future_dim = 4 * c.future_hidden  # [h_fwd; h_bwd; c_fwd; c_bwd]
+        self.p_z_hidden = nn.Linear(self.condition_dim, c.p_z_hidden)
+        self.p_z_logits = nn.Linear(c.p_z_hidden, c.latent_modes)
+        self.q_z_logits = nn.Linear(self.condition_dim + future_dim, c.latent_modes)
+        self.decoder = HoistedGRUDecoder(
+            c.latent_modes, self.condition_dim, c.action_dim, c.decoder_hidden
+        )
+        self.initial_action = nn.Linear(c.state_dim, c.action_dim)
+        self.gaussian_head = nn.Linear(c.decoder_hidden, 5)  # mu (2), log sigma (2), corr (1)
+
+    # --- encoders ---------------------------------------------------------------------------
+
+    def _rnn_dropout(self, h: torch.Tensor) -> torch.Tensor:
+        return F.dropout(h, p=1.0 - self.config.rnn_dropout_keep, training=self.training)
+
+    def encode_condition(self, batch: Batch) -> torch.Tensor:
+        """(B, Dx) ``x = [edge encoding; history encoding]`` (Grouptron appends its own)."""
+        history = self._rnn_dropout(
+            run_masked_lstm(self.history_encoder, batch.hist_st, batch.hist_mask)
+        )
+        if self.edge_encoder is None:
+            return history
+        joint = torch.cat([batch.nbr_sum_st, batch.hist_st], dim=-1)  # (B, T, 12)
+        edge = self._rnn_dropout(run_masked_lstm(self.edge_encoder, joint, batch.hist_mask))
+        edge = edge * batch.edge_scale[:, None]
+        # The reference combines edge types by attention and applies dropout again; with the
+        # single pedestrian-pedestrian edge type the attention is the identity.
+        edge = self._rnn_dropout(edge)
+        return torch.cat([edge, history], dim=-1)
+
+    def encode_future(self, batch: Batch) -> torch.Tensor:
+        """(B, 4*future_hidden) final states of the bi-LSTM over the standardised future."""
+        now = batch.state_now_st
+        h0 = torch.stack([self.future_initial_h(now), torch.zeros_like(self.future_initial_h(now))])
+        c0 = torch.stack([self.future_initial_c(now), torch.zeros_like(self.future_initial_c(now))])
+        _, (h_n, c_n) = self.future_encoder(batch.fut_st, (h0, c0))  # (2, B, hf) each
+        state = torch.cat([h_n, c_n], dim=0).permute(1, 0, 2).reshape(len(batch), -1)
+        return self._rnn_dropout(state)
+
+    def encode(
+        self, batch: Batch, x: torch.Tensor, with_future: bool, logit_clip: float | None
+    ) -> Encoding:
+        """Latent logits from the condition (and the future, for the posterior)."""
+        hidden = F.relu(self.p_z_hidden(x))
+        hidden = F.dropout(hidden, p=1.0 - self.config.mlp_dropout_keep, training=self.training)
+        p_logits = centre_logits(self.p_z_logits(hidden), logit_clip)
+        q_logits = None
+        if with_future:
+            q_input = torch.cat([x, self.encode_future(batch)], dim=-1)
+            q_logits = centre_logits(self.q_z_logits(q_input), logit_clip)
+        return Encoding(x=x, p_logits=p_logits, q_logits=q_logits)
+
+    # --- decoder ----------------------------------------------------------------------------
+
+    def decode(
+        self,
+        x: torch.Tensor,
+        state_now_st: torch.Tensor,
+        z_index: torch.Tensor | None,
+        horizon: int,
+        feedback: Feedback,
+        generator: torch.Generator | None = None,
+    ) -> VelocityGaussians:
+        """Decode ``M`` latent values per sample into per-step velocity Gaussians.
+
+        Args:
+            x: (B, Dx) condition.
+            state_now_st: (B, 6) current standardised state (for the initial action).
+            z_index: (B, M) latent values to decode; None decodes all Z values (M = Z).
+            horizon: H steps.
+            feedback: feed back a Gaussian ``"sample"`` (training, sampling) or its ``"mean"``.
+            generator: RNG for the samples (None: the global one).
+        """
+        c = self.config
+        B = x.shape[0]
+        M = c.latent_modes if z_index is None else z_index.shape[1]
+        gates_zx = self.decoder.input_gates(x, z_index).reshape(B * M, -1)  # (B*M, 3h)
+        h = self.decoder.initial_state(x, z_index).reshape(B * M, -1)  # (B*M, h)
+        action = self.initial_action(state_now_st)[:, None, :].expand(B, M, -1).reshape(B * M, -1)
+        means, log_sigmas, corrs, fed = [], [], [], []
+        for _ in range(horizon):  # the recurrence; batched over B*M rows
+            h = self.decoder.step(gates_zx, action, h)
+            head = self.gaussian_head(h).float()  # (B*M, 5)
+            mean = head[:, :2]
+            log_sigma = head[:, 2:4].clamp(c.log_sigma_min, c.log_sigma_max)
+            corr = torch.tanh(head[:, 4]).clamp(-c.corr_max, c.corr_max)
+            if feedback == "sample":
+                action = gaussians.sample(mean, log_sigma, corr, generator)
+            else:
+                action = mean
+            means.append(mean)
+            log_sigmas.append(log_sigma)
+            corrs.append(corr)
+            fed.append(action)
+        return VelocityGaussians(
+            mean=torch.stack(means, 1).reshape(B, M, horizon, 2),
+            log_sigma=torch.stack(log_sigmas, 1).reshape(B, M, horizon, 2),
+            corr=torch.stack(corrs, 1).reshape(B, M, horizon),
+            fed_back=torch.stack(fed, 1).reshape(B, M, horizon, 2),
+        )
+
+    def forward(
+        self,
+        batch: Batch,
+        logit_clip: float | None = None,
+        bf16: bool = False,
+        x: torch.Tensor | None = None,
+    ) -> CVAEOutput:
+        """Training pass: encode with the posterior and decode all Z latent values.
+
+        Args:
+            batch: the samples.
+            logit_clip: current logit clip of the annealing schedule (None: no clipping).
+            bf16: run the decoder recurrence under bfloat16 autocast.
+            x: a precomputed condition (Grouptron passes its extended one); None computes it.
+        """
+        condition = self.encode_condition(batch) if x is None else x
+        encoding = self.encode(batch, condition, with_future=True, logit_clip=logit_clip)
+        with torch.autocast(condition.device.type, dtype=torch.bfloat16, enabled=bf16):
+            velocity = self.decode(
+                condition, batch.state_now_st, None, batch.fut_st.shape[1], "sample"
+            )
+        return CVAEOutput(encoding=encoding, velocity=velocity)

@@ -1,0 +1,42 @@
+"""Build a model from its config and load weights into it, with clear errors."""
+
+from __future__ import annotations
+
+import torch
+
+from grouptron.config import ExperimentConfig
+from grouptron.errors import GrouptronError
+from grouptron.model.cvae import TrajectronCVAE
+
+MODEL_NAMES = ("trajectron++",)
+
+
+def build_model(config: ExperimentConfig) -> TrajectronCVAE:
+    """The model named by ``config.model_name``."""
+    if config.model_name == "trajectron++":
+        return TrajectronCVAE(config.model)
+    raise GrouptronError(
+        f"unknown model {config.model_name!r}; choose from {', '.join(MODEL_NAMES)}"
+    )
+
+
+def load_weights(model: torch.nn.Module, state: dict[str, torch.Tensor], source: str) -> None:
+    """Load ``state`` strictly; mismatched names or shapes are reported, not half-loaded."""
+    expected = model.state_dict()
+    missing = sorted(set(expected) - set(state))
+    unexpected = sorted(set(state) - set(expected))
+    wrong_shape = sorted(
+        f"{k} {tuple(state[k].shape)} != {tuple(v.shape)}"
+        for k, v in expected.items()
+        if k in state and state[k].shape != v.shape
+    )
+    problems = []
+    if missing:
+        problems.append(f"missing tensors {', '.join(missing[:4])}")
+    if unexpected:
+        problems.append(f"unexpected tensors {', '.join(unexpected[:4])}")
+    if wrong_shape:
+        problems.append(f"tensor shapes do not match the config: {'; '.join(wrong_shape[:3])}")
+    if problems:
+        raise GrouptronError(f"{source}: weights do not fit the model ({'; '.join(problems)})")
+    model.load_state_dict(state)

@@ -1,0 +1,83 @@
+"""Recurrent building blocks: a masked LSTM encoder and a GRU decoder with hoisted inputs."""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+
+def run_masked_lstm(cell: nn.LSTMCell, inputs: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """Run an LSTM cell over a left-padded sequence; return the state at the last step.
+
+    The state stays zero over the leading masked steps, so every sequence starts from a zero
+    state at its first observed step, exactly as packing variable-length sequences would.
+
+    Args:
+        cell: the LSTM cell.
+        inputs: (B, T, D).
+        mask: (B, T) True on observed steps; the last step must be observed.
+
+    Returns:
+        (B, hidden) hidden state after step T-1.
+    """
+    batch = inputs.shape[0]
+    h = inputs.new_zeros(batch, cell.hidden_size)
+    c = inputs.new_zeros(batch, cell.hidden_size)
+    for step in range(inputs.shape[1]):  # 8 history steps; batched over B
+        h_new, c_new = cell(inputs[:, step], (h, c))
+        observed = mask[:, step, None]
+        h = torch.where(observed, h_new, h)
+        c = torch.where(observed, c_new, c)
+    return h
+
+
+class HoistedGRUDecoder(nn.Module):
+    """A GRU cell whose input is ``[z; x; a_prev]``, with the ``[z; x]`` part projected once.
+
+    The gates' input projection ``W_ih [z; x; a]`` splits into ``W_z z + W_x x + W_a a``. Only
+    ``W_a a`` changes from step to step, ``W_x x`` is shared by all latent values of a sample and
+    ``W_z z`` is a column of ``W_z`` (z is one-hot), so the recurrence only multiplies the 2-d
+    action and the hidden state. The weights are those of an ``nn.GRUCell`` on the full input,
+    so the mathematics is the plain GRU's.
+    """
+
+    def __init__(self, latent_modes: int, condition_dim: int, action_dim: int, hidden: int):
+        super().__init__()
+        self.latent_modes = latent_modes
+        self.condition_dim = condition_dim
+        self.cell = nn.GRUCell(latent_modes + condition_dim + action_dim, hidden)
+        self.initial_h = nn.Linear(latent_modes + condition_dim, hidden)
+
+    @staticmethod
+    def _latent_rows(w_z: torch.Tensor, z_index: torch.Tensor | None) -> torch.Tensor:
+        """The columns of ``w_z`` picked by one-hot z: (1, Z, out) for all modes, else (B, M, out).
+
+        With every mode decoded (training) this is a broadcast, not a gather, which keeps the
+        backward pass a cheap sum instead of a scatter.
+        """
+        return w_z.T[None] if z_index is None else w_z.T[z_index]
+
+    def input_gates(self, x: torch.Tensor, z_index: torch.Tensor | None) -> torch.Tensor:
+        """(B, Dx) condition and (B, M) latent values (None: all Z) -> (B, M, 3*hidden)."""
+        Z, Dx = self.latent_modes, self.condition_dim
+        w_x = self.cell.weight_ih[:, Z : Z + Dx]  # (3h, Dx)
+        from_x = x @ w_x.T + self.cell.bias_ih  # (B, 3h)
+        return from_x[:, None, :] + self._latent_rows(self.cell.weight_ih[:, :Z], z_index)
+
+    def initial_state(self, x: torch.Tensor, z_index: torch.Tensor | None) -> torch.Tensor:
+        """(B, M, hidden) h_0 = Linear([z; x]), M = Z when ``z_index`` is None."""
+        Z = self.latent_modes
+        from_x = x @ self.initial_h.weight[:, Z:].T + self.initial_h.bias  # (B, h)
+        return from_x[:, None, :] + self._latent_rows(self.initial_h.weight[:, :Z], z_index)
+
+    def step(self, gates_zx: torch.Tensor, action: torch.Tensor, h: torch.Tensor) -> torch.Tensor:
+        """One GRU step on rows: (R, 3h) constant gates, (R, A) previous action, (R, h) state."""
+        w_a = self.cell.weight_ih[:, self.latent_modes + self.condition_dim :]  # (3h, A)
+        gates_in = torch.addmm(gates_zx, action, w_a.T)
+        gates_h = torch.addmm(self.cell.bias_hh, h, self.cell.weight_hh.T)
+        in_r, in_u, in_n = gates_in.chunk(3, dim=-1)
+        h_r, h_u, h_n = gates_h.chunk(3, dim=-1)
+        reset = torch.sigmoid(in_r + h_r)
+        update = torch.sigmoid(in_u + h_u)
+        candidate = torch.tanh(in_n + reset * h_n)
+        return candidate + update * (h - candidate)

@@ -1,0 +1,217 @@
+"""The training loop: seeded, resumable, one checkpoint per epoch, validation every epoch.
+
+Reads top to bottom: ``setup`` builds the model, optimiser and RNG (or restores them from a
+checkpoint), ``train_epoch`` runs the optimiser steps, ``validate`` scores the validation set
+and ``train`` ties them together and writes checkpoints and metrics.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from grouptron.config import ExperimentConfig
+from grouptron.data.augment import draw_rotation_angles
+from grouptron.data.samples import SampleSet
+from grouptron.errors import GrouptronError
+from grouptron.evaluation.evaluate import evaluate_model
+from grouptron.model.batch import make_batch
+from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.factory import build_model, load_weights
+from grouptron.training import schedules
+from grouptron.training.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
+from grouptron.training.losses import elbo_loss
+from grouptron.training.metrics_log import MetricsWriter
+
+log = logging.getLogger(__name__)
+
+LAST = "last.safetensors"
+BEST = "best.safetensors"
+
+
+@dataclass
+class TrainState:
+    """Everything that changes during training and must survive a restart."""
+
+    model: TrajectronCVAE
+    optimizer: torch.optim.Adam
+    scheduler: torch.optim.lr_scheduler.ExponentialLR
+    rng: np.random.Generator
+    epoch: int = 0
+    iteration: int = 0
+    best_val_fde: float = math.inf
+    history: list[dict[str, Any]] = field(default_factory=list)
+
+
+def setup(config: ExperimentConfig, out_dir: Path, resume: bool) -> TrainState:
+    """Fresh state from the seed, or the state of ``out_dir/last.safetensors`` on resume."""
+    torch.manual_seed(config.train.seed)
+    model = build_model(config)
+    optimizer = torch.optim.Adam(model.parameters(), lr=config.train.learning_rate)
+    scheduler = torch.optim.lr_scheduler.ExponentialLR(optimizer, config.train.lr_decay_per_iter)
+    state = TrainState(model, optimizer, scheduler, np.random.default_rng(config.train.seed))
+    last = out_dir / LAST
+    if not resume:
+        if last.exists():
+            raise GrouptronError(
+                f"{out_dir} already holds a training run; pass --resume to continue it or "
+                "choose another --out"
+            )
+        return state
+    if not last.exists():
+        raise GrouptronError(f"nothing to resume: {last} does not exist")
+    checkpoint = load_checkpoint(last)
+    if checkpoint.config != config:
+        raise GrouptronError(
+            f"{last} was trained with a different configuration; resume with the same options"
+        )
+    load_weights(model, checkpoint.model_state, str(last))
+    if checkpoint.optimizer_state is None or checkpoint.extra is None:
+        raise GrouptronError(f"{last} holds weights only and cannot be resumed")
+    optimizer.load_state_dict(checkpoint.optimizer_state)
+    scheduler.load_state_dict(checkpoint.extra["scheduler"])
+    state.rng.bit_generator.state = checkpoint.extra["numpy_rng"]
+    if checkpoint.torch_rng_state is not None:
+        torch.set_rng_state(checkpoint.torch_rng_state)
+    state.epoch, state.iteration = checkpoint.epoch, checkpoint.iteration
+    state.best_val_fde = checkpoint.extra.get("best_val_fde", math.inf)
+    return state
+
+
+def train_epoch(
+    state: TrainState,
+    config: ExperimentConfig,
+    samples: SampleSet,
+    progress: bool,
+    max_iterations: int | None = None,
+) -> dict[str, float]:
+    """One pass over the shuffled training samples; returns mean loss terms and speed."""
+    state.model.train()
+    order = state.rng.permutation(len(samples))
+    size = config.train.batch_size
+    starts = range(0, len(order), size)
+    totals: dict[str, float] = {}
+    seen, started = 0, time.perf_counter()
+    bar = tqdm(starts, desc=f"epoch {state.epoch + 1}", unit="it", disable=not progress)
+    for start in bar:
+        if max_iterations is not None and state.iteration >= max_iterations:
+            break
+        index = order[start : start + size]
+        angles = (
+            draw_rotation_angles(state.rng, len(index))
+            if config.train.rotation_augmentation
+            else None
+        )
+        batch = make_batch(samples, index, config.data, angles)
+        output = state.model(
+            batch,
+            logit_clip=schedules.logit_clip(config.loss, state.iteration),
+            bf16=config.train.bf16,
+        )
+        terms = elbo_loss(
+            output,
+            batch,
+            config.loss,
+            schedules.kl_weight(config.loss, state.iteration),
+            config.data.dt_s,
+        )
+        state.optimizer.zero_grad(set_to_none=True)
+        terms.loss.backward()
+        torch.nn.utils.clip_grad_value_(state.model.parameters(), config.train.grad_clip_value)
+        state.optimizer.step()
+        state.scheduler.step()
+        state.iteration += 1
+        seen += len(index)
+        for key, value in terms.as_floats().items():
+            totals[key] = totals.get(key, 0.0) + value * len(index)
+        elapsed = time.perf_counter() - started
+        bar.set_postfix(loss=f"{float(terms.loss.detach()):.3f}", samples_s=f"{seen / elapsed:.0f}")
+    elapsed = time.perf_counter() - started
+    means = {f"train_{k}": v / max(seen, 1) for k, v in totals.items()}
+    means["train_seconds"] = elapsed
+    means["train_samples_per_s"] = seen / elapsed if elapsed > 0 else 0.0
+    return means
+
+
+def validate(state: TrainState, config: ExperimentConfig, samples: SampleSet) -> dict[str, float]:
+    """Most-likely ADE/FDE on the validation set (no augmentation, no dropout)."""
+    scores = evaluate_model(
+        state.model, config, samples, ("ml",), batch_size=config.train.eval_batch_size
+    )
+    return {"val_ml_ade": float(scores[0].ade), "val_ml_fde": float(scores[0].fde)}
+
+
+def _checkpoint(state: TrainState, config: ExperimentConfig, weights_only: bool) -> Checkpoint:
+    return Checkpoint(
+        config=config,
+        model_state=state.model.state_dict(),
+        epoch=state.epoch,
+        iteration=state.iteration,
+        optimizer_state=None if weights_only else state.optimizer.state_dict(),
+        extra={
+            "scheduler": state.scheduler.state_dict(),
+            "numpy_rng": state.rng.bit_generator.state,
+            "best_val_fde": state.best_val_fde,
+            "last_metrics": state.history[-1] if state.history else None,
+        },
+        torch_rng_state=None if weights_only else torch.get_rng_state(),
+    )
+
+
+def train(
+    config: ExperimentConfig,
+    train_samples: SampleSet,
+    val_samples: SampleSet,
+    out_dir: Path,
+    resume: bool = False,
+    progress: bool = True,
+    max_iterations: int | None = None,
+) -> TrainState:
+    """Train for ``config.train.epochs`` epochs.
+
+    ``max_iterations`` stops after that many optimiser steps as if the process were killed
+    there: an unfinished epoch is neither validated nor saved (used to test ``resume``).
+
+    After every epoch: validation, ``last.safetensors`` (full state, for ``resume``),
+    ``best.safetensors`` (weights, when the validation ML FDE improved) and a metrics record.
+    """
+    if len(train_samples) == 0:
+        raise GrouptronError("no training samples")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    torch.set_num_threads(config.train.threads)
+    state = setup(config, out_dir, resume)
+    writer = MetricsWriter(out_dir)
+    if resume:
+        writer.truncate_after(state.epoch)
+    while state.epoch < config.train.epochs:
+        if max_iterations is not None and state.iteration >= max_iterations:
+            break
+        record: dict[str, Any] = {"epoch": state.epoch + 1}
+        record.update(train_epoch(state, config, train_samples, progress, max_iterations))
+        per_epoch = math.ceil(len(train_samples) / config.train.batch_size)
+        if max_iterations is not None and state.iteration % per_epoch:
+            break  # stopped mid-epoch, as if killed: nothing of this epoch is saved
+        state.epoch += 1
+        record["iteration"] = state.iteration
+        record["learning_rate"] = state.scheduler.get_last_lr()[0]
+        if len(val_samples):
+            record.update(validate(state, config, val_samples))
+        state.history.append(record)
+        writer.write(record)
+        val_fde = record.get("val_ml_fde", math.nan)
+        if not math.isnan(val_fde) and val_fde < state.best_val_fde:
+            state.best_val_fde = val_fde
+            save_checkpoint(out_dir / BEST, _checkpoint(state, config, weights_only=True))
+        save_checkpoint(out_dir / LAST, _checkpoint(state, config, weights_only=False))
+        if progress:
+            shown = {k: round(v, 4) for k, v in record.items() if isinstance(v, float)}
+            tqdm.write(f"epoch {state.epoch}: {shown}")
+    return state
