@@ -12,7 +12,7 @@ import pytest
 from grouptron.cli import main
 from tests.conftest import write_tracks
 
-COMMANDS = [[], ["data"], ["data", "fetch"], ["data", "stats"], ["evaluate"]]
+COMMANDS = [[], ["data"], ["data", "fetch"], ["data", "stats"], ["evaluate"], ["train"]]
 
 
 @pytest.mark.parametrize("command", COMMANDS)
@@ -53,6 +53,9 @@ def test_bad_track_file_is_one_line_and_exit_2(
     [
         (["evaluate", "--model", "constant-velocity", "--split", "mars"], "unknown split"),
         (["evaluate", "--model", "oracle"], "invalid choice"),
+        (["evaluate"], "give either --checkpoint PATH or --model constant-velocity"),
+        (["evaluate", "--checkpoint", "nowhere.safetensors"], "checkpoint not found"),
+        (["train", "--split", "eth", "--epochs", "0"], "epochs"),
         (
             ["evaluate", "--model", "constant-velocity", "--split", "eth", "--subset", "univ-40"],
             "needs --split univ",
@@ -89,6 +92,78 @@ def test_no_test_samples_is_an_error(tmp_path: Path, capsys: pytest.CaptureFixtu
     write_tracks(tmp_path / "eth/test/short.txt", [(s * 10, 1, 0.4 * s, 0.0) for s in range(5)])
     argv = ["evaluate", "--model", "constant-velocity", "--split", "eth"]
     assert "no test samples" in run_error([*argv, "--data-dir", str(tmp_path)], capsys)
+
+
+def test_train_then_evaluate_a_checkpoint(
+    synthetic_data_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = tmp_path / "tiny.json"
+    config.write_text(
+        json.dumps(
+            {
+                "model": {
+                    "history_hidden": 8,
+                    "edge_hidden": 8,
+                    "future_hidden": 8,
+                    "latent_modes": 5,
+                    "p_z_hidden": 8,
+                    "decoder_hidden": 16,
+                },
+                "train": {"batch_size": 64},
+            }
+        )
+    )
+    out = tmp_path / "run"
+    common = ["--data-dir", str(synthetic_data_dir), "--quiet"]
+    assert (
+        main(
+            [
+                "train",
+                "--split",
+                "eth",
+                "--epochs",
+                "1",
+                "--config",
+                str(config),
+                "--out",
+                str(out),
+                *common,
+            ]
+        )
+        == 0
+    )
+    assert "done: 1 epochs" in capsys.readouterr().out
+    assert (
+        main(
+            [
+                "evaluate",
+                "--checkpoint",
+                str(out / "best.safetensors"),
+                "--mode",
+                "ml,ml-argmax,best-of-20",
+                "--format",
+                "json",
+                *common,
+            ]
+        )
+        == 0
+    )
+    rows = json.loads(capsys.readouterr().out)["results"]
+    assert [r["mode"] for r in rows] == ["ml", "ml-argmax", "best-of-20"]
+    assert all(r["split"] == "eth" and r["model"] == "trajectron++" for r in rows)
+    assert rows[2]["ade"] <= rows[0]["ade"]  # the best of 20 beats a single guess
+    message = run_error(
+        [
+            "evaluate",
+            "--checkpoint",
+            str(out / "best.safetensors"),
+            "--derivatives",
+            "backward",
+            *common,
+        ],
+        capsys,
+    )
+    assert "trained with central derivatives" in message
 
 
 def test_missing_data_points_to_fetch(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -6,20 +6,26 @@ Errors caused by input are printed on one line and end the program with exit cod
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import sys
 from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import torch
 
 from grouptron import __version__
 from grouptron.baselines.constant_velocity import constant_velocity
-from grouptron.config import DataConfig
+from grouptron.config import DataConfig, ExperimentConfig, load_config
 from grouptron.data.constants import SPLITS, UNIV_N_PAPER
 from grouptron.data.dataset import load_part
 from grouptron.data.download import fetch_dataset
 from grouptron.data.locate import resolve_data_dir
+from grouptron.data.samples import SampleSet
 from grouptron.data.subsets import parse_univ_n, univ_n_mask
 from grouptron.errors import GrouptronError
+from grouptron.evaluation.evaluate import MODES, evaluate_model
 from grouptron.evaluation.results import (
     EvaluationResult,
     mean_over_splits,
@@ -28,6 +34,9 @@ from grouptron.evaluation.results import (
     score,
 )
 from grouptron.geometry import DERIVATIVE_SCHEMES
+from grouptron.model.factory import MODEL_NAMES, build_model, load_weights
+from grouptron.training.checkpoint import load_checkpoint
+from grouptron.training.trainer import train
 
 log = logging.getLogger("grouptron")
 EXIT_USAGE = 2
@@ -52,9 +61,8 @@ def _add_data_options(parser: argparse.ArgumentParser, derivatives: bool = True)
         parser.add_argument(
             "--derivatives",
             choices=DERIVATIVE_SCHEMES,
-            default="central",
             help="velocity/acceleration scheme: 'central' (the papers' protocol, looks one step "
-            "ahead) or 'backward' (causal)",
+            "ahead; the default) or 'backward' (causal); a checkpoint brings its own",
         )
     parser.add_argument(
         "--on-gap",
@@ -101,7 +109,7 @@ def cmd_data_fetch(args: argparse.Namespace) -> int:
 
 def cmd_data_stats(args: argparse.Namespace) -> int:
     data_dir = resolve_data_dir(args.data_dir)
-    config = DataConfig(derivatives=args.derivatives, on_gap=args.on_gap)
+    config = DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
     univ_n = _int_list(args.univ_n)
     stats: dict[str, dict[str, object]] = {}
     for split in _splits(args.split):
@@ -148,34 +156,140 @@ def cmd_data_stats(args: argparse.Namespace) -> int:
 # --- evaluate ---------------------------------------------------------------------------------
 
 
+def _test_samples(
+    data_dir: Path, split: str, config: DataConfig, min_present: int | None, no_cache: bool
+) -> SampleSet:
+    samples = load_part(data_dir, split, "test", config, use_cache=not no_cache).samples
+    if not len(samples):
+        raise GrouptronError(
+            f"{split}: no test samples (every test sample needs {config.history_steps} "
+            f"observed and {config.horizon_steps} future steps)"
+        )
+    if min_present is not None:
+        samples = samples.subset(univ_n_mask(samples, min_present))
+        if not len(samples):
+            raise GrouptronError(f"no univ test sample has {min_present} pedestrians or more")
+    return samples
+
+
+def _eval_modes(value: str) -> tuple[str, ...]:
+    if value == "all":
+        return MODES
+    modes = tuple(v.strip() for v in value.split(",") if v.strip())
+    unknown = [m for m in modes if m not in MODES]
+    if unknown or not modes:
+        raise GrouptronError(
+            f"unknown mode {', '.join(unknown) or value!r}; choose from {', '.join(MODES)} or all"
+        )
+    return modes
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    if args.model != "constant-velocity":  # pragma: no cover - guarded by argparse choices
-        raise GrouptronError(f"unknown model {args.model!r}")
-    splits = _splits(args.split)
-    min_present = None
-    if args.subset:
-        min_present = parse_univ_n(args.subset)
-        if splits != ["univ"]:
-            raise GrouptronError("--subset univ-N needs --split univ")
+    if (args.model is None) == (args.checkpoint is None):
+        raise GrouptronError("give either --checkpoint PATH or --model constant-velocity")
     data_dir = resolve_data_dir(args.data_dir)
-    config = DataConfig(derivatives=args.derivatives, on_gap=args.on_gap)
+    model = None
+    if args.checkpoint:
+        checkpoint = load_checkpoint(args.checkpoint)
+        experiment = checkpoint.config
+        model = build_model(experiment)
+        load_weights(model, checkpoint.model_state, args.checkpoint)
+        torch.set_num_threads(experiment.train.threads)
+        config = experiment.data
+        if args.derivatives and args.derivatives != config.derivatives:
+            raise GrouptronError(
+                f"{args.checkpoint} was trained with {config.derivatives} derivatives; "
+                f"evaluating it on {args.derivatives} ones would be meaningless"
+            )
+        split_arg = args.split or experiment.split
+    else:
+        config = DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
+        split_arg = args.split or "all"
+    splits = _splits(split_arg)
+    min_present = parse_univ_n(args.subset) if args.subset else None
+    if args.subset and splits != ["univ"]:
+        raise GrouptronError("--subset univ-N needs --split univ")
+    modes = _eval_modes(args.mode)
     results: list[EvaluationResult] = []
     for split in splits:
-        samples = load_part(data_dir, split, "test", config, use_cache=not args.no_cache).samples
-        if not len(samples):
-            raise GrouptronError(
-                f"{split}: no test samples (every test sample needs {config.history_steps} "
-                f"observed and {config.horizon_steps} future steps)"
+        samples = _test_samples(data_dir, split, config, min_present, args.no_cache)
+        if model is None:
+            pred = constant_velocity(samples.hist_rel_m.astype("float64"), config.horizon_steps)
+            results.append(score(split, "constant-velocity", args.subset, pred, samples))
+            continue
+        scores = evaluate_model(
+            model, experiment, samples, modes, seed=args.seed, progress=not args.quiet
+        )
+        for s in scores:
+            results.append(
+                EvaluationResult(
+                    split=split,
+                    model=experiment.model_name,
+                    subset=args.subset,
+                    samples=s.samples,
+                    ade=s.ade,
+                    fde=s.fde,
+                    mode=s.mode,
+                    nll=s.nll if s.mode == "nll" else None,
+                    checkpoint=str(args.checkpoint),
+                )
             )
-        if min_present is not None:
-            samples = samples.subset(univ_n_mask(samples, min_present))
-            if not len(samples):
-                raise GrouptronError(f"no univ test sample has {min_present} pedestrians or more")
-        pred = constant_velocity(samples.hist_rel_m.astype("float64"), config.horizon_steps)
-        results.append(score(split, args.model, args.subset, pred, samples))
-    if len(results) == len(SPLITS):
-        results.append(mean_over_splits(results))
+    if len(splits) == len(SPLITS):
+        for mode in dict.fromkeys(r.mode for r in results):
+            results.append(mean_over_splits([r for r in results if r.mode == mode]))
     print(results_json(results) if args.format == "json" else results_table(results))
+    return 0
+
+
+# --- train ------------------------------------------------------------------------------------
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    experiment = load_config(ExperimentConfig, args.config) if args.config else ExperimentConfig()
+    data = dataclasses.replace(
+        experiment.data,
+        **({"derivatives": args.derivatives} if args.derivatives else {}),
+        on_gap=args.on_gap,
+    )
+    train_overrides = {
+        key: value
+        for key, value in {
+            "epochs": args.epochs,
+            "seed": args.seed,
+            "batch_size": args.batch_size,
+            "learning_rate": args.lr,
+            "threads": args.threads,
+        }.items()
+        if value is not None
+    }
+    experiment = dataclasses.replace(
+        experiment,
+        split=args.split,
+        model_name=args.model,
+        data=data,
+        train=dataclasses.replace(experiment.train, **train_overrides),
+    )
+    out = Path(args.out or f"runs/{args.model}-{args.split}-{data.derivatives}")
+    data_dir = resolve_data_dir(args.data_dir)
+    train_part = load_part(data_dir, args.split, "train", data, use_cache=not args.no_cache)
+    val_part = load_part(data_dir, args.split, "val", data, use_cache=not args.no_cache)
+    print(
+        f"training {args.model} on {args.split} ({data.derivatives} derivatives): "
+        f"{len(train_part.samples)} training / {len(val_part.samples)} validation samples, "
+        f"{experiment.train.epochs} epochs -> {out}"
+    )
+    state = train(
+        experiment,
+        train_part.samples,
+        val_part.samples,
+        out,
+        resume=args.resume,
+        progress=not args.quiet,
+    )
+    print(
+        f"done: {state.epoch} epochs, {state.iteration} steps; best validation ML FDE "
+        f"{state.best_val_fde:.3f} m; checkpoints in {out}"
+    )
     return 0
 
 
@@ -191,7 +305,9 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="examples:\n"
         "  grouptron data fetch\n"
         "  grouptron data stats --split all\n"
-        "  grouptron evaluate --model constant-velocity --split all\n\n"
+        "  grouptron evaluate --model constant-velocity --split all\n"
+        "  grouptron train --split eth --epochs 10\n"
+        "  grouptron evaluate --checkpoint runs/trajectron++-eth-central/best.safetensors\n\n"
         "Run 'grouptron COMMAND --help' for the options of a command.",
     )
     parser.add_argument("--version", action="version", version=f"grouptron {__version__}")
@@ -249,25 +365,65 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate = commands.add_parser(
         "evaluate",
         help="score a model on the test sets (ADE/FDE in metres)",
-        description="Score a predictor on the test samples of one or all splits (exactly 8 "
-        "observed and 12 future steps). With --split all the unweighted mean over the five "
-        "splits is added.",
+        description="Score a trained checkpoint or the constant-velocity baseline on the test "
+        "samples of one or all splits (exactly 8 observed and 12 future steps). Modes: 'ml' "
+        "(the mode of the latent mixture at every step, the papers' 'most likely'), "
+        "'ml-argmax' (the most probable latent value's mean), 'best-of-20' (min ADE and min "
+        "FDE over 20 samples, taken independently) and 'nll' (KDE NLL of 2000 samples). "
+        "With --split all the unweighted mean over the five splits is added.",
         formatter_class=_Formatter,
         epilog="examples:\n"
         "  grouptron evaluate --model constant-velocity --split all\n"
-        "  grouptron evaluate --model constant-velocity --split univ --subset univ-45 "
+        "  grouptron evaluate --checkpoint runs/trajectron++-eth-central/best.safetensors\n"
+        "  grouptron evaluate --checkpoint CKPT --split univ --subset univ-45 --mode all "
         "--format json",
     )
+    evaluate.add_argument("--checkpoint", help="a .safetensors checkpoint written by training")
     evaluate.add_argument(
-        "--model", choices=("constant-velocity",), required=True, help="predictor to score"
+        "--model", choices=("constant-velocity",), help="score a baseline instead of a checkpoint"
     )
-    evaluate.add_argument("--split", default="all", help=f"one of {', '.join(SPLITS)} or all")
+    evaluate.add_argument(
+        "--split",
+        help=f"one of {', '.join(SPLITS)} or all (default: the checkpoint's split, or all)",
+    )
     evaluate.add_argument(
         "--subset", help="univ-N: only univ test samples with >= N pedestrians in the scene"
     )
+    evaluate.add_argument(
+        "--mode", default="ml", help=f"comma-separated of {', '.join(MODES)}, or all"
+    )
+    evaluate.add_argument("--seed", type=int, default=0, help="seed of the sampling modes")
     evaluate.add_argument("--format", choices=("table", "json"), default="table")
+    evaluate.add_argument("--quiet", action="store_true", help="no progress bars")
     _add_data_options(evaluate)
     evaluate.set_defaults(handler=cmd_evaluate)
+
+    train_cmd = commands.add_parser(
+        "train",
+        help="train a model on one split",
+        description="Train a model on the training part of a split, validating on its "
+        "validation part after every epoch. The output folder gets last.safetensors (full "
+        "state; --resume continues from it exactly), best.safetensors (weights with the best "
+        "validation ML FDE) and metrics.jsonl/metrics.csv.",
+        formatter_class=_Formatter,
+        epilog="examples:\n"
+        "  grouptron train --split eth --model trajectron++ --epochs 10\n"
+        "  grouptron train --split univ --derivatives backward --out runs/univ-causal\n"
+        "  grouptron train --split eth --resume",
+    )
+    train_cmd.add_argument("--split", required=True, choices=SPLITS)
+    train_cmd.add_argument("--model", default="trajectron++", choices=MODEL_NAMES)
+    train_cmd.add_argument("--epochs", type=int, help="epochs (default 100, as the reference)")
+    train_cmd.add_argument("--out", help="output folder (default runs/MODEL-SPLIT-DERIVATIVES)")
+    train_cmd.add_argument("--resume", action="store_true", help="continue the run in --out")
+    train_cmd.add_argument("--config", help="JSON file with an ExperimentConfig")
+    train_cmd.add_argument("--seed", type=int)
+    train_cmd.add_argument("--batch-size", type=int)
+    train_cmd.add_argument("--lr", type=float, help="initial learning rate")
+    train_cmd.add_argument("--threads", type=int, help="CPU threads (default 2)")
+    train_cmd.add_argument("--quiet", action="store_true", help="no progress bars")
+    _add_data_options(train_cmd)
+    train_cmd.set_defaults(handler=cmd_train)
     return parser
 
 

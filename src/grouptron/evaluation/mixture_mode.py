@@ -48,56 +48,118 @@ def _solve(a: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
     )
 
 
-def _ascent_step(
+def _climb(
     points: torch.Tensor,
     log_norm: torch.Tensor,
     mean: torch.Tensor,
     precision: torch.Tensor,
     prec_mean: torch.Tensor,
-) -> torch.Tensor:
-    """One safeguarded Newton step on the log-density of R mixtures, (R, 2) -> (R, 2).
+    max_iters: int,
+    tol: float,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Climb R points to local maxima of their mixtures' log-density.
 
-    The fixed point ``A^-1 b`` (``A = sum_k r_k P_k``, ``b = sum_k r_k P_k mu_k``) always
-    ascends; the Newton step converges quadratically near a mode. The better of the two wins.
+    Each step tries Newton's step (quadratic convergence near a peak) and keeps it where the
+    Hessian is negative definite and the density rises; elsewhere it takes the fixed-point step
+    ``A^-1 b`` (``A = sum_k r_k P_k``, ``b = sum_k r_k P_k mu_k``), which never descends.
+    Only points that still move are computed.
+
+    Args:
+        points: (R, 2) starts; log_norm: (R, Z); mean: (R, Z, 2); precision: (R, Z, 3);
+            prec_mean: (R, Z, 2) ``P_k mu_k``.
+
+    Returns:
+        (R, 2) end points and (R,) their log-densities.
     """
+    points = points.clone()
     log_comp = _log_components(points, log_norm, mean, precision)  # (R, Z)
-    resp = torch.softmax(log_comp, dim=-1)
-    a = torch.einsum("rz,rzc->rc", resp, precision)  # (R, 3)
-    b = torch.einsum("rz,rzc->rc", resp, prec_mean)  # (R, 2)
-    fixed_point = _solve(a, b)
+    active = torch.arange(len(points))
+    for _ in range(max_iters):
+        x, lc = points[active], log_comp[active]
+        ln, mu, prec, pm = log_norm[active], mean[active], precision[active], prec_mean[active]
+        f = torch.logsumexp(lc, -1)
+        resp = torch.exp(lc - f[:, None])  # (A, Z)
+        a = torch.einsum("rz,rzc->rc", resp, prec)  # (A, 3)
+        b = torch.einsum("rz,rzc->rc", resp, pm)  # (A, 2)
+        # grad l_k = P_k (mu_k - x) = pm_k - P_k x; grad f = sum_k r_k grad l_k = b - A x
+        px = torch.stack(
+            [
+                prec[..., 0] * x[:, None, 0] + prec[..., 1] * x[:, None, 1],
+                prec[..., 1] * x[:, None, 0] + prec[..., 2] * x[:, None, 1],
+            ],
+            -1,
+        )
+        grad_k = pm - px  # (A, Z, 2)
+        grad = b - torch.stack(
+            [a[:, 0] * x[:, 0] + a[:, 1] * x[:, 1], a[:, 1] * x[:, 0] + a[:, 2] * x[:, 1]], -1
+        )
+        outer = torch.stack(
+            [grad_k[..., 0] ** 2, grad_k[..., 0] * grad_k[..., 1], grad_k[..., 1] ** 2], -1
+        )
+        hessian = torch.einsum("rz,rzc->rc", resp, outer) - a
+        hessian = hessian - torch.stack(
+            [grad[:, 0] ** 2, grad[:, 0] * grad[:, 1], grad[:, 1] ** 2], -1
+        )
+        concave = (hessian[:, 0] < 0) & (hessian[:, 0] * hessian[:, 2] - hessian[:, 1] ** 2 > 0)
+        newton = x - _solve(hessian, grad)
+        newton = torch.where(concave[:, None], newton, x)
+        lc_newton = _log_components(newton, ln, mu, prec)
+        take_newton = concave & (torch.logsumexp(lc_newton, -1) > f)
 
-    # grad l_k = P_k (mu_k - x); grad f = sum_k r_k grad l_k = b - A x
-    grad_k = prec_mean - torch.stack(
-        [
-            precision[..., 0] * points[:, None, 0] + precision[..., 1] * points[:, None, 1],
-            precision[..., 1] * points[:, None, 0] + precision[..., 2] * points[:, None, 1],
-        ],
-        -1,
-    )  # (R, Z, 2)
-    grad = torch.einsum("rz,rzc->rc", resp, grad_k)
-    outer = torch.stack(
-        [grad_k[..., 0] ** 2, grad_k[..., 0] * grad_k[..., 1], grad_k[..., 1] ** 2], -1
-    )
-    hessian = torch.einsum("rz,rzc->rc", resp, outer) - a
-    hessian = hessian - torch.stack([grad[:, 0] ** 2, grad[:, 0] * grad[:, 1], grad[:, 1] ** 2], -1)
-    concave = (hessian[:, 0] < 0) & (hessian[:, 0] * hessian[:, 2] - hessian[:, 1] ** 2 > 0)
-    newton = points - _solve(hessian, grad)
-    newton = torch.where(concave[:, None], newton, fixed_point)
+        new_x = newton
+        new_lc = lc_newton
+        fallback = ~take_newton
+        if fallback.any():
+            fixed_point = _solve(a[fallback], b[fallback])
+            new_x = new_x.clone()
+            new_x[fallback] = fixed_point
+            new_lc = new_lc.clone()
+            new_lc[fallback] = _log_components(
+                fixed_point, ln[fallback], mu[fallback], prec[fallback]
+            )
+        moved = (new_x - x).abs().amax(dim=-1)
+        points[active] = new_x
+        log_comp[active] = new_lc
+        active = active[moved >= tol]
+        if len(active) == 0:
+            break
+    return points, torch.logsumexp(log_comp, -1)
 
-    def log_density(x: torch.Tensor) -> torch.Tensor:
-        return torch.logsumexp(_log_components(x, log_norm, mean, precision), -1)
 
-    better = log_density(newton) >= log_density(fixed_point)
-    return torch.where(better[:, None], newton, fixed_point)
+def _separated_starts(
+    at_means: torch.Tensor, mean: torch.Tensor, count: int, min_gap: float = 0.05
+) -> torch.Tensor:
+    """Pick ``count`` component means per mixture, highest density first, skipping means
+    within ``min_gap`` of one already picked (they would climb to the same peak).
+
+    Args:
+        at_means: (N, Z) mixture log-density at every component mean.
+        mean: (N, Z, 2).
+
+    Returns:
+        (N, count) component indices (repeats when fewer distinct means exist).
+    """
+    score = at_means.clone()
+    picked = []
+    for _ in range(count):  # a handful of rounds, vectorised over mixtures
+        best = score.argmax(dim=-1)  # (N,)
+        picked.append(best)
+        chosen = mean[torch.arange(len(mean)), best]  # (N, 2)
+        near = (mean - chosen[:, None]).norm(dim=-1) < min_gap  # (N, Z)
+        score = score.masked_fill(near, -torch.inf)
+        exhausted = torch.isinf(score).all(dim=-1, keepdim=True)
+        score = torch.where(exhausted, at_means, score)
+    return torch.stack(picked, dim=-1)
 
 
 def mixture_mode(
     log_weights: torch.Tensor,
     mean: torch.Tensor,
     cov: torch.Tensor,
-    num_starts: int = 10,
-    max_iters: int = 100,
-    tol: float = 1e-8,
+    num_starts: int = 4,
+    max_iters: int = 30,
+    tol: float = 1e-6,
+    chunk: int = 2048,
 ) -> torch.Tensor:
     """Highest-density point of each mixture.
 
@@ -108,10 +170,34 @@ def mixture_mode(
         num_starts: iterate from the component means with the highest mixture density.
         max_iters: iteration cap.
         tol: a point stops once it moves less than this (metres or m/s).
+        chunk: mixtures per block (blocks keep the temporaries in cache).
 
     Returns:
         (N, 2) modes.
     """
+    return torch.cat(
+        [
+            _mixture_mode_block(
+                log_weights[i : i + chunk],
+                mean[i : i + chunk],
+                cov[i : i + chunk],
+                num_starts,
+                max_iters,
+                tol,
+            )
+            for i in range(0, len(log_weights), chunk)
+        ]
+    )
+
+
+def _mixture_mode_block(
+    log_weights: torch.Tensor,
+    mean: torch.Tensor,
+    cov: torch.Tensor,
+    num_starts: int,
+    max_iters: int,
+    tol: float,
+) -> torch.Tensor:
     log_weights, mean, cov = log_weights.double(), mean.double(), cov.double()
     N, Z = log_weights.shape
     precision, log_det = _precision(cov)  # (N, Z, 3), (N, Z)
@@ -128,26 +214,13 @@ def mixture_mode(
     diff = mean[:, :, None, :] - mean[:, None, :, :]  # (N, Z_at, Z_comp, 2)
     at_means = torch.logsumexp(log_norm[:, None] - 0.5 * _quad(diff, precision[:, None]), -1)
     S = min(num_starts, Z)
-    starts = at_means.topk(S, dim=-1).indices  # (N, S)
+    starts = _separated_starts(at_means, mean, S)  # (N, S)
     owner = torch.arange(N).repeat_interleave(S)  # mixture of every (flattened) start
     points = torch.gather(mean, 1, starts[..., None].expand(-1, -1, 2)).reshape(N * S, 2)
-
-    active = torch.arange(N * S)
-    for _ in range(max_iters):  # only points still moving are updated
-        rows = owner[active]
-        new = _ascent_step(
-            points[active], log_norm[rows], mean[rows], precision[rows], prec_mean[rows]
-        )
-        moved = (new - points[active]).abs().amax(dim=-1)
-        points[active] = new
-        active = active[moved >= tol]
-        if len(active) == 0:
-            break
-
-    score = torch.logsumexp(
-        _log_components(points, log_norm[owner], mean[owner], precision[owner]), -1
-    ).reshape(N, S)
-    best = score.argmax(dim=-1)
+    points, score = _climb(
+        points, log_norm[owner], mean[owner], precision[owner], prec_mean[owner], max_iters, tol
+    )
+    best = score.reshape(N, S).argmax(dim=-1)
     return points.reshape(N, S, 2)[torch.arange(N), best]
 
 

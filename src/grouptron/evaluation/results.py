@@ -1,4 +1,4 @@
-"""Evaluation results: one row per (split, model, subset), printable as a table or JSON."""
+"""Evaluation results: one row per (split, model, subset, mode), as a table or JSON."""
 
 from __future__ import annotations
 
@@ -18,7 +18,12 @@ MEAN_ROW = "mean"
 
 @dataclass(frozen=True)
 class EvaluationResult:
-    """Scores of one model on one split (or subset), averaged over its test samples."""
+    """Scores of one model on one split (or subset), averaged over its test samples.
+
+    ``mode`` names the prediction (``ml``, ``ml-argmax``, ``best-of-20``, ``nll``) for models
+    with several; ``nll`` is the KDE NLL in nats (``nll`` mode only); values that a mode does not
+    define are NaN here and ``null`` in JSON.
+    """
 
     split: str
     model: str
@@ -27,12 +32,15 @@ class EvaluationResult:
     ade: float
     fde: float
     mode: str | None = None
+    nll: float | None = None
+    checkpoint: str | None = None
 
     def to_dict(self) -> dict[str, object]:
         row = dataclasses.asdict(self)
-        if row["mode"] is None:
-            del row["mode"]
-        return row
+        for optional in ("mode", "nll", "checkpoint"):
+            if row[optional] is None:
+                del row[optional]
+        return {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in row.items()}
 
 
 def score(
@@ -59,14 +67,15 @@ def score(
 def mean_over_splits(results: Sequence[EvaluationResult]) -> EvaluationResult:
     """The unweighted mean of split scores (the papers' "AVG" column)."""
     first = results[0]
-    return EvaluationResult(
+    nll = [r.nll for r in results if r.nll is not None]
+    return dataclasses.replace(
+        first,
         split=MEAN_ROW,
-        model=first.model,
-        subset=first.subset,
         samples=sum(r.samples for r in results),
         ade=float(np.mean([r.ade for r in results])),
         fde=float(np.mean([r.fde for r in results])),
-        mode=first.mode,
+        nll=float(np.mean(nll)) if len(nll) == len(results) else None,
+        checkpoint=None,
     )
 
 
@@ -74,14 +83,21 @@ def results_json(results: Sequence[EvaluationResult]) -> str:
     return json.dumps({"results": [r.to_dict() for r in results]}, indent=2)
 
 
+def _fmt(value: float | None) -> str:
+    return "-" if value is None or math.isnan(value) else f"{value:.3f}"
+
+
 def results_table(results: Sequence[EvaluationResult]) -> str:
-    """A fixed-width text table: split, subset, model, samples, ADE, FDE (metres)."""
-    header = f"{'split':<7} {'subset':<9} {'model':<18} {'samples':>8} {'ADE m':>7} {'FDE m':>7}"
+    """A fixed-width text table: split, subset, model, samples, ADE, FDE (metres), NLL."""
+    with_nll = any(r.nll is not None for r in results)
+    header = f"{'split':<7} {'subset':<9} {'model':<30} {'samples':>8} {'ADE m':>7} {'FDE m':>7}"
+    header += f" {'NLL':>7}" if with_nll else ""
     lines = [header, "-" * len(header)]
     for r in results:
         name = r.model if r.mode is None else f"{r.model} ({r.mode})"
-        lines.append(
-            f"{r.split:<7} {r.subset or '-':<9} {name:<18} {r.samples:>8} "
-            f"{r.ade:>7.3f} {r.fde:>7.3f}"
+        line = (
+            f"{r.split:<7} {r.subset or '-':<9} {name:<30} {r.samples:>8} "
+            f"{_fmt(r.ade):>7} {_fmt(r.fde):>7}"
         )
+        lines.append(line + (f" {_fmt(r.nll):>7}" if with_nll else ""))
     return "\n".join(lines)
