@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -94,75 +95,34 @@ def test_no_test_samples_is_an_error(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert "no test samples" in run_error([*argv, "--data-dir", str(tmp_path)], capsys)
 
 
+TINY_MODEL = {"history_hidden": 8, "edge_hidden": 8, "future_hidden": 8, "latent_modes": 5,
+              "p_z_hidden": 8, "decoder_hidden": 16}  # fmt: skip
+
+
+def json_rows(argv: list[str], capsys: pytest.CaptureFixture[str]) -> list[dict]:
+    assert main([*argv, "--format", "json"]) == 0
+    return json.loads(capsys.readouterr().out)["results"]
+
+
 def test_train_then_evaluate_a_checkpoint(
     synthetic_data_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     config = tmp_path / "tiny.json"
-    config.write_text(
-        json.dumps(
-            {
-                "model": {
-                    "history_hidden": 8,
-                    "edge_hidden": 8,
-                    "future_hidden": 8,
-                    "latent_modes": 5,
-                    "p_z_hidden": 8,
-                    "decoder_hidden": 16,
-                },
-                "train": {"batch_size": 64},
-            }
-        )
-    )
+    config.write_text(json.dumps({"model": TINY_MODEL, "train": {"batch_size": 64}}))
     out = tmp_path / "run"
     common = ["--data-dir", str(synthetic_data_dir), "--quiet"]
-    assert (
-        main(
-            [
-                "train",
-                "--split",
-                "eth",
-                "--epochs",
-                "1",
-                "--config",
-                str(config),
-                "--out",
-                str(out),
-                *common,
-            ]
-        )
-        == 0
-    )
+    argv = ["train", "--split", "eth", "--epochs", "1", "--config", str(config), "--out", str(out)]
+    assert main([*argv, *common]) == 0
     assert "done: 1 epochs" in capsys.readouterr().out
-    assert (
-        main(
-            [
-                "evaluate",
-                "--checkpoint",
-                str(out / "best.safetensors"),
-                "--mode",
-                "ml,ml-argmax,best-of-20",
-                "--format",
-                "json",
-                *common,
-            ]
-        )
-        == 0
-    )
-    rows = json.loads(capsys.readouterr().out)["results"]
+
+    evaluate = ["evaluate", "--checkpoint", str(out / "best.safetensors"), *common]
+    rows = json_rows([*evaluate, "--mode", "ml,ml-argmax,best-of-20"], capsys)
     assert [r["mode"] for r in rows] == ["ml", "ml-argmax", "best-of-20"]
     assert all(r["split"] == "eth" and r["model"] == "trajectron++" for r in rows)
     assert rows[2]["ade"] <= rows[0]["ade"]  # the best of 20 beats a single guess
-    message = run_error(
-        [
-            "evaluate",
-            "--checkpoint",
-            str(out / "best.safetensors"),
-            "--derivatives",
-            "backward",
-            *common,
-        ],
-        capsys,
-    )
+    (nll,) = json_rows([*evaluate, "--mode", "nll"], capsys)
+    assert nll["ade"] is None and math.isfinite(nll["nll"]) and nll["nll"] < 20.0
+    message = run_error([*evaluate, "--derivatives", "backward"], capsys)
     assert "trained with central derivatives" in message
 
 

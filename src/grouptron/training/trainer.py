@@ -18,10 +18,12 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import ExperimentConfig
 from grouptron.data.augment import draw_rotation_angles
 from grouptron.data.samples import SampleSet
 from grouptron.errors import GrouptronError
+from grouptron.evaluation import metrics
 from grouptron.evaluation.evaluate import evaluate_model
 from grouptron.model.batch import make_batch
 from grouptron.model.cvae import TrajectronCVAE
@@ -142,11 +144,19 @@ def train_epoch(
 
 
 def validate(state: TrainState, config: ExperimentConfig, samples: SampleSet) -> dict[str, float]:
-    """Most-likely ADE/FDE on the validation set (no augmentation, no dropout)."""
+    """Most-likely ADE/FDE on the validation set (no augmentation, no dropout), next to the
+    constant-velocity baseline's on the same samples for scale."""
     scores = evaluate_model(
         state.model, config, samples, ("ml",), batch_size=config.train.eval_batch_size
     )
-    return {"val_ml_ade": float(scores[0].ade), "val_ml_fde": float(scores[0].fde)}
+    truth = samples.fut_rel_m.astype(np.float64)
+    baseline = constant_velocity(samples.hist_rel_m.astype(np.float64), config.data.horizon_steps)
+    return {
+        "val_ml_ade": float(scores[0].ade),
+        "val_ml_fde": float(scores[0].fde),
+        "val_cv_ade": float(metrics.ade(baseline, truth).mean()),
+        "val_cv_fde": float(metrics.fde(baseline, truth).mean()),
+    }
 
 
 def _checkpoint(state: TrainState, config: ExperimentConfig, weights_only: bool) -> Checkpoint:
