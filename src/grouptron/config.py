@@ -52,6 +52,24 @@ class DataConfig:
 
 
 @dataclass(frozen=True)
+class GroupConfig:
+    """How the ego and its neighbours are clustered into groups (SPEC section 3)."""
+
+    linkage: Literal["single", "average", "complete"] = "average"
+    distance: Literal["hausdorff", "modified"] = "hausdorff"
+    quantile: float = 0.9
+    """Quantile of the modified Hausdorff distance (Atev et al.)."""
+
+    def __post_init__(self) -> None:
+        if self.linkage not in ("single", "average", "complete"):
+            raise GrouptronError("groups.linkage must be single, average or complete")
+        if self.distance not in ("hausdorff", "modified"):
+            raise GrouptronError("groups.distance must be hausdorff or modified")
+        if not 0.0 < self.quantile <= 1.0:
+            raise GrouptronError("groups.quantile must be in (0, 1]")
+
+
+@dataclass(frozen=True)
 class ModelConfig:
     """Widths and switches of the CVAE (SPEC section 3). Defaults equal the reference."""
 
@@ -71,6 +89,11 @@ class ModelConfig:
     log_sigma_max: float = 10.0
     corr_max: float = 0.999
     """|rho| bound of the bivariate Gaussians (keeps the covariance invertible)."""
+    group_dim: int = 16
+    """Output width of Grouptron's group- and scene-level ST-GCNs (8 on the eth split)."""
+    group_adjacency: Literal["sym_norm", "laplacian"] = "sym_norm"
+    """``sym_norm``: D^-1/2 (A + I) D^-1/2; ``laplacian``: Social-STGCNN's normalised
+    Laplacian I - D^-1/2 A D^-1/2 (zero for a singleton group)."""
 
     def __post_init__(self) -> None:
         for name in (
@@ -135,6 +158,7 @@ class ExperimentConfig:
     split: str = "eth"
     model_name: str = "trajectron++"
     data: DataConfig = dataclasses.field(default_factory=DataConfig)
+    groups: GroupConfig = dataclasses.field(default_factory=GroupConfig)
     model: ModelConfig = dataclasses.field(default_factory=ModelConfig)
     loss: LossConfig = dataclasses.field(default_factory=LossConfig)
     train: TrainConfig = dataclasses.field(default_factory=TrainConfig)
@@ -175,10 +199,22 @@ def config_from_dict(cls: type[ConfigT], values: dict[str, Any]) -> ConfigT:
 
 _NESTED: dict[str, type] = {
     "DataConfig": DataConfig,
+    "GroupConfig": GroupConfig,
     "ModelConfig": ModelConfig,
     "LossConfig": LossConfig,
     "TrainConfig": TrainConfig,
 }
+
+
+SPLIT_PRESETS: dict[str, dict[str, Any]] = {"eth": {"group_dim": 8}}
+"""Model settings that differ per split: the paper narrows the ST-GCNs to 8 on eth, whose
+test recording rarely has 5 or more people in view."""
+
+
+def experiment_preset(split: str, model_name: str = "trajectron++") -> ExperimentConfig:
+    """The default experiment for a split, with its per-split model settings."""
+    model = dataclasses.replace(ModelConfig(), **SPLIT_PRESETS.get(split, {}))
+    return ExperimentConfig(split=split, model_name=model_name, model=model)
 
 
 def load_config(cls: type[ConfigT], path: str | Path) -> ConfigT:

@@ -84,10 +84,14 @@ def test_features_match_a_naive_per_sample_computation(eth_ucy_dir: Path, scheme
         ]
         nbr_sum = np.zeros((8, 6))
         weight_sum = 0.0
-        for p in near:
+        edges = slice(samples.nbr_offsets[s], samples.nbr_offsets[s + 1])
+        for p, single in zip(near, samples.nbr_hist_st[edges], strict=True):
+            expected_single = np.zeros((8, 6))
             for h, k in enumerate(range(t - 7, t + 1)):
                 if k in tracks[p]:
-                    nbr_sum[h] += (tracks[p][k] - now) / scale
+                    expected_single[h] = (tracks[p][k] - now) / scale
+            np.testing.assert_allclose(single, expected_single, atol=1e-4)
+            nbr_sum += expected_single
             w = 0.0
             for lag, w_lag in enumerate((0.25, 0.5, 0.75, 1.0)):
                 k = t - lag

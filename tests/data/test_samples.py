@@ -90,6 +90,9 @@ def test_neighbours_within_radius_and_their_state_sum(tmp_path: Path) -> None:
     expected[3:, 0] = 0.4 * (np.arange(3, 8) - 7) / 3.0
     expected[3:, 1] = 1.0 / 3.0
     np.testing.assert_allclose(samples.nbr_sum_st[s], expected, atol=1e-6)
+    edge = samples.nbr_offsets[s]
+    np.testing.assert_allclose(samples.nbr_hist_st[edge], expected, atol=1e-6)  # one neighbour
+    np.testing.assert_array_equal(samples.nbr_hist_mask[edge], [0, 0, 0, 1, 1, 1, 1, 1])
 
 
 def test_edge_weights_ramp_in(tmp_path: Path) -> None:
@@ -136,12 +139,19 @@ def test_rotating_the_scene_rotates_every_sample_vector(tmp_path: Path, scheme: 
     plain = scene_samples(build_scene(table, config), config, 2)
     turned = scene_samples(build_scene(rotated_table, config), config, 2)
     np.testing.assert_array_equal(plain.nbr_track, turned.nbr_track)
-    for name in ("hist_st", "nbr_sum_st", "fut_rel_m", "hist_rel_m"):
+    for name in ("hist_st", "nbr_sum_st", "fut_rel_m", "hist_rel_m", "nbr_hist_st"):
         np.testing.assert_allclose(
             rotate_xy_pairs(getattr(plain, name), rotation), getattr(turned, name), atol=1e-5
         )
     augmented = rotate_samples(plain, np.full(len(plain), np.deg2rad(135.0)))
-    for name in ("hist_st", "nbr_sum_st", "fut_rel_m", "hist_rel_m", "pos_now_scene_m"):
+    for name in (
+        "hist_st",
+        "nbr_sum_st",
+        "fut_rel_m",
+        "hist_rel_m",
+        "pos_now_scene_m",
+        "nbr_hist_st",
+    ):
         np.testing.assert_allclose(getattr(augmented, name), getattr(turned, name), atol=1e-5)
 
 

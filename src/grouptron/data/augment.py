@@ -18,7 +18,14 @@ from grouptron.geometry import rotate_xy_pairs, rotation_matrix
 ROTATION_ANGLES_DEG = np.arange(0.0, 360.0, 15.0)
 """The 24 augmentation angles of the reference: 0, 15, ..., 345 degrees."""
 
-_ROTATED_FIELDS = ("pos_now_scene_m", "hist_rel_m", "hist_st", "fut_rel_m", "nbr_sum_st")
+_ROTATED_FIELDS = (
+    "pos_now_scene_m",
+    "hist_rel_m",
+    "hist_st",
+    "fut_rel_m",
+    "nbr_sum_st",
+    "nbr_hist_st",
+)
 
 
 def draw_rotation_angles(rng: np.random.Generator, count: int) -> np.ndarray:
@@ -34,9 +41,11 @@ def rotate_samples(samples: SampleSet, angles_rad: np.ndarray) -> SampleSet:
         angles_rad: (S,) counter-clockwise angles.
     """
     rotation = rotation_matrix(angles_rad)  # (S, 2, 2)
+    per_edge_rotation = np.repeat(rotation, samples.num_neighbours, axis=0)  # (E, 2, 2)
     changes = {}
     for name in _ROTATED_FIELDS:
         values = getattr(samples, name)
-        per_sample = rotation.reshape(len(samples), *([1] * (values.ndim - 2)), 2, 2)
+        turn = per_edge_rotation if name == "nbr_hist_st" else rotation
+        per_sample = turn.reshape(len(values), *([1] * (values.ndim - 2)), 2, 2)
         changes[name] = rotate_xy_pairs(values, per_sample).astype(values.dtype)
     return dataclasses.replace(samples, **changes)

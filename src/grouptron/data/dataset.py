@@ -21,7 +21,7 @@ from grouptron.data.scene import Scene, build_scene
 
 log = logging.getLogger(__name__)
 
-CACHE_FORMAT_VERSION = 1
+CACHE_FORMAT_VERSION = 2
 """Bump when the content of cached sample sets changes."""
 
 

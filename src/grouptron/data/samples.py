@@ -42,6 +42,9 @@ class SampleSet:
         nbr_offsets: (S + 1,) sample ``s`` has neighbours ``nbr_offsets[s]:nbr_offsets[s+1]``.
         nbr_track: (E,) neighbour tracks (same scene as their sample).
         nbr_weight: (E,) their edge weights.
+        nbr_hist_st: (E, T, 6) each neighbour's standardised state relative to the ego's state
+            at ``t`` over the history window; 0 where the neighbour was not observed.
+        nbr_hist_mask: (E, T) True where the neighbour was observed.
     """
 
     scene_names: np.ndarray
@@ -59,6 +62,8 @@ class SampleSet:
     nbr_offsets: np.ndarray
     nbr_track: np.ndarray
     nbr_weight: np.ndarray
+    nbr_hist_st: np.ndarray
+    nbr_hist_mask: np.ndarray
 
     def __len__(self) -> int:
         return len(self.step)
@@ -84,15 +89,19 @@ class SampleSet:
         per_sample = {
             f.name: getattr(self, f.name)[index]
             for f in dataclasses.fields(self)
-            if f.name not in ("scene_names", "nbr_offsets", "nbr_track", "nbr_weight")
+            if f.name not in ("scene_names", "nbr_offsets") and f.name not in PER_EDGE
         }
+        per_edge = {name: getattr(self, name)[edge_index] for name in PER_EDGE}
         return SampleSet(
             scene_names=self.scene_names,
             nbr_offsets=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
-            nbr_track=self.nbr_track[edge_index],
-            nbr_weight=self.nbr_weight[edge_index],
             **per_sample,
+            **per_edge,
         )
+
+
+PER_EDGE = ("nbr_track", "nbr_weight", "nbr_hist_st", "nbr_hist_mask")
+"""Fields with one row per (sample, neighbour) pair, indexed through ``nbr_offsets``."""
 
 
 def _dense_grid(scene: Scene, pad_before: int, pad_after: int) -> tuple[np.ndarray, np.ndarray]:
@@ -160,6 +169,7 @@ def scene_samples(
     count_prefix = np.concatenate([zeros[..., 0], np.cumsum(nbr_present, axis=0)])
     state_sum = state_prefix[nbr_offsets[1:]] - state_prefix[nbr_offsets[:-1]]  # (S, T, 6)
     present_sum = count_prefix[nbr_offsets[1:]] - count_prefix[nbr_offsets[:-1]]  # (S, T)
+    nbr_hist_st = (nbr_state - ego_now[edge_sample, None, :]) / scale * nbr_present[..., None]
     nbr_sum_st = (state_sum - present_sum[..., None] * ego_now[:, None, :]) / scale
     nbr_sum_st = nbr_sum_st * hist_mask[..., None]
     weight_prefix = np.concatenate([[0.0], np.cumsum(nbr_weight)])
@@ -181,6 +191,8 @@ def scene_samples(
         nbr_offsets=nbr_offsets,
         nbr_track=nbr_track.astype(np.int32),
         nbr_weight=nbr_weight.astype(np.float32),
+        nbr_hist_st=nbr_hist_st.astype(np.float32),
+        nbr_hist_mask=nbr_present,
     )
 
 

@@ -1,0 +1,1 @@
+"""Pedestrian groups: trajectory distances, agglomerative clustering, label evaluation."""

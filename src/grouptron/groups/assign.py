@@ -1,0 +1,85 @@
+"""Groups of every sample: the ego and its neighbours at t, clustered on their histories.
+
+Distances are computed for many samples at once (samples with the same node count are
+stacked); SciPy's clustering then runs once per sample with three or more nodes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from grouptron.config import GroupConfig
+from grouptron.data.samples import SampleSet
+from grouptron.groups.clustering import agglomerative_groups
+from grouptron.groups.distances import pairwise_distances
+
+MAX_DISTANCE_ELEMENTS = 4_000_000
+"""Bound on (samples x N x N x T x T) per vectorised distance block (memory)."""
+
+
+@dataclass(frozen=True)
+class SampleGroups:
+    """Group labels of every sample's nodes (ego first, then its neighbours in CSR order).
+
+    Attributes:
+        ego_group: (S,) the ego's group, in ``0..num_groups-1``.
+        nbr_group: (E,) each neighbour's group (aligned with ``SampleSet.nbr_track``).
+        num_groups: (S,) C(N) for N = 1 + number of neighbours.
+    """
+
+    ego_group: np.ndarray
+    nbr_group: np.ndarray
+    num_groups: np.ndarray
+
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> SampleGroups:
+        return cls(**{f.name: arrays[f.name] for f in dataclasses.fields(cls)})
+
+
+def node_trajectories(
+    samples: SampleSet, index: np.ndarray, num_nodes: int, position_scale_m: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Histories of the ego and its neighbours for samples that all have ``num_nodes`` nodes.
+
+    Returns:
+        (S, N, T, 2) positions in metres relative to the ego at ``t`` and (S, N, T) masks.
+    """
+    edges = samples.nbr_offsets[index][:, None] + np.arange(num_nodes - 1)  # (S, N-1)
+    nbr_pos = samples.nbr_hist_st[edges, :, :2] * position_scale_m  # (S, N-1, T, 2)
+    traj = np.concatenate([samples.hist_rel_m[index][:, None], nbr_pos], axis=1)
+    mask = np.concatenate([samples.hist_mask[index][:, None], samples.nbr_hist_mask[edges]], 1)
+    return traj.astype(np.float64), mask
+
+
+def assign_groups(samples: SampleSet, config: GroupConfig, position_scale_m: float) -> SampleGroups:
+    """Cluster every sample's nodes into C(N) groups on Hausdorff distances of their histories."""
+    node_labels = np.zeros(len(samples) + int(samples.nbr_offsets[-1]), dtype=np.int16)
+    # Flat layout: sample s owns rows node_start[s] .. node_start[s] + n_s (ego first).
+    counts = samples.num_neighbours + 1
+    node_start = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    for num_nodes in np.unique(counts):  # one vectorised block per node count
+        same = np.flatnonzero(counts == num_nodes)
+        if num_nodes <= 2:
+            continue  # C(1) = C(2) = 1: everyone in group 0
+        T = samples.hist_st.shape[1]
+        block = max(1, MAX_DISTANCE_ELEMENTS // (num_nodes * num_nodes * T * T))
+        for start in range(0, len(same), block):
+            index = same[start : start + block]
+            traj, mask = node_trajectories(samples, index, int(num_nodes), position_scale_m)
+            distances = pairwise_distances(traj, mask, config.distance, config.quantile)
+            for s, matrix in zip(index, distances, strict=True):  # SciPy, once per sample
+                labels = agglomerative_groups(matrix, config.linkage)
+                node_labels[node_start[s] : node_start[s] + num_nodes] = labels
+    is_ego = np.zeros(len(node_labels), dtype=bool)
+    is_ego[node_start] = True
+    return SampleGroups(
+        ego_group=node_labels[is_ego],
+        nbr_group=node_labels[~is_ego],
+        num_groups=((counts + 1) // 2).astype(np.int16),
+    )

@@ -1,0 +1,105 @@
+"""Groups of a whole recording, step by step, and their agreement with human labels."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from grouptron.config import GroupConfig
+from grouptron.data.constants import HISTORY_STEPS, PERCEPTION_RADIUS_M
+from grouptron.data.scene import Scene
+from grouptron.groups.clustering import agglomerative_groups
+from grouptron.groups.distances import pairwise_distances
+from grouptron.groups.labels import (
+    PairCounts,
+    dice_of_partitions,
+    partition_from_labels,
+    same_group_pairs,
+)
+
+
+@dataclass(frozen=True)
+class StepGroups:
+    """The scene-wide groups of one step.
+
+    Attributes:
+        step: the step.
+        tracks: (N,) tracks present at the step.
+        labels: (N,) their groups (C(N) of them).
+        distances: (N, N) Hausdorff distances of their histories.
+        pos_now_m: (N, 2) positions at the step (scene frame).
+    """
+
+    step: int
+    tracks: np.ndarray
+    labels: np.ndarray
+    distances: np.ndarray
+    pos_now_m: np.ndarray
+
+
+def position_grid(scene: Scene, pad_before: int) -> tuple[np.ndarray, np.ndarray]:
+    """(A, pad_before + num_steps, 2) positions and presence, left-padded for windows."""
+    width = pad_before + scene.num_steps
+    pos = np.zeros((scene.num_tracks, width, 2))
+    present = np.zeros((scene.num_tracks, width), dtype=bool)
+    pos[scene.track, scene.step + pad_before] = scene.state_scene[:, :2]
+    present[scene.track, scene.step + pad_before] = True
+    return pos, present
+
+
+def groups_per_step(
+    scene: Scene, config: GroupConfig, history_steps: int = HISTORY_STEPS, every: int = 1
+) -> Iterator[StepGroups]:
+    """Cluster the pedestrians present at each step on their last ``history_steps`` positions."""
+    pad = history_steps - 1
+    pos, present = position_grid(scene, pad)
+    for step in range(0, scene.num_steps, every):  # one clustering per step
+        tracks = np.flatnonzero(present[:, step + pad])
+        if len(tracks) == 0:
+            continue
+        window = slice(step, step + pad + 1)
+        distances = pairwise_distances(
+            pos[tracks, window], present[tracks, window], config.distance, config.quantile
+        )
+        labels = agglomerative_groups(distances, config.linkage)
+        yield StepGroups(step, tracks, labels, distances, pos[tracks, step + pad])
+
+
+def score_against_labels(
+    scene: Scene,
+    labels: dict[int, int],
+    config: GroupConfig,
+    radius_m: float = PERCEPTION_RADIUS_M,
+    every: int = 1,
+) -> dict[str, dict[str, float]]:
+    """Pairwise precision/recall/F1 and Dice of detected against labelled groups.
+
+    Two protocols, over every step with two or more pedestrians:
+      ``scene``: all pedestrians present are clustered together; every pair is a decision.
+      ``per_ego``: as the model does, each pedestrian and those within ``radius_m`` of it are
+      clustered; the decisions are "is this neighbour in the ego's group".
+
+    Args:
+        scene: the recording.
+        labels: {pedestrian id: group label} (ids of the scene's file).
+    """
+    scene_counts, ego_counts = PairCounts(), PairCounts()
+    for found in groups_per_step(scene, config, every=every):
+        if len(found.tracks) < 2:
+            continue
+        truth = partition_from_labels(scene.ped_id[found.tracks], labels)
+        scene_counts.add_pairs(same_group_pairs(found.labels), same_group_pairs(truth))
+        scene_counts.add_dice(dice_of_partitions(found.labels, truth))
+        near = np.linalg.norm(found.pos_now_m[:, None] - found.pos_now_m[None], axis=-1)
+        for ego in range(len(found.tracks)):  # the model's per-ego clustering
+            others = np.flatnonzero((near[ego] <= radius_m) & (np.arange(len(near)) != ego))
+            if len(others) == 0:
+                continue
+            nodes = np.concatenate([[ego], others])
+            predicted = agglomerative_groups(found.distances[np.ix_(nodes, nodes)], config.linkage)
+            labelled = truth[nodes]
+            ego_counts.add_pairs(predicted[1:] == predicted[0], labelled[1:] == labelled[0])
+            ego_counts.add_dice(dice_of_partitions(predicted, labelled))
+    return {"scene": scene_counts.summary(), "per_ego": ego_counts.summary()}

@@ -1,0 +1,140 @@
+"""Hausdorff distances, C(N), clustering and group labels on hand-made cases."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.cluster.hierarchy import cut_tree, linkage
+from scipy.spatial.distance import directed_hausdorff as scipy_directed
+from scipy.spatial.distance import squareform
+
+from grouptron.config import DataConfig, GroupConfig
+from grouptron.data.samples import scene_samples
+from grouptron.errors import DataFormatError
+from grouptron.groups.assign import assign_groups
+from grouptron.groups.clustering import (
+    agglomerative_groups,
+    canonical_labels,
+    cluster_count,
+    cut_merge_tree,
+)
+from grouptron.groups.distances import directed_hausdorff, pairwise_distances
+from grouptron.groups.labels import (
+    dice_of_partitions,
+    partition_from_labels,
+    read_group_labels,
+    read_id_map,
+)
+from tests.data.test_samples import walking_scene
+
+LINE = np.stack([np.arange(4.0), np.zeros(4)], -1)  # (0,0) (1,0) (2,0) (3,0)
+
+
+def test_hausdorff_of_hand_made_trajectories() -> None:
+    shifted = LINE + np.array([0.0, 2.0])  # parallel, 2 m away
+    short = LINE[:2]  # (0,0) (1,0): inside the line
+    traj = np.stack([LINE, shifted, np.concatenate([short, short])])
+    mask = np.ones((3, 4), bool)
+    mask[2, 2:] = False  # the third trajectory only has its first two points
+    directed = directed_hausdorff(traj, mask)
+    assert directed[0, 1] == pytest.approx(2.0)
+    assert directed[2, 0] == pytest.approx(0.0)  # every point of `short` lies on LINE
+    assert directed[0, 2] == pytest.approx(2.0)  # (3,0) is 2 m from (1,0)
+    symmetric = pairwise_distances(traj, mask)
+    np.testing.assert_allclose(symmetric, symmetric.T)
+    np.testing.assert_allclose(np.diag(symmetric), 0.0)
+    assert symmetric[0, 2] == pytest.approx(2.0)
+
+
+def test_hausdorff_matches_scipy_on_random_curves() -> None:
+    rng = np.random.default_rng(0)
+    traj = rng.normal(size=(5, 8, 2)).cumsum(1)
+    directed = directed_hausdorff(traj, np.ones((5, 8), bool))
+    for i in range(5):
+        for j in range(5):
+            assert directed[i, j] == pytest.approx(scipy_directed(traj[i], traj[j])[0])
+
+
+def test_modified_hausdorff_ignores_an_outlying_point() -> None:
+    spike = LINE.copy()
+    spike[3] = [3.0, 10.0]
+    traj, mask = np.stack([LINE, spike]), np.ones((2, 4), bool)
+    plain = pairwise_distances(traj, mask, "hausdorff")[0, 1]
+    robust = pairwise_distances(traj, mask, "modified", quantile=0.5)[0, 1]
+    assert plain == pytest.approx(10.0) and robust < 1.0
+
+
+@pytest.mark.parametrize(("n", "c"), [(1, 1), (2, 1), (3, 2), (4, 2), (5, 3), (6, 3)])
+def test_cluster_count(n: int, c: int) -> None:
+    assert cluster_count(n) == c
+
+
+def test_two_walking_pairs_are_two_groups() -> None:
+    t = np.arange(8)[:, None] * 0.5
+    pair_a = [np.concatenate([t, 0 * t], 1), np.concatenate([t, 0 * t + 0.6], 1)]
+    pair_b = [np.concatenate([8 - t, 0 * t + 6], 1), np.concatenate([8 - t, 0 * t + 6.7], 1)]
+    traj = np.stack([pair_a[0], pair_b[0], pair_a[1], pair_b[1]])
+    distances = pairwise_distances(traj, np.ones((4, 8), bool))
+    for method in ("single", "average", "complete"):
+        np.testing.assert_array_equal(agglomerative_groups(distances, method), [0, 1, 0, 1])
+
+
+def test_cutting_the_merge_tree_equals_scipy_cut_tree_without_ties() -> None:
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        n = int(rng.integers(3, 25))
+        points = rng.normal(size=(n, 2))
+        condensed = squareform(np.linalg.norm(points[:, None] - points[None], axis=-1))
+        for method in ("single", "average", "complete"):
+            tree = linkage(condensed, method)
+            expected = canonical_labels(cut_tree(tree, n_clusters=(n + 1) // 2)[:, 0])
+            got = canonical_labels(cut_merge_tree(tree, n, (n + 1) // 2))
+            np.testing.assert_array_equal(got, expected)
+
+
+def test_clustering_is_deterministic_with_ties() -> None:
+    distances = np.ones((6, 6)) - np.eye(6)  # every pair tied
+    first = agglomerative_groups(distances)
+    for _ in range(5):
+        np.testing.assert_array_equal(agglomerative_groups(distances), first)
+    assert len(np.unique(first)) == 3
+
+
+def test_sample_groups_put_the_walking_neighbour_with_the_ego(tmp_path: Path) -> None:
+    scene = walking_scene(tmp_path)
+    samples = scene_samples(scene, DataConfig(), 8)
+    groups = assign_groups(samples, GroupConfig(), 3.0)
+    assert (groups.num_groups == (samples.num_neighbours + 2) // 2).all()
+    assert (groups.ego_group == 0).all()  # ego first: canonical group 0
+    assert (groups.nbr_group == 0).all()  # C(2) = 1: the only neighbour shares it
+
+
+def test_label_file_merging_blank_lines_and_header(tmp_path: Path) -> None:
+    path = tmp_path / "groups.txt"
+    path.write_text("4\n 5 4\n\n 6 3 2\n 241 242 238 238\n 238 320\n")
+    labels = read_group_labels(path)  # "4" is a count header: 4 lines follow
+    assert labels[5] == labels[4] and labels[6] == labels[2]
+    assert labels[241] == labels[320] == labels[238]
+    assert len(set(labels.values())) == 3
+    no_header = tmp_path / "plain.txt"
+    no_header.write_text("7\n1 2\n")  # "7" is not a count: a group of one
+    assert set(read_group_labels(no_header)) == {1, 2, 7}
+    bad = tmp_path / "bad.txt"
+    bad.write_text("1 2\n3 x\n")
+    with pytest.raises(DataFormatError, match=r"bad.txt:2: expected pedestrian ids"):
+        read_group_labels(bad)
+
+
+def test_partitions_dice_and_id_map(tmp_path: Path) -> None:
+    truth = partition_from_labels(np.array([1, 2, 3, 4]), {1: 0, 2: 0})
+    assert truth[0] == truth[1] and len(set(truth.tolist())) == 3  # 3 and 4 alone
+    assert dice_of_partitions(np.array([0, 0, 1, 2]), truth) == pytest.approx(1.0)
+    assert dice_of_partitions(np.array([0, 0, 1, 1]), truth) == pytest.approx(2 * 1 / (2 + 3))
+    mapping = tmp_path / "map.csv"
+    mapping.write_text("track_id,label_id\n10,1\n11,2\n")
+    assert read_id_map(mapping) == {10: 1, 11: 2}
+    mapping.write_text("a,b\n1,2\n")
+    with pytest.raises(DataFormatError, match="track_id,label_id"):
+        read_id_map(mapping)
