@@ -17,9 +17,9 @@ import torch
 
 from grouptron import __version__
 from grouptron.baselines.constant_velocity import constant_velocity
-from grouptron.config import DataConfig, ExperimentConfig, load_config
+from grouptron.config import DataConfig, ExperimentConfig, experiment_preset, load_config
 from grouptron.data.constants import SPLITS, UNIV_N_PAPER
-from grouptron.data.dataset import load_part
+from grouptron.data.dataset import load_groups, load_part
 from grouptron.data.download import fetch_dataset
 from grouptron.data.locate import resolve_data_dir
 from grouptron.data.samples import SampleSet
@@ -34,7 +34,8 @@ from grouptron.evaluation.results import (
     score,
 )
 from grouptron.geometry import DERIVATIVE_SCHEMES
-from grouptron.model.factory import MODEL_NAMES, build_model, load_weights
+from grouptron.groups.assign import assign_groups
+from grouptron.model.factory import MODEL_NAMES, build_model, load_weights, uses_groups
 from grouptron.training.checkpoint import load_checkpoint
 from grouptron.training.trainer import train
 
@@ -217,8 +218,17 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             pred = constant_velocity(samples.hist_rel_m.astype("float64"), config.horizon_steps)
             results.append(score(split, "constant-velocity", args.subset, pred, samples))
             continue
+        groups = None
+        if uses_groups(experiment):
+            groups = assign_groups(samples, experiment.groups, config.position_scale_m)
         scores = evaluate_model(
-            model, experiment, samples, modes, seed=args.seed, progress=not args.quiet
+            model,
+            experiment,
+            samples,
+            modes,
+            seed=args.seed,
+            progress=not args.quiet,
+            groups=groups,
         )
         for s in scores:
             results.append(
@@ -245,7 +255,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    experiment = load_config(ExperimentConfig, args.config) if args.config else ExperimentConfig()
+    experiment = (
+        load_config(ExperimentConfig, args.config)
+        if args.config
+        else experiment_preset(args.split, args.model)
+    )
     data = dataclasses.replace(
         experiment.data,
         **({"derivatives": args.derivatives} if args.derivatives else {}),
@@ -273,6 +287,21 @@ def cmd_train(args: argparse.Namespace) -> int:
     data_dir = resolve_data_dir(args.data_dir)
     train_part = load_part(data_dir, args.split, "train", data, use_cache=not args.no_cache)
     val_part = load_part(data_dir, args.split, "val", data, use_cache=not args.no_cache)
+    train_groups = val_groups = None
+    if uses_groups(experiment):
+        print("clustering every sample's neighbours into groups (cached after the first run)")
+        train_groups, val_groups = (
+            load_groups(
+                data_dir,
+                args.split,
+                name,
+                data,
+                experiment.groups,
+                part.samples,
+                use_cache=not args.no_cache,
+            )
+            for name, part in (("train", train_part), ("val", val_part))
+        )
     print(
         f"training {args.model} on {args.split} ({data.derivatives} derivatives): "
         f"{len(train_part.samples)} training / {len(val_part.samples)} validation samples, "
@@ -285,6 +314,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         out,
         resume=args.resume,
         progress=not args.quiet,
+        train_groups=train_groups,
+        val_groups=val_groups,
     )
     print(
         f"done: {state.epoch} epochs, {state.iteration} steps; best validation ML FDE "

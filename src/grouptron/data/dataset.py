@@ -13,11 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
-from grouptron.config import DataConfig, config_to_dict
+from grouptron.config import DataConfig, GroupConfig, config_to_dict
 from grouptron.data.locate import preprocessed_cache_dir, split_files
 from grouptron.data.reader import read_tracks
 from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
 from grouptron.data.scene import Scene, build_scene
+from grouptron.groups.assign import SampleGroups, assign_groups
 
 log = logging.getLogger(__name__)
 
@@ -114,6 +115,10 @@ def _load_part(path: Path) -> PartData:
     return PartData(samples, scenes)
 
 
+def _cache_path(split: str, part: str, config: DataConfig, key: str) -> Path:
+    return preprocessed_cache_dir() / f"{split}-{part}-{config.derivatives}-{key}.npz"
+
+
 def load_part(
     data_dir: Path, split: str, part: str, config: DataConfig, use_cache: bool = True
 ) -> PartData:
@@ -127,7 +132,7 @@ def load_part(
     if not use_cache:
         return build_part(files, config, min_history)
     key = cache_key(files, config, min_history)
-    path = preprocessed_cache_dir() / f"{split}-{part}-{config.derivatives}-{key}.npz"
+    path = _cache_path(split, part, config, key)
     if path.exists():
         try:
             return _load_part(path)
@@ -139,3 +144,39 @@ def load_part(
     except OSError as exc:  # a read-only or full cache folder only costs speed
         log.warning("could not write the preprocessing cache %s: %s", path, exc)
     return data
+
+
+def load_groups(
+    data_dir: Path,
+    split: str,
+    part: str,
+    config: DataConfig,
+    groups: GroupConfig,
+    samples: SampleSet,
+    use_cache: bool = True,
+) -> SampleGroups:
+    """The groups of a part's samples (see :func:`grouptron.groups.assign.assign_groups`),
+    cached next to the samples under a key that adds the group settings."""
+    if not use_cache:
+        return assign_groups(samples, groups, config.position_scale_m)
+    files = split_files(data_dir, split, part)
+    payload = json.dumps(
+        [cache_key(files, config, min_history_for(part, config)), config_to_dict(groups)]
+    )
+    key = hashlib.sha256(payload.encode()).hexdigest()[:32]
+    path = _cache_path(split, part, config, "groups-" + key)
+    if path.exists():
+        try:
+            with np.load(path, allow_pickle=False) as npz:
+                return SampleGroups.from_arrays({k: npz[k] for k in npz.files})
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
+            log.warning("ignoring unreadable cache file %s (%s); rebuilding", path, exc)
+    found = assign_groups(samples, groups, config.position_scale_m)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".tmp", delete=False) as handle:
+            np.savez(handle, **found.to_arrays())  # type: ignore[arg-type]
+        os.replace(handle.name, path)
+    except OSError as exc:
+        log.warning("could not write the preprocessing cache %s: %s", path, exc)
+    return found

@@ -17,6 +17,7 @@ from grouptron.evaluation.predict import (
     predict_most_likely,
     predict_samples,
 )
+from grouptron.groups.assign import SampleGroups
 from grouptron.model.batch import Batch, make_batch
 from grouptron.model.cvae import TrajectronCVAE
 
@@ -39,12 +40,15 @@ class ModeScores:
 
 
 def batches(
-    samples: SampleSet, config: ExperimentConfig, batch_size: int
+    samples: SampleSet,
+    config: ExperimentConfig,
+    batch_size: int,
+    groups: SampleGroups | None = None,
 ) -> Iterator[tuple[np.ndarray, Batch]]:
     """Consecutive batches of the whole set, in order, without augmentation."""
     for start in range(0, len(samples), batch_size):
         index = np.arange(start, min(start + batch_size, len(samples)))
-        yield index, make_batch(samples, index, config.data)
+        yield index, make_batch(samples, index, config.data, groups=groups)
 
 
 @torch.inference_mode()
@@ -56,10 +60,12 @@ def evaluate_model(
     batch_size: int = 256,
     seed: int = 0,
     progress: bool = False,
+    groups: SampleGroups | None = None,
 ) -> list[ModeScores]:
     """Mean ADE/FDE (metres) of each requested mode, and the KDE NLL for ``"nll"``.
 
     Sampling modes use a generator seeded with ``seed``, so results are reproducible.
+    Grouptron needs the samples' ``groups``.
     """
     unknown = set(modes) - set(MODES)
     if unknown:
@@ -72,7 +78,7 @@ def evaluate_model(
     nll_batch = max(1, batch_size // 64)
     for mode in modes:
         size = nll_batch if mode == "nll" else batch_size
-        iterator = batches(samples, config, size)
+        iterator = batches(samples, config, size, groups)
         total = -(-len(samples) // size)
         for _, batch in tqdm(iterator, total=total, desc=mode, disable=not progress, leave=False):
             truth = batch.fut_rel_m.double().numpy()

@@ -3,13 +3,83 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 import torch
 
 from grouptron.config import DataConfig
+from grouptron.data.neighbours import ranges_to_indices
 from grouptron.data.samples import SampleSet
 from grouptron.geometry import rotate_xy_pairs, rotation_matrix
+from grouptron.groups.assign import SampleGroups
+
+
+@dataclass(frozen=True)
+class GroupBatch:
+    """The nodes of every sample (ego first, then its neighbours), flat, with their groups.
+
+    Attributes:
+        node_st: (Nn, T, 6) node states relative to the ego's state at ``t``, standardised.
+        node_mask: (Nn, T) True where the node was observed.
+        node_group: (Nn,) group of every node, numbered across the batch.
+        group_sample: (G,) sample of every group.
+        ego_group: (B,) the group holding each sample's ego.
+    """
+
+    node_st: torch.Tensor
+    node_mask: torch.Tensor
+    node_group: torch.Tensor
+    group_sample: torch.Tensor
+    ego_group: torch.Tensor
+
+    @property
+    def num_groups(self) -> int:
+        return self.group_sample.shape[0]
+
+    def to(self, device: torch.device | str) -> GroupBatch:
+        return GroupBatch(**{f.name: getattr(self, f.name).to(device) for f in fields(self)})
+
+
+def make_group_batch(
+    samples: SampleSet,
+    groups: SampleGroups,
+    index: np.ndarray,
+    hist_st: np.ndarray,
+    rotation: np.ndarray | None,
+) -> GroupBatch:
+    """Flatten the nodes and groups of samples ``index`` (``hist_st`` already gathered and,
+    with ``rotation`` (B, 1, 2, 2), rotated)."""
+    counts = samples.num_neighbours[index]
+    edges = ranges_to_indices(samples.nbr_offsets[index], counts)  # (E_b,)
+    nbr_st = samples.nbr_hist_st[edges]
+    if rotation is not None:
+        nbr_st = rotate_xy_pairs(nbr_st, np.repeat(rotation, counts, axis=0)).astype(np.float32)
+    # The ego as a node: its state relative to its own state at t (positions already are).
+    ego_st = hist_st.copy()
+    ego_st[..., 2:] -= hist_st[:, -1:, 2:]
+    ego_st *= samples.hist_mask[index][..., None]
+    nodes_per_sample = counts + 1
+    node_start = np.concatenate([[0], np.cumsum(nodes_per_sample)[:-1]])
+    total = int(nodes_per_sample.sum())
+    is_ego = np.zeros(total, dtype=bool)
+    is_ego[node_start] = True
+    node_st = np.empty((total, *hist_st.shape[1:]), dtype=np.float32)
+    node_st[is_ego], node_st[~is_ego] = ego_st, nbr_st
+    node_mask = np.empty((total, hist_st.shape[1]), dtype=bool)
+    node_mask[is_ego], node_mask[~is_ego] = samples.hist_mask[index], samples.nbr_hist_mask[edges]
+    local = np.empty(total, dtype=np.int64)
+    local[is_ego], local[~is_ego] = groups.ego_group[index], groups.nbr_group[edges]
+    num_groups = groups.num_groups[index].astype(np.int64)
+    group_start = np.concatenate([[0], np.cumsum(num_groups)[:-1]])
+    node_sample = np.repeat(np.arange(len(index)), nodes_per_sample)
+    return GroupBatch(
+        node_st=torch.from_numpy(node_st),
+        node_mask=torch.from_numpy(node_mask),
+        node_group=torch.from_numpy(group_start[node_sample] + local),
+        group_sample=torch.from_numpy(np.repeat(np.arange(len(index)), num_groups)),
+        ego_group=torch.from_numpy(group_start + groups.ego_group[index].astype(np.int64)),
+    )
 
 
 @dataclass(frozen=True)
@@ -23,6 +93,7 @@ class Batch:
         edge_scale: (B,) ``min(1, sum of edge weights)``, the edge encoding's scale.
         fut_rel_m: (B, H, 2) future positions relative to the current one, metres.
         fut_st: (B, H, 2) the same divided by the position scale (future encoder input).
+        groups: the nodes and groups for Grouptron's encoders, or None.
     """
 
     hist_st: torch.Tensor
@@ -31,6 +102,7 @@ class Batch:
     edge_scale: torch.Tensor
     fut_rel_m: torch.Tensor
     fut_st: torch.Tensor
+    groups: GroupBatch | None = None
 
     def __len__(self) -> int:
         return self.hist_st.shape[0]
@@ -41,7 +113,11 @@ class Batch:
         return self.hist_st[:, -1]
 
     def to(self, device: torch.device | str) -> Batch:
-        return Batch(**{f.name: getattr(self, f.name).to(device) for f in fields(self)})
+        moved: dict[str, Any] = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            moved[f.name] = value.to(device) if value is not None else None
+        return Batch(**moved)
 
 
 def make_batch(
@@ -49,6 +125,7 @@ def make_batch(
     index: np.ndarray,
     config: DataConfig,
     rotation_rad: np.ndarray | None = None,
+    groups: SampleGroups | None = None,
 ) -> Batch:
     """Gather samples ``index`` into a batch, optionally rotating each sample's scene.
 
@@ -57,10 +134,12 @@ def make_batch(
         index: (B,) sample indices.
         config: the data protocol (for the position scale).
         rotation_rad: (B,) angles; rotating all (x, y) pairs equals rotating the scene.
+        groups: the samples' groups, for Grouptron (None for Trajectron++).
     """
     hist_st = samples.hist_st[index]
     nbr_sum_st = samples.nbr_sum_st[index]
     fut_rel_m = samples.fut_rel_m[index]
+    rotation = None
     if rotation_rad is not None:
         rotation = rotation_matrix(rotation_rad)[:, None]  # (B, 1, 2, 2)
         hist_st = rotate_xy_pairs(hist_st, rotation).astype(np.float32)
@@ -74,4 +153,9 @@ def make_batch(
         edge_scale=torch.from_numpy(np.minimum(samples.edge_weight_sum[index], 1.0)),
         fut_rel_m=fut,
         fut_st=fut / config.position_scale_m,
+        groups=(
+            make_group_batch(samples, groups, index, hist_st, rotation)
+            if groups is not None
+            else None
+        ),
     )

@@ -7,14 +7,22 @@ import torch
 from grouptron.config import ExperimentConfig
 from grouptron.errors import GrouptronError
 from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.grouptron import GrouptronCVAE
 
-MODEL_NAMES = ("trajectron++",)
+MODEL_NAMES = ("trajectron++", "grouptron")
+
+
+def uses_groups(config: ExperimentConfig) -> bool:
+    """Whether the model's batches need the samples' groups."""
+    return config.model_name == "grouptron"
 
 
 def build_model(config: ExperimentConfig) -> TrajectronCVAE:
-    """The model named by ``config.model_name``."""
+    """The model named by ``config.model_name`` (Grouptron is Trajectron++ plus encoders)."""
     if config.model_name == "trajectron++":
         return TrajectronCVAE(config.model)
+    if config.model_name == "grouptron":
+        return GrouptronCVAE(config.model)
     raise GrouptronError(
         f"unknown model {config.model_name!r}; choose from {', '.join(MODEL_NAMES)}"
     )

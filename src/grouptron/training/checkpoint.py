@@ -124,13 +124,17 @@ def load_checkpoint(path: str | Path) -> Checkpoint:
     if not path.is_file():
         raise GrouptronError(f"{path}: checkpoint not found")
     with path.open("rb") as handle:
-        head = handle.read(8)
-    if head[:1] == b"\x80" or head[:2] == b"PK":
-        raise _refuse(
-            path,
-            "it is a pickle/torch.save file; grouptron never unpickles files because loading a "
-            "pickle can run arbitrary code. Use a .safetensors checkpoint written by grouptron",
-        )
+        head = handle.read(9)
+    # safetensors: an 8-byte little-endian header length, then the JSON header's "{".
+    if head[8:9] != b"{":
+        if head[:1] == b"\x80" or head[:2] == b"PK":
+            raise _refuse(
+                path,
+                "it is a pickle/torch.save file; grouptron never unpickles files because "
+                "loading a pickle can run arbitrary code. Use a .safetensors checkpoint "
+                "written by grouptron",
+            )
+        raise _refuse(path, "not a safetensors file")
     try:
         with safe_open(str(path), framework="pt") as handle:
             metadata = handle.metadata() or {}

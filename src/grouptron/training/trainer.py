@@ -25,9 +25,10 @@ from grouptron.data.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.evaluation import metrics
 from grouptron.evaluation.evaluate import evaluate_model
+from grouptron.groups.assign import SampleGroups
 from grouptron.model.batch import make_batch
 from grouptron.model.cvae import TrajectronCVAE
-from grouptron.model.factory import build_model, load_weights
+from grouptron.model.factory import build_model, load_weights, uses_groups
 from grouptron.training import schedules
 from grouptron.training.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from grouptron.training.losses import elbo_loss
@@ -94,6 +95,7 @@ def train_epoch(
     samples: SampleSet,
     progress: bool,
     max_iterations: int | None = None,
+    groups: SampleGroups | None = None,
 ) -> dict[str, float]:
     """One pass over the shuffled training samples; returns mean loss terms and speed."""
     state.model.train()
@@ -112,7 +114,7 @@ def train_epoch(
             if config.train.rotation_augmentation
             else None
         )
-        batch = make_batch(samples, index, config.data, angles)
+        batch = make_batch(samples, index, config.data, angles, groups)
         output = state.model(
             batch,
             logit_clip=schedules.logit_clip(config.loss, state.iteration),
@@ -143,11 +145,21 @@ def train_epoch(
     return means
 
 
-def validate(state: TrainState, config: ExperimentConfig, samples: SampleSet) -> dict[str, float]:
+def validate(
+    state: TrainState,
+    config: ExperimentConfig,
+    samples: SampleSet,
+    groups: SampleGroups | None = None,
+) -> dict[str, float]:
     """Most-likely ADE/FDE on the validation set (no augmentation, no dropout), next to the
     constant-velocity baseline's on the same samples for scale."""
     scores = evaluate_model(
-        state.model, config, samples, ("ml",), batch_size=config.train.eval_batch_size
+        state.model,
+        config,
+        samples,
+        ("ml",),
+        batch_size=config.train.eval_batch_size,
+        groups=groups,
     )
     truth = samples.fut_rel_m.astype(np.float64)
     baseline = constant_velocity(samples.hist_rel_m.astype(np.float64), config.data.horizon_steps)
@@ -184,6 +196,8 @@ def train(
     resume: bool = False,
     progress: bool = True,
     max_iterations: int | None = None,
+    train_groups: SampleGroups | None = None,
+    val_groups: SampleGroups | None = None,
 ) -> TrainState:
     """Train for ``config.train.epochs`` epochs.
 
@@ -192,9 +206,12 @@ def train(
 
     After every epoch: validation, ``last.safetensors`` (full state, for ``resume``),
     ``best.safetensors`` (weights, when the validation ML FDE improved) and a metrics record.
+    Grouptron needs ``train_groups`` and ``val_groups`` (the samples' groups).
     """
     if len(train_samples) == 0:
         raise GrouptronError("no training samples")
+    if uses_groups(config) and (train_groups is None or val_groups is None):
+        raise GrouptronError(f"{config.model_name} needs the samples' groups")
     out_dir.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(config.train.threads)
     state = setup(config, out_dir, resume)
@@ -205,7 +222,9 @@ def train(
         if max_iterations is not None and state.iteration >= max_iterations:
             break
         record: dict[str, Any] = {"epoch": state.epoch + 1}
-        record.update(train_epoch(state, config, train_samples, progress, max_iterations))
+        record.update(
+            train_epoch(state, config, train_samples, progress, max_iterations, train_groups)
+        )
         per_epoch = math.ceil(len(train_samples) / config.train.batch_size)
         if max_iterations is not None and state.iteration % per_epoch:
             break  # stopped mid-epoch, as if killed: nothing of this epoch is saved
@@ -213,7 +232,7 @@ def train(
         record["iteration"] = state.iteration
         record["learning_rate"] = state.scheduler.get_last_lr()[0]
         if len(val_samples):
-            record.update(validate(state, config, val_samples))
+            record.update(validate(state, config, val_samples, val_groups))
         state.history.append(record)
         writer.write(record)
         val_fde = record.get("val_ml_fde", math.nan)

@@ -1,0 +1,95 @@
+"""Grouptron's spatio-temporal graph convolutions over groups and over the scene's groups.
+
+Graphs are fully connected inside a segment (the members of a group, or the groups of a sample),
+so a graph convolution is a masked mean (or, for the Laplacian, "self minus the others' mean")
+over the segment at every step: computed with ``index_add_`` on flat node lists, never with a
+Python loop over samples or groups.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import torch
+from torch import nn
+
+Adjacency = Literal["sym_norm", "laplacian"]
+
+
+def segment_graph_conv(
+    features: torch.Tensor,
+    mask: torch.Tensor,
+    segment: torch.Tensor,
+    num_segments: int,
+    adjacency: Adjacency,
+) -> torch.Tensor:
+    """Graph convolution on fully connected segments, per step.
+
+    ``sym_norm``: D^-1/2 (A + I) D^-1/2 with A + I all ones over the n present members, i.e. the
+    members' mean. ``laplacian``: Social-STGCNN's I - D^-1/2 A D^-1/2 with A = ones - I, i.e.
+    ``x_i - mean of the others``; zero for a member alone (its degree is 0).
+
+    Args:
+        features: (N, T, D) node features.
+        mask: (N, T) True where the node exists.
+        segment: (N,) segment of every node.
+        num_segments: S.
+        adjacency: which normalisation.
+
+    Returns:
+        (N, T, D), zero where masked.
+    """
+    weights = mask.to(features.dtype)[..., None]  # (N, T, 1)
+    total = features.new_zeros(num_segments, *features.shape[1:])  # (S, T, D)
+    total.index_add_(0, segment, features * weights)
+    count = features.new_zeros(num_segments, features.shape[1], 1)  # (S, T, 1)
+    count.index_add_(0, segment, weights)
+    seg_total, seg_count = total[segment], count[segment]  # (N, T, D), (N, T, 1)
+    if adjacency == "sym_norm":
+        out = seg_total / seg_count.clamp_min(1.0)
+    elif adjacency == "laplacian":
+        others = (seg_count - 1.0).clamp_min(1.0)
+        out = features - (seg_total - features) / others
+        out = torch.where(seg_count > 1.0, out, torch.zeros_like(out))
+    else:
+        raise ValueError(f"unknown adjacency {adjacency!r}")
+    return out * weights
+
+
+def segment_mean(
+    features: torch.Tensor, mask: torch.Tensor, segment: torch.Tensor, num_segments: int
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """(S, T, D) masked mean of the nodes of every segment, and (S, T) whether any exists."""
+    weights = mask.to(features.dtype)[..., None]
+    total = features.new_zeros(num_segments, *features.shape[1:])
+    total.index_add_(0, segment, features * weights)
+    count = features.new_zeros(num_segments, features.shape[1], 1)
+    count.index_add_(0, segment, weights)
+    return total / count.clamp_min(1.0), count[..., 0] > 0
+
+
+class STGCNBlock(nn.Module):
+    """Graph convolution, then a temporal convolution (kernel 3), a residual and PReLU.
+
+    As Social-STGCNN's block without batch normalisation (batches here mix groups of every size
+    and masked steps, which make batch statistics unreliable).
+    """
+
+    def __init__(self, in_dim: int, out_dim: int, adjacency: Adjacency, kernel: int = 3):
+        super().__init__()
+        self.adjacency: Adjacency = adjacency
+        self.spatial = nn.Linear(in_dim, out_dim)
+        self.spatial_act = nn.PReLU()
+        self.temporal = nn.Conv1d(out_dim, out_dim, kernel, padding=kernel // 2)
+        self.residual = nn.Linear(in_dim, out_dim) if in_dim != out_dim else nn.Identity()
+        self.out_act = nn.PReLU()
+
+    def forward(
+        self, x: torch.Tensor, mask: torch.Tensor, segment: torch.Tensor, num_segments: int
+    ) -> torch.Tensor:
+        """(N, T, in) node features -> (N, T, out), zero where masked."""
+        spatial = segment_graph_conv(self.spatial(x), mask, segment, num_segments, self.adjacency)
+        spatial = self.spatial_act(spatial)
+        temporal = self.temporal(spatial.transpose(1, 2)).transpose(1, 2)  # conv over T
+        out = self.out_act(temporal + self.residual(x))
+        return out * mask[..., None].to(out.dtype)
