@@ -42,6 +42,8 @@ test: lint typecheck
 
 bench: install
 	$(BIN)/python benchmarks/preprocessing.py
+	$(BIN)/python benchmarks/training.py
+	$(BIN)/python benchmarks/groups.py
 
 clean:
 	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache

@@ -1,0 +1,1 @@
+"""Pictures of scenes, groups and predictions (matplotlib, no screen needed)."""
