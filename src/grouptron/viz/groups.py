@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -30,7 +31,7 @@ def plot_step_groups(
     colours = plt.get_cmap("tab20")
     markers = "osD^v"  # colour and marker together tell up to 100 groups apart
 
-    def style(group: int) -> tuple[tuple[float, ...], str]:
+    def style(group: int) -> tuple[Any, str]:
         return colours(group % 20), markers[(group // 20) % len(markers)]
 
     fig, ax = plt.subplots(figsize=(9, 6), dpi=120)
