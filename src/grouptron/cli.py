@@ -331,6 +331,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         progress=not args.quiet,
         train_groups=train_groups,
         val_groups=val_groups,
+        device=args.device,
     )
     print(
         f"done: {state.epoch} epochs, {state.iteration} steps; best validation ML FDE "
@@ -564,6 +565,7 @@ def build_parser() -> argparse.ArgumentParser:
     train_cmd.add_argument("--lr", type=float, help="initial learning rate")
     train_cmd.add_argument("--threads", type=int, help="CPU threads (default 2)")
     train_cmd.add_argument("--quiet", action="store_true", help="no progress bars")
+    train_cmd.add_argument("--device", default="cpu", help="torch device, e.g. cpu or cuda")
     _add_data_options(train_cmd)
     train_cmd.set_defaults(handler=cmd_train)
     groups = commands.add_parser(

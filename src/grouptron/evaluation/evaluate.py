@@ -61,18 +61,19 @@ def evaluate_model(
     seed: int = 0,
     progress: bool = False,
     groups: SampleGroups | None = None,
+    device: torch.device | str = "cpu",
 ) -> list[ModeScores]:
     """Mean ADE/FDE (metres) of each requested mode, and the KDE NLL for ``"nll"``.
 
     Sampling modes use a generator seeded with ``seed``, so results are reproducible.
-    Grouptron needs the samples' ``groups``.
+    Grouptron needs the samples' ``groups``. The model must already be on ``device``.
     """
     unknown = set(modes) - set(MODES)
     if unknown:
         raise ValueError(f"unknown evaluation modes {sorted(unknown)}")
     model.eval()
     horizon, dt = config.data.horizon_steps, config.data.dt_s
-    generator = torch.Generator().manual_seed(seed)
+    generator = torch.Generator(device=device).manual_seed(seed)
     sums = {mode: np.zeros(3) for mode in modes}  # ade, fde, nll sums
     undefined = 0
     nll_batch = max(1, batch_size // 64)
@@ -81,15 +82,16 @@ def evaluate_model(
         iterator = batches(samples, config, size, groups)
         total = -(-len(samples) // size)
         for _, batch in tqdm(iterator, total=total, desc=mode, disable=not progress, leave=False):
-            truth = batch.fut_rel_m.double().numpy()
+            batch = batch.to(device)
+            truth = batch.fut_rel_m.double().cpu().numpy()
             if mode == "ml":
-                pred = predict_most_likely(model, batch, horizon, dt).double().numpy()
+                pred = predict_most_likely(model, batch, horizon, dt).double().cpu().numpy()
             elif mode == "ml-argmax":
-                pred = predict_argmax_latent(model, batch, horizon, dt).double().numpy()
+                pred = predict_argmax_latent(model, batch, horizon, dt).double().cpu().numpy()
             else:
                 k = BEST_OF if mode == "best-of-20" else NLL_SAMPLES
                 draws = predict_samples(model, batch, horizon, dt, k, generator)
-                draws_np = draws.double().numpy()  # (B, K, H, 2)
+                draws_np = draws.double().cpu().numpy()  # (B, K, H, 2)
                 if mode == "best-of-20":
                     sums[mode] += [
                         metrics.min_ade_k(draws_np, truth).sum(),

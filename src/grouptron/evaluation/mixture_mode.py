@@ -73,7 +73,7 @@ def _climb(
     """
     points = points.clone()
     log_comp = _log_components(points, log_norm, mean, precision)  # (R, Z)
-    active = torch.arange(len(points))
+    active = torch.arange(len(points), device=points.device)
     for _ in range(max_iters):
         x, lc = points[active], log_comp[active]
         ln, mu, prec, pm = log_norm[active], mean[active], precision[active], prec_mean[active]
@@ -144,7 +144,7 @@ def _separated_starts(
     for _ in range(count):  # a handful of rounds, vectorised over mixtures
         best = score.argmax(dim=-1)  # (N,)
         picked.append(best)
-        chosen = mean[torch.arange(len(mean)), best]  # (N, 2)
+        chosen = mean[torch.arange(len(mean), device=mean.device), best]  # (N, 2)
         near = (mean - chosen[:, None]).norm(dim=-1) < min_gap  # (N, Z)
         score = score.masked_fill(near, -torch.inf)
         exhausted = torch.isinf(score).all(dim=-1, keepdim=True)
@@ -215,13 +215,13 @@ def _mixture_mode_block(
     at_means = torch.logsumexp(log_norm[:, None] - 0.5 * _quad(diff, precision[:, None]), -1)
     S = min(num_starts, Z)
     starts = _separated_starts(at_means, mean, S)  # (N, S)
-    owner = torch.arange(N).repeat_interleave(S)  # mixture of every (flattened) start
+    owner = torch.arange(N, device=mean.device).repeat_interleave(S)  # mixture of each start
     points = torch.gather(mean, 1, starts[..., None].expand(-1, -1, 2)).reshape(N * S, 2)
     points, score = _climb(
         points, log_norm[owner], mean[owner], precision[owner], prec_mean[owner], max_iters, tol
     )
     best = score.reshape(N, S).argmax(dim=-1)
-    return points.reshape(N, S, 2)[torch.arange(N), best]
+    return points.reshape(N, S, 2)[torch.arange(N, device=mean.device), best]
 
 
 def grid_mode(

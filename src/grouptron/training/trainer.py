@@ -54,10 +54,12 @@ class TrainState:
     history: list[dict[str, Any]] = field(default_factory=list)
 
 
-def setup(config: ExperimentConfig, out_dir: Path, resume: bool) -> TrainState:
+def setup(
+    config: ExperimentConfig, out_dir: Path, resume: bool, device: torch.device
+) -> TrainState:
     """Fresh state from the seed, or the state of ``out_dir/last.safetensors`` on resume."""
     torch.manual_seed(config.train.seed)
-    model = build_model(config)
+    model = build_model(config).to(device)
     optimizer = torch.optim.Adam(model.parameters(), lr=config.train.learning_rate)
     scheduler = torch.optim.lr_scheduler.ExponentialLR(optimizer, config.train.lr_decay_per_iter)
     state = TrainState(model, optimizer, scheduler, np.random.default_rng(config.train.seed))
@@ -76,7 +78,7 @@ def setup(config: ExperimentConfig, out_dir: Path, resume: bool) -> TrainState:
         raise GrouptronError(
             f"{last} was trained with a different configuration; resume with the same options"
         )
-    load_weights(model, checkpoint.model_state, str(last))
+    load_weights(model, {k: v.to(device) for k, v in checkpoint.model_state.items()}, str(last))
     if checkpoint.optimizer_state is None or checkpoint.extra is None:
         raise GrouptronError(f"{last} holds weights only and cannot be resumed")
     optimizer.load_state_dict(checkpoint.optimizer_state)
@@ -99,6 +101,7 @@ def train_epoch(
 ) -> dict[str, float]:
     """One pass over the shuffled training samples; returns mean loss terms and speed."""
     state.model.train()
+    device = next(state.model.parameters()).device
     order = state.rng.permutation(len(samples))
     size = config.train.batch_size
     starts = range(0, len(order), size)
@@ -114,7 +117,7 @@ def train_epoch(
             if config.train.rotation_augmentation
             else None
         )
-        batch = make_batch(samples, index, config.data, angles, groups)
+        batch = make_batch(samples, index, config.data, angles, groups).to(device)
         output = state.model(
             batch,
             logit_clip=schedules.logit_clip(config.loss, state.iteration),
@@ -160,6 +163,7 @@ def validate(
         ("ml",),
         batch_size=config.train.eval_batch_size,
         groups=groups,
+        device=next(state.model.parameters()).device,
     )
     truth = samples.fut_rel_m.astype(np.float64)
     baseline = constant_velocity(samples.hist_rel_m.astype(np.float64), config.data.horizon_steps)
@@ -198,6 +202,7 @@ def train(
     max_iterations: int | None = None,
     train_groups: SampleGroups | None = None,
     val_groups: SampleGroups | None = None,
+    device: torch.device | str = "cpu",
 ) -> TrainState:
     """Train for ``config.train.epochs`` epochs.
 
@@ -206,7 +211,8 @@ def train(
 
     After every epoch: validation, ``last.safetensors`` (full state, for ``resume``),
     ``best.safetensors`` (weights, when the validation ML FDE improved) and a metrics record.
-    Grouptron needs ``train_groups`` and ``val_groups`` (the samples' groups).
+    Grouptron needs ``train_groups`` and ``val_groups`` (the samples' groups). On a CUDA
+    ``device`` a resumed run continues correctly but not bit for bit (the CUDA RNG is not saved).
     """
     if len(train_samples) == 0:
         raise GrouptronError("no training samples")
@@ -214,7 +220,7 @@ def train(
         raise GrouptronError(f"{config.model_name} needs the samples' groups")
     out_dir.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(config.train.threads)
-    state = setup(config, out_dir, resume)
+    state = setup(config, out_dir, resume, torch.device(device))
     writer = MetricsWriter(out_dir)
     if resume:
         writer.truncate_after(state.epoch)
