@@ -13,7 +13,17 @@ import pytest
 from grouptron.cli import main
 from tests.conftest import write_tracks
 
-COMMANDS = [[], ["data"], ["data", "fetch"], ["data", "stats"], ["evaluate"], ["train"]]
+COMMANDS = [
+    [],
+    ["data"],
+    ["data", "fetch"],
+    ["data", "stats"],
+    ["evaluate"],
+    ["train"],
+    ["groups"],
+    ["groups", "detect"],
+    ["groups", "evaluate"],
+]
 
 
 @pytest.mark.parametrize("command", COMMANDS)

@@ -373,11 +373,10 @@ def cmd_groups_evaluate(args: argparse.Namespace) -> int:
                 }
             )
     if args.format == "json":
-        print(
-            json.dumps(
-                {"tracks": str(args.tracks), "labels": str(args.labels), "results": rows}, indent=2
-            )
-        )
+        # NaN (no decision of a kind) is not JSON: write null.
+        clean = [{k: None if v != v else v for k, v in row.items()} for row in rows]
+        document = {"tracks": str(args.tracks), "labels": str(args.labels), "results": clean}
+        print(json.dumps(document, indent=2))
         return 0
     header = (
         f"{'protocol':<9} {'linkage':<9} {'distance':<10} {'precision':>9} {'recall':>7} "
