@@ -124,6 +124,11 @@ def test_train_then_evaluate_a_checkpoint(
     argv = ["train", "--split", "eth", "--epochs", "1", "--config", str(config), "--out", str(out)]
     assert main([*argv, *common]) == 0
     assert "done: 1 epochs" in capsys.readouterr().out
+    # Resuming keeps the stored configuration (no --config needed) and may extend the run.
+    resume = ["train", "--split", "eth", "--epochs", "2", "--out", str(out), "--resume"]
+    assert main([*resume, *common]) == 0
+    assert "done: 2 epochs" in capsys.readouterr().out
+    assert len((out / "metrics.jsonl").read_text().splitlines()) == 2
 
     evaluate = ["evaluate", "--checkpoint", str(out / "best.safetensors"), *common]
     rows = json_rows([*evaluate, "--mode", "ml,ml-argmax,best-of-20"], capsys)

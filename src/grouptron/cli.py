@@ -51,7 +51,7 @@ from grouptron.groups.scene import groups_per_step, position_grid, score_against
 from grouptron.io import write_csv_atomically
 from grouptron.model.factory import MODEL_NAMES, build_model, load_weights, uses_groups
 from grouptron.training.checkpoint import load_checkpoint
-from grouptron.training.trainer import train
+from grouptron.training.trainer import LAST, train
 from grouptron.viz.groups import plot_step_groups
 
 log = logging.getLogger("grouptron")
@@ -299,6 +299,17 @@ def cmd_train(args: argparse.Namespace) -> int:
         train=dataclasses.replace(experiment.train, **train_overrides),
     )
     out = Path(args.out or f"runs/{args.model}-{args.split}-{data.derivatives}")
+    if args.resume and (out / LAST).exists():
+        # A resumed run keeps its own configuration; only its length and threads may change.
+        stored = load_checkpoint(out / LAST).config
+        if (stored.split, stored.model_name) != (args.split, args.model):
+            raise GrouptronError(
+                f"{out} holds a {stored.model_name} run on {stored.split}, not "
+                f"{args.model} on {args.split}"
+            )
+        length = {k: v for k, v in train_overrides.items() if k in ("epochs", "threads")}
+        experiment = dataclasses.replace(stored, train=dataclasses.replace(stored.train, **length))
+        data = experiment.data
     data_dir = resolve_data_dir(args.data_dir)
     train_part = load_part(data_dir, args.split, "train", data, use_cache=not args.no_cache)
     val_part = load_part(data_dir, args.split, "val", data, use_cache=not args.no_cache)
@@ -557,7 +568,11 @@ def build_parser() -> argparse.ArgumentParser:
     train_cmd.add_argument("--model", default="trajectron++", choices=MODEL_NAMES)
     train_cmd.add_argument("--epochs", type=int, help="epochs (default 100, as the reference)")
     train_cmd.add_argument("--out", help="output folder (default runs/MODEL-SPLIT-DERIVATIVES)")
-    train_cmd.add_argument("--resume", action="store_true", help="continue the run in --out")
+    train_cmd.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the run in --out with its stored configuration (--epochs may extend it)",
+    )
     train_cmd.add_argument("--config", help="JSON file with an ExperimentConfig")
     train_cmd.add_argument("--seed", type=int)
     train_cmd.add_argument("--batch-size", type=int)

@@ -7,6 +7,7 @@ and ``train`` ties them together and writes checkpoints and metrics.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -54,6 +55,11 @@ class TrainState:
     history: list[dict[str, Any]] = field(default_factory=list)
 
 
+def _without_length(config: ExperimentConfig) -> ExperimentConfig:
+    """The config without the settings a resumed run may change (epochs, threads)."""
+    return dataclasses.replace(config, train=dataclasses.replace(config.train, epochs=1, threads=1))
+
+
 def setup(
     config: ExperimentConfig, out_dir: Path, resume: bool, device: torch.device
 ) -> TrainState:
@@ -74,7 +80,7 @@ def setup(
     if not last.exists():
         raise GrouptronError(f"nothing to resume: {last} does not exist")
     checkpoint = load_checkpoint(last)
-    if checkpoint.config != config:
+    if _without_length(checkpoint.config) != _without_length(config):
         raise GrouptronError(
             f"{last} was trained with a different configuration; resume with the same options"
         )
