@@ -15,7 +15,7 @@ from grouptron.geometry import DERIVATIVE_SCHEMES, DerivativeScheme
 
 @dataclass(frozen=True)
 class DataConfig:
-    """How raw tracks become samples (SPEC section 2). Defaults are the reference protocol."""
+    """How raw tracks become samples. Defaults are the Trajectron++ reference protocol."""
 
     derivatives: DerivativeScheme = "central"
     dt_s: float = constants.DT_S
@@ -53,7 +53,7 @@ class DataConfig:
 
 @dataclass(frozen=True)
 class GroupConfig:
-    """How the ego and its neighbours are clustered into groups (SPEC section 3)."""
+    """How the ego and its neighbours are clustered into groups (Grouptron, section III-C)."""
 
     linkage: Literal["single", "average", "complete"] = "complete"
     """Chosen by agreement with human labels (docs/groups.md): best mean pairwise F1 and Dice
@@ -73,7 +73,7 @@ class GroupConfig:
 
 @dataclass(frozen=True)
 class ModelConfig:
-    """Widths and switches of the CVAE (SPEC section 3). Defaults equal the reference."""
+    """Widths and switches of the CVAE. Defaults equal the Trajectron++ reference code."""
 
     state_dim: int = 6
     action_dim: int = 2
@@ -115,7 +115,7 @@ class ModelConfig:
 
 @dataclass(frozen=True)
 class LossConfig:
-    """The ELBO terms and their schedules (SPEC section 3, "Loss and training")."""
+    """The ELBO terms and their schedules, as in the Trajectron++ reference code."""
 
     log_likelihood_max: float = 6.0
     """Per-step clamp of log p(y_k | x)."""
@@ -132,7 +132,7 @@ class LossConfig:
 
 @dataclass(frozen=True)
 class TrainConfig:
-    """Optimisation (SPEC section 3). Defaults equal the reference except the epoch count."""
+    """Optimisation. Defaults equal the Trajectron++ reference (100 epochs)."""
 
     epochs: int = 100
     batch_size: int = 256

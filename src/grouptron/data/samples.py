@@ -21,7 +21,7 @@ class SampleSet:
     """Flat arrays of ``S`` samples (``T`` history steps, ``H`` future steps).
 
     Relative positions are in the ego's frame of origin (its position at ``t``) but with the
-    scene's axes; standardised (``_st``) values follow SPEC section 2.
+    scene's axes; standardised (``_st``) values divide by the scales of ``DataConfig``.
 
     Attributes:
         scene_names: (num_scenes,) names of the scenes the samples come from.
