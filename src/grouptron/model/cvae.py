@@ -26,7 +26,7 @@ class Encoding:
     """The condition ``x`` and the latent logits of ``B`` samples.
 
     Attributes:
-        x: (B, Dx) condition ``[edge encoding; history encoding]``.
+        x: (B, Dx) condition ``[edge encoding; history encoding]`` (+ ``E_scene``).
         p_logits: (B, Z) centred logits of p(z|x).
         q_logits: (B, Z) centred logits of q(z|x,y), or None without a future.
     """
@@ -194,7 +194,6 @@ class TrajectronCVAE(nn.Module):
         batch: Batch,
         logit_clip: float | None = None,
         bf16: bool = False,
-        x: torch.Tensor | None = None,
     ) -> CVAEOutput:
         """Training pass: encode with the posterior and decode all Z latent values.
 
@@ -202,9 +201,8 @@ class TrajectronCVAE(nn.Module):
             batch: the samples.
             logit_clip: current logit clip of the annealing schedule (None: no clipping).
             bf16: run the decoder recurrence under bfloat16 autocast.
-            x: a precomputed condition (Grouptron passes its extended one); None computes it.
         """
-        condition = self.encode_condition(batch) if x is None else x
+        condition = self.encode_condition(batch)  # Grouptron's override appends E_scene
         encoding = self.encode(batch, condition, with_future=True, logit_clip=logit_clip)
         with torch.autocast(condition.device.type, dtype=torch.bfloat16, enabled=bf16):
             velocity = self.decode(
