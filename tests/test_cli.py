@@ -215,3 +215,34 @@ def test_console_script_prints_the_constant_velocity_table(eth_ucy_dir: Path) ->
     ade_by_split = {line.split()[0]: float(line.split()[-2]) for line in lines[2:]}
     # Constant velocity is a weak but sane baseline: metres, not kilometres, and not zero.
     assert all(0.1 < v < 2.0 for v in ade_by_split.values())
+
+
+@pytest.mark.parametrize(
+    ("argv", "fragment"),
+    [
+        (
+            ["groups", "evaluate", "--tracks", "t.txt", "--labels", "l.txt", "--every", "0"],
+            "positive integer",
+        ),
+        (["groups", "detect", "--tracks", "t.txt", "--frames-per-step", "-10"], "positive integer"),
+        (["train", "--split", "eth", "--threads", "0"], "threads must be >= 1"),
+        (["train", "--split", "eth", "--lr", "-1"], "learning_rate must be > 0"),
+        (["train", "--split", "eth", "--device", "bogus"], "not a torch device"),
+    ],
+)
+def test_bad_numbers_and_devices_are_refused_early(
+    argv: list[str], fragment: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert fragment in run_error(argv, capsys)
+
+
+def test_unwritable_output_is_a_one_line_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tracks = write_tracks(
+        tmp_path / "t.txt", [(s * 10, p, 0.4 * s, p) for s in range(9) for p in range(3)]
+    )
+    message = run_error(
+        ["groups", "detect", "--tracks", str(tracks), "--out", str(tmp_path)], capsys
+    )
+    assert str(tmp_path) in message

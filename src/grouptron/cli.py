@@ -92,6 +92,23 @@ def _add_data_options(parser: argparse.ArgumentParser, derivatives: bool = True)
     )
 
 
+def _positive_int(value: str) -> int:
+    try:
+        number = int(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value!r}") from None
+    if number < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value!r}")
+    return number
+
+
+def _device(value: str) -> torch.device:
+    try:
+        return torch.device(value)
+    except RuntimeError:
+        raise argparse.ArgumentTypeError(f"not a torch device: {value!r}") from None
+
+
 def _splits(value: str) -> list[str]:
     if value == "all":
         return list(SPLITS)
@@ -421,6 +438,8 @@ def cmd_groups_detect(args: argparse.Namespace) -> int:
         for row in rows:
             print(",".join(str(v) for v in row))
     if args.plot:
+        if not found:
+            raise GrouptronError(f"{args.tracks}: no step to plot")
         if args.frame is None:
             chosen = max(found, key=lambda f: len(f.tracks))
         else:
@@ -579,7 +598,9 @@ def build_parser() -> argparse.ArgumentParser:
     train_cmd.add_argument("--lr", type=float, help="initial learning rate")
     train_cmd.add_argument("--threads", type=int, help="CPU threads (default 2)")
     train_cmd.add_argument("--quiet", action="store_true", help="no progress bars")
-    train_cmd.add_argument("--device", default="cpu", help="torch device, e.g. cpu or cuda")
+    train_cmd.add_argument(
+        "--device", type=_device, default="cpu", help="torch device, e.g. cpu or cuda"
+    )
     _add_data_options(train_cmd)
     train_cmd.set_defaults(handler=cmd_train)
     groups = commands.add_parser(
@@ -600,7 +621,10 @@ def build_parser() -> argparse.ArgumentParser:
     def track_options(parser: argparse.ArgumentParser) -> None:
         parser.add_argument("--tracks", required=True, help="a 'frame id x y' track file")
         parser.add_argument(
-            "--frames-per-step", type=int, default=10, help="frames between annotated steps"
+            "--frames-per-step",
+            type=_positive_int,
+            default=10,
+            help="frames between annotated steps",
         )
         parser.add_argument(
             "--on-gap",
@@ -649,7 +673,7 @@ def build_parser() -> argparse.ArgumentParser:
     score.add_argument(
         "--distance", choices=(*DISTANCE_KINDS, "all"), default=GroupConfig().distance
     )
-    score.add_argument("--every", type=int, default=1, help="score every k-th step")
+    score.add_argument("--every", type=_positive_int, default=1, help="score every k-th step")
     score.add_argument("--format", choices=("table", "json"), default="table")
     score.set_defaults(handler=cmd_groups_evaluate)
     return parser
@@ -674,6 +698,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return handler(args)
     except GrouptronError as exc:
         print(f"grouptron: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as exc:  # unwritable output, full disk, a folder given as a file, ...
+        print(f"grouptron: error: {exc.strerror or exc}: {exc.filename or ''}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
         print("grouptron: interrupted", file=sys.stderr)

@@ -147,8 +147,14 @@ class TrainConfig:
     """Run the decoder recurrence in bfloat16 autocast (CPU); fp32 otherwise."""
 
     def __post_init__(self) -> None:
-        if self.epochs < 1 or self.batch_size < 1:
-            raise GrouptronError("train.epochs and train.batch_size must be >= 1")
+        if self.epochs < 1 or self.batch_size < 1 or self.eval_batch_size < 1:
+            raise GrouptronError("train.epochs, batch_size and eval_batch_size must be >= 1")
+        if self.threads < 1:
+            raise GrouptronError("train.threads must be >= 1")
+        if not self.learning_rate > 0.0:
+            raise GrouptronError("train.learning_rate must be > 0")
+        if self.seed < 0:
+            raise GrouptronError("train.seed must be >= 0")
         if not 0.0 < self.lr_decay_per_iter <= 1.0:
             raise GrouptronError("train.lr_decay_per_iter must be in (0, 1]")
 
@@ -178,8 +184,10 @@ def config_from_dict(cls: type[ConfigT], values: dict[str, Any]) -> ConfigT:
     """Build ``cls`` from a dict, refusing unknown keys and converting lists to tuples."""
     if not dataclasses.is_dataclass(cls):
         raise TypeError(f"{cls} is not a dataclass")
+    if not isinstance(values, dict):
+        raise GrouptronError(f"{cls.__name__} must be a table of settings, not {values!r:.40}")
     fields = {f.name: f for f in dataclasses.fields(cls)}
-    unknown = sorted(set(values) - set(fields))
+    unknown = sorted(str(k) for k in set(values) - set(fields))
     if unknown:
         raise GrouptronError(f"unknown {cls.__name__} keys: {', '.join(unknown)}")
     kwargs: dict[str, Any] = {}

@@ -8,11 +8,15 @@ import tempfile
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
+from grouptron.errors import GrouptronError
+
 
 def write_csv_atomically(
     path: Path, header: Sequence[str], rows: Iterable[Sequence[object]]
 ) -> None:
     """Write a CSV into a temporary file beside ``path`` and rename it into place."""
+    if path.is_dir():
+        raise GrouptronError(f"{path} is a folder; give a file name for the output")
     path.parent.mkdir(parents=True, exist_ok=True)
     descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
     try:

@@ -88,3 +88,18 @@ def test_weights_that_do_not_fit_the_config_are_refused(tmp_path: Path) -> None:
     partial.pop(next(iter(partial)))
     with pytest.raises(GrouptronError, match="missing tensors"):
         load_weights(build_model(CONFIG), partial, str(path))
+
+
+def test_refuses_bad_metadata_and_configs(tmp_path: Path) -> None:
+    from safetensors.torch import save_file
+
+    base = {"format": "grouptron-checkpoint", "config": "{}", "epoch": "0", "iteration": "0"}
+    for changes, fragment in [
+        ({"format_version": "x"}, "bad metadata"),
+        ({"config": "[1]"}, "must be a table of settings"),
+        ({"config": '{"train": {"threads": 0}}'}, "threads must be >= 1"),
+    ]:
+        path = tmp_path / "c.safetensors"
+        save_file({"model.w": torch.zeros(1)}, str(path), metadata={**base, **changes})
+        with pytest.raises(GrouptronError, match=fragment):
+            load_checkpoint(path)

@@ -151,6 +151,8 @@ def read_tracks(
             the step grid, an empty or a missing file, and (with ``on_gap="error"``) gaps.
     """
     path = Path(path)
+    if frames_per_step < 1:
+        raise DataFormatError(path, f"frames per step must be >= 1, not {frames_per_step}")
     values, lines = _parse(path)
     _check_integers(path, values, lines)
     frame = values[:, 0].astype(np.int64)

@@ -8,6 +8,7 @@ the count of the remaining lines is a count header, not a group. Anyone on no li
 from __future__ import annotations
 
 import csv
+import io
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,7 +27,7 @@ def read_group_labels(path: str | Path) -> dict[int, int]:
     if not path.is_file():
         raise DataFormatError(path, "file not found")
     lines: list[tuple[int, list[int]]] = []
-    for number, line in enumerate(path.read_text().splitlines(), start=1):
+    for number, line in enumerate(_read_text(path).splitlines(), start=1):
         tokens = line.split()
         if not tokens:
             continue
@@ -54,6 +55,13 @@ def read_group_labels(path: str | Path) -> dict[int, int]:
     return {pid: label_of_root[find(pid)] for pid in sorted(parent)}
 
 
+def _read_text(path: Path) -> str:
+    try:
+        return path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise DataFormatError(path, "not a text file (invalid UTF-8)") from None
+
+
 def _as_float(token: str) -> float | None:
     try:
         return float(token)
@@ -66,7 +74,7 @@ def read_id_map(path: str | Path) -> dict[int, int]:
     path = Path(path)
     if not path.is_file():
         raise DataFormatError(path, "file not found")
-    with path.open(newline="") as handle:
+    with io.StringIO(_read_text(path), newline="") as handle:
         reader = csv.DictReader(handle)
         if reader.fieldnames is None or {"track_id", "label_id"} - set(reader.fieldnames):
             raise DataFormatError(path, "expected a header line 'track_id,label_id'", 1)

@@ -143,15 +143,15 @@ def load_checkpoint(path: str | Path) -> Checkpoint:
         raise _refuse(path, f"unreadable or truncated safetensors file ({exc})") from None
     if metadata.get("format") != FORMAT_NAME:
         raise _refuse(path, "its metadata does not name the grouptron format")
-    version = int(metadata.get("format_version", "0"))
-    if version > FORMAT_VERSION:
-        raise _refuse(path, f"format version {version} is newer than this grouptron supports")
     try:
+        version = int(metadata.get("format_version", "0"))
+        if version > FORMAT_VERSION:
+            raise _refuse(path, f"format version {version} is newer than this grouptron reads")
         config = config_from_dict(ExperimentConfig, json.loads(metadata["config"]))
         optimizer_meta = json.loads(metadata.get("optimizer", "null"))
         extra = json.loads(metadata.get("extra", "null"))
         epoch, iteration = int(metadata.get("epoch", 0)), int(metadata.get("iteration", 0))
-    except (KeyError, ValueError) as exc:
+    except (KeyError, ValueError, TypeError) as exc:
         raise _refuse(path, f"bad metadata ({exc})") from None
     model_state = {k[6:]: v for k, v in tensors.items() if k.startswith("model.")}
     optim_tensors = {k: v for k, v in tensors.items() if k.startswith("optim.")}

@@ -87,11 +87,14 @@ def setup(
     load_weights(model, {k: v.to(device) for k, v in checkpoint.model_state.items()}, str(last))
     if checkpoint.optimizer_state is None or checkpoint.extra is None:
         raise GrouptronError(f"{last} holds weights only and cannot be resumed")
-    optimizer.load_state_dict(checkpoint.optimizer_state)
-    scheduler.load_state_dict(checkpoint.extra["scheduler"])
-    state.rng.bit_generator.state = checkpoint.extra["numpy_rng"]
-    if checkpoint.torch_rng_state is not None:
-        torch.set_rng_state(checkpoint.torch_rng_state)
+    try:
+        optimizer.load_state_dict(checkpoint.optimizer_state)
+        scheduler.load_state_dict(checkpoint.extra["scheduler"])
+        state.rng.bit_generator.state = checkpoint.extra["numpy_rng"]
+        if checkpoint.torch_rng_state is not None:
+            torch.set_rng_state(checkpoint.torch_rng_state)
+    except (KeyError, ValueError, TypeError, RuntimeError) as exc:
+        raise GrouptronError(f"{last} cannot be resumed: damaged training state ({exc})") from None
     state.epoch, state.iteration = checkpoint.epoch, checkpoint.iteration
     state.best_val_fde = checkpoint.extra.get("best_val_fde", math.inf)
     return state
@@ -114,7 +117,7 @@ def train_epoch(
     totals: dict[str, float] = {}
     seen, started = 0, time.perf_counter()
     bar = tqdm(starts, desc=f"epoch {state.epoch + 1}", unit="it", disable=not progress)
-    for start in bar:
+    for start in bar:  # closed below, also when stopped early
         if max_iterations is not None and state.iteration >= max_iterations:
             break
         index = order[start : start + size]
@@ -147,6 +150,7 @@ def train_epoch(
             totals[key] = totals.get(key, 0.0) + value * len(index)
         elapsed = time.perf_counter() - started
         bar.set_postfix(loss=f"{float(terms.loss.detach()):.3f}", samples_s=f"{seen / elapsed:.0f}")
+    bar.close()
     elapsed = time.perf_counter() - started
     means = {f"train_{k}": v / max(seen, 1) for k, v in totals.items()}
     means["train_seconds"] = elapsed
