@@ -10,24 +10,15 @@ from pathlib import Path
 import pytest
 import torch
 
-from grouptron.config import ExperimentConfig, ModelConfig, TrainConfig
+from grouptron.config import ExperimentConfig, TrainConfig
 from grouptron.data.dataset import load_part
 from grouptron.data.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.training.checkpoint import load_checkpoint
 from grouptron.training.trainer import BEST, LAST, train
+from tests.model.test_cvae import SMALL
 
-TINY = ExperimentConfig(
-    model=ModelConfig(
-        history_hidden=8,
-        edge_hidden=8,
-        future_hidden=8,
-        latent_modes=5,
-        p_z_hidden=8,
-        decoder_hidden=16,
-    ),
-    train=TrainConfig(epochs=2, batch_size=32, threads=1),
-)
+TINY = ExperimentConfig(model=SMALL, train=TrainConfig(epochs=2, batch_size=32, threads=1))
 
 
 def parts(root: Path, config: ExperimentConfig = TINY) -> tuple[SampleSet, SampleSet]:

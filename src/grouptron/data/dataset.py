@@ -89,8 +89,12 @@ def _save_part(path: Path, part: PartData) -> None:
     arrays["scenes.name"] = np.asarray([s.name for s in part.scenes])
     for field in ("num_tracks", "num_steps", "max_present"):
         arrays[f"scenes.{field}"] = np.asarray([getattr(s, field) for s in part.scenes])
+    _save_npz(path, arrays)
+
+
+def _save_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """Write to a temporary file in the same folder, then rename: never a half-written cache."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    # Write to a temporary file in the same folder, then rename: never a half-written cache.
     with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".tmp", delete=False) as handle:
         np.savez(handle, **arrays)  # type: ignore[arg-type]
     os.replace(handle.name, path)
@@ -173,10 +177,7 @@ def load_groups(
             log.warning("ignoring unreadable cache file %s (%s); rebuilding", path, exc)
     found = assign_groups(samples, groups, config.position_scale_m)
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".tmp", delete=False) as handle:
-            np.savez(handle, **found.to_arrays())  # type: ignore[arg-type]
-        os.replace(handle.name, path)
+        _save_npz(path, found.to_arrays())
     except OSError as exc:
         log.warning("could not write the preprocessing cache %s: %s", path, exc)
     return found
