@@ -82,18 +82,13 @@ def test_usage_errors(argv: list[str], fragment: str, capsys: pytest.CaptureFixt
     assert fragment in run_error(argv, capsys)
 
 
+CV_ETH = ["evaluate", "--model", "constant-velocity", "--split", "eth"]
+
+
 def test_gap_policy_flag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rows = [(s * 10, 1, 0.4 * s, 0.0) for s in range(45) if s != 9]
     write_tracks(tmp_path / "eth/test/gap.txt", rows)
-    argv = [
-        "evaluate",
-        "--model",
-        "constant-velocity",
-        "--split",
-        "eth",
-        "--data-dir",
-        str(tmp_path),
-    ]
+    argv = [*CV_ETH, "--data-dir", str(tmp_path)]
     assert main([*argv, "--no-cache"]) == 0  # split into steps 0..8 and 10..44: t = 17..32
     assert "16" in capsys.readouterr().out.splitlines()[2].split()
     assert "has a gap between frames 80 and 100" in run_error([*argv, "--on-gap", "error"], capsys)
@@ -101,8 +96,7 @@ def test_gap_policy_flag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> 
 
 def test_no_test_samples_is_an_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     write_tracks(tmp_path / "eth/test/short.txt", [(s * 10, 1, 0.4 * s, 0.0) for s in range(5)])
-    argv = ["evaluate", "--model", "constant-velocity", "--split", "eth"]
-    assert "no test samples" in run_error([*argv, "--data-dir", str(tmp_path)], capsys)
+    assert "no test samples" in run_error([*CV_ETH, "--data-dir", str(tmp_path)], capsys)
 
 
 TINY_MODEL = {"history_hidden": 8, "edge_hidden": 8, "future_hidden": 8, "latent_modes": 5,
@@ -149,21 +143,7 @@ def test_missing_data_points_to_fetch(tmp_path: Path, capsys: pytest.CaptureFixt
 def test_evaluate_on_a_tiny_split(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rows = [(s * 10, p, 0.4 * s, float(p)) for s in range(25) for p in range(2)]
     write_tracks(tmp_path / "eth/test/a.txt", rows)
-    code = main(
-        [
-            "evaluate",
-            "--model",
-            "constant-velocity",
-            "--split",
-            "eth",
-            "--data-dir",
-            str(tmp_path),
-            "--format",
-            "json",
-        ]
-    )
-    assert code == 0
-    (row,) = json.loads(capsys.readouterr().out)["results"]
+    (row,) = json_rows([*CV_ETH, "--data-dir", str(tmp_path)], capsys)
     assert row == {
         "split": "eth",
         "model": "constant-velocity",

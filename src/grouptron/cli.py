@@ -43,7 +43,7 @@ from grouptron.evaluation.results import (
     score,
 )
 from grouptron.geometry import DERIVATIVE_SCHEMES
-from grouptron.groups.assign import assign_groups
+from grouptron.groups.assign import SampleGroups
 from grouptron.groups.clustering import LINKAGES
 from grouptron.groups.distances import DISTANCE_KINDS
 from grouptron.groups.labels import read_group_labels, read_id_map
@@ -190,19 +190,32 @@ def cmd_data_stats(args: argparse.Namespace) -> int:
 
 
 def _test_samples(
-    data_dir: Path, split: str, config: DataConfig, min_present: int | None, no_cache: bool
-) -> SampleSet:
+    data_dir: Path,
+    split: str,
+    config: DataConfig,
+    min_present: int | None,
+    no_cache: bool,
+    group_config: GroupConfig | None = None,
+) -> tuple[SampleSet, SampleGroups | None]:
+    """A split's test samples (optionally a UNIV-N subset) and, for Grouptron, their groups."""
     samples = load_part(data_dir, split, "test", config, use_cache=not no_cache).samples
     if not len(samples):
         raise GrouptronError(
             f"{split}: no test samples (every test sample needs {config.history_steps} "
             f"observed and {config.horizon_steps} future steps)"
         )
+    groups = None
+    if group_config is not None:
+        groups = load_groups(
+            data_dir, split, "test", config, group_config, samples, use_cache=not no_cache
+        )
     if min_present is not None:
-        samples = samples.subset(univ_n_mask(samples, min_present))
-        if not len(samples):
+        keep = univ_n_mask(samples, min_present)
+        if not keep.any():
             raise GrouptronError(f"no univ test sample has {min_present} pedestrians or more")
-    return samples
+        groups = groups.subset(keep, samples) if groups is not None else None
+        samples = samples.subset(keep)
+    return samples, groups
 
 
 def _eval_modes(value: str) -> tuple[str, ...]:
@@ -244,15 +257,15 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         raise GrouptronError("--subset univ-N needs --split univ")
     modes = _eval_modes(args.mode)
     results: list[EvaluationResult] = []
+    group_config = experiment.groups if model is not None and uses_groups(experiment) else None
     for split in splits:
-        samples = _test_samples(data_dir, split, config, min_present, args.no_cache)
+        samples, groups = _test_samples(
+            data_dir, split, config, min_present, args.no_cache, group_config
+        )
         if model is None:
             pred = constant_velocity(samples.hist_rel_m.astype("float64"), config.horizon_steps)
             results.append(score(split, "constant-velocity", args.subset, pred, samples))
             continue
-        groups = None
-        if uses_groups(experiment):
-            groups = assign_groups(samples, experiment.groups, config.position_scale_m)
         scores = evaluate_model(
             model,
             experiment,

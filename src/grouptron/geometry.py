@@ -67,6 +67,20 @@ def rotation_matrix(angle_rad: np.ndarray) -> np.ndarray:
     return np.stack([np.stack([cos, -sin], -1), np.stack([sin, cos], -1)], -2)
 
 
+def rotate_rows(values: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """Rotate every (x, y) pair of row ``r`` of ``values`` by ``rotation[r]``.
+
+    Args:
+        values: (R, ..., 2P) e.g. (S, T, 6) histories of S samples.
+        rotation: (R, 2, 2) one rotation per row.
+
+    Returns:
+        (R, ..., 2P) rotated values, same dtype.
+    """
+    per_row = rotation.reshape(len(values), *([1] * (values.ndim - 2)), 2, 2)
+    return rotate_xy_pairs(values, per_row).astype(values.dtype)
+
+
 def rotate_xy_pairs(values: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     """Rotate every consecutive (x, y) pair of the last axis.
 

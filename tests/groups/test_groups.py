@@ -138,3 +138,15 @@ def test_partitions_dice_and_id_map(tmp_path: Path) -> None:
     mapping.write_text("a,b\n1,2\n")
     with pytest.raises(DataFormatError, match="track_id,label_id"):
         read_id_map(mapping)
+
+
+def test_groups_of_a_subset_align_with_the_subset(synthetic_data_dir: Path) -> None:
+    from grouptron.data.dataset import load_part
+
+    samples = load_part(synthetic_data_dir, "eth", "train", DataConfig()).samples
+    groups = assign_groups(samples, GroupConfig(), 3.0)
+    keep = samples.num_neighbours >= 2
+    direct = assign_groups(samples.subset(keep), GroupConfig(), 3.0)
+    subset = groups.subset(keep, samples)
+    for name in ("ego_group", "nbr_group", "num_groups"):
+        np.testing.assert_array_equal(getattr(subset, name), getattr(direct, name))

@@ -52,26 +52,16 @@ def test_detect_writes_groups_and_a_plot(
     assert "frame 100" in capsys.readouterr().out
 
 
+def evaluate_json(capsys: pytest.CaptureFixture[str], *argv: str) -> list[dict]:
+    assert main(["groups", "evaluate", *argv, "--format", "json"]) == 0
+    return json.loads(capsys.readouterr().out)["results"]
+
+
 def test_evaluate_against_labels(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     tracks = two_pairs(tmp_path / "pairs.txt")
     labels = tmp_path / "groups.txt"
     labels.write_text("1 2\n3 4\n")
-    assert (
-        main(
-            [
-                "groups",
-                "evaluate",
-                "--tracks",
-                str(tracks),
-                "--labels",
-                str(labels),
-                "--format",
-                "json",
-            ]
-        )
-        == 0
-    )
-    results = json.loads(capsys.readouterr().out)["results"]
+    results = evaluate_json(capsys, "--tracks", str(tracks), "--labels", str(labels))
     assert {r["protocol"] for r in results} == {"scene", "per_ego"}
     for row in results:
         assert {"pair_precision", "pair_recall", "pair_f1", "dice"} <= set(row)
@@ -80,24 +70,9 @@ def test_evaluate_against_labels(tmp_path: Path, capsys: pytest.CaptureFixture[s
     id_map = tmp_path / "map.csv"
     id_map.write_text("track_id,label_id\n1,11\n2,12\n3,13\n4,14\n")
     labels.write_text("11 12\n13 14\n")
-    assert (
-        main(
-            [
-                "groups",
-                "evaluate",
-                "--tracks",
-                str(tracks),
-                "--labels",
-                str(labels),
-                "--id-map",
-                str(id_map),
-                "--format",
-                "json",
-            ]
-        )
-        == 0
+    mapped = evaluate_json(
+        capsys, "--tracks", str(tracks), "--labels", str(labels), "--id-map", str(id_map)
     )
-    mapped = json.loads(capsys.readouterr().out)["results"]
     assert all(r["pair_f1"] == pytest.approx(1.0) for r in mapped)
 
 

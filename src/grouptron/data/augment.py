@@ -12,8 +12,8 @@ import dataclasses
 
 import numpy as np
 
-from grouptron.data.samples import SampleSet
-from grouptron.geometry import rotate_xy_pairs, rotation_matrix
+from grouptron.data.samples import PER_EDGE, SampleSet
+from grouptron.geometry import rotate_rows, rotation_matrix
 
 ROTATION_ANGLES_DEG = np.arange(0.0, 360.0, 15.0)
 """The 24 augmentation angles of the reference: 0, 15, ..., 345 degrees."""
@@ -42,10 +42,10 @@ def rotate_samples(samples: SampleSet, angles_rad: np.ndarray) -> SampleSet:
     """
     rotation = rotation_matrix(angles_rad)  # (S, 2, 2)
     per_edge_rotation = np.repeat(rotation, samples.num_neighbours, axis=0)  # (E, 2, 2)
-    changes = {}
-    for name in _ROTATED_FIELDS:
-        values = getattr(samples, name)
-        turn = per_edge_rotation if name == "nbr_hist_st" else rotation
-        per_sample = turn.reshape(len(values), *([1] * (values.ndim - 2)), 2, 2)
-        changes[name] = rotate_xy_pairs(values, per_sample).astype(values.dtype)
+    changes = {
+        name: rotate_rows(
+            getattr(samples, name), per_edge_rotation if name in PER_EDGE else rotation
+        )
+        for name in _ROTATED_FIELDS
+    }
     return dataclasses.replace(samples, **changes)

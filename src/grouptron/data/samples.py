@@ -84,8 +84,7 @@ class SampleSet:
     def subset(self, keep: np.ndarray) -> SampleSet:
         """The samples where the boolean (S,) mask ``keep`` is True, neighbours included."""
         index = np.flatnonzero(keep)
-        counts = self.num_neighbours[index]
-        edge_index = ranges_to_indices(self.nbr_offsets[index], counts)
+        edge_index, counts = edge_rows(self.nbr_offsets, index)
         per_sample = {
             f.name: getattr(self, f.name)[index]
             for f in dataclasses.fields(self)
@@ -98,6 +97,12 @@ class SampleSet:
             **per_sample,
             **per_edge,
         )
+
+
+def edge_rows(nbr_offsets: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The per-edge rows of samples ``index``, concatenated, and (B,) their counts."""
+    counts = nbr_offsets[index + 1] - nbr_offsets[index]
+    return ranges_to_indices(nbr_offsets[index], counts), counts
 
 
 PER_EDGE = ("nbr_track", "nbr_weight", "nbr_hist_st", "nbr_hist_mask")

@@ -49,7 +49,6 @@ def score(
     subset: str | None,
     pred_rel_m: np.ndarray,
     samples: SampleSet,
-    mode: str | None = None,
 ) -> EvaluationResult:
     """Mean ADE/FDE of (S, H, 2) predictions against the samples' futures."""
     truth = samples.fut_rel_m.astype(np.float64)
@@ -60,7 +59,6 @@ def score(
         samples=len(samples),
         ade=float(ade(pred_rel_m, truth).mean()) if len(samples) else math.nan,
         fde=float(fde(pred_rel_m, truth).mean()) if len(samples) else math.nan,
-        mode=mode,
     )
 
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from grouptron.config import GroupConfig
-from grouptron.data.samples import SampleSet
+from grouptron.data.samples import SampleSet, edge_rows
 from grouptron.groups.clustering import agglomerative_groups
 from grouptron.groups.distances import pairwise_distances
 
@@ -40,6 +40,12 @@ class SampleGroups:
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray]) -> SampleGroups:
         return cls(**{f.name: arrays[f.name] for f in dataclasses.fields(cls)})
+
+    def subset(self, keep: np.ndarray, samples: SampleSet) -> SampleGroups:
+        """The groups of ``samples.subset(keep)``, aligned with it."""
+        index = np.flatnonzero(keep)
+        edges, _ = edge_rows(samples.nbr_offsets, index)
+        return SampleGroups(self.ego_group[index], self.nbr_group[edges], self.num_groups[index])
 
 
 def node_trajectories(

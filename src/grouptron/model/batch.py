@@ -9,9 +9,8 @@ import numpy as np
 import torch
 
 from grouptron.config import DataConfig
-from grouptron.data.neighbours import ranges_to_indices
-from grouptron.data.samples import SampleSet
-from grouptron.geometry import rotate_xy_pairs, rotation_matrix
+from grouptron.data.samples import SampleSet, edge_rows
+from grouptron.geometry import rotate_rows, rotation_matrix
 from grouptron.groups.assign import SampleGroups
 
 
@@ -49,12 +48,11 @@ def make_group_batch(
     rotation: np.ndarray | None,
 ) -> GroupBatch:
     """Flatten the nodes and groups of samples ``index`` (``hist_st`` already gathered and,
-    with ``rotation`` (B, 1, 2, 2), rotated)."""
-    counts = samples.num_neighbours[index]
-    edges = ranges_to_indices(samples.nbr_offsets[index], counts)  # (E_b,)
+    with ``rotation`` (B, 2, 2), rotated)."""
+    edges, counts = edge_rows(samples.nbr_offsets, index)  # (E_b,), (B,)
     nbr_st = samples.nbr_hist_st[edges]
     if rotation is not None:
-        nbr_st = rotate_xy_pairs(nbr_st, np.repeat(rotation, counts, axis=0)).astype(np.float32)
+        nbr_st = rotate_rows(nbr_st, np.repeat(rotation, counts, axis=0))
     # The ego as a node: its state relative to its own state at t (positions already are).
     ego_st = hist_st.copy()
     ego_st[..., 2:] -= hist_st[:, -1:, 2:]
@@ -141,10 +139,10 @@ def make_batch(
     fut_rel_m = samples.fut_rel_m[index]
     rotation = None
     if rotation_rad is not None:
-        rotation = rotation_matrix(rotation_rad)[:, None]  # (B, 1, 2, 2)
-        hist_st = rotate_xy_pairs(hist_st, rotation).astype(np.float32)
-        nbr_sum_st = rotate_xy_pairs(nbr_sum_st, rotation).astype(np.float32)
-        fut_rel_m = rotate_xy_pairs(fut_rel_m, rotation).astype(np.float32)
+        rotation = rotation_matrix(rotation_rad)  # (B, 2, 2)
+        hist_st = rotate_rows(hist_st, rotation)
+        nbr_sum_st = rotate_rows(nbr_sum_st, rotation)
+        fut_rel_m = rotate_rows(fut_rel_m, rotation)
     fut = torch.from_numpy(np.ascontiguousarray(fut_rel_m))
     return Batch(
         hist_st=torch.from_numpy(np.ascontiguousarray(hist_st)),

@@ -121,8 +121,10 @@ class TrajectronCVAE(nn.Module):
     def encode_future(self, batch: Batch) -> torch.Tensor:
         """(B, 4*future_hidden) final states of the bi-LSTM over the standardised future."""
         now = batch.state_now_st
-        h0 = torch.stack([self.future_initial_h(now), torch.zeros_like(self.future_initial_h(now))])
-        c0 = torch.stack([self.future_initial_c(now), torch.zeros_like(self.future_initial_c(now))])
+        h_fwd, c_fwd = self.future_initial_h(now), self.future_initial_c(now)
+        # Forward direction starts from the current state; the backward one from zeros.
+        h0 = torch.stack([h_fwd, torch.zeros_like(h_fwd)])
+        c0 = torch.stack([c_fwd, torch.zeros_like(c_fwd)])
         _, (h_n, c_n) = self.future_encoder(batch.fut_st, (h0, c0))  # (2, B, hf) each
         state = torch.cat([h_n, c_n], dim=0).permute(1, 0, 2).reshape(len(batch), -1)
         return self._rnn_dropout(state)
