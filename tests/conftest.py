@@ -65,3 +65,43 @@ def synthetic_data_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
         for seed in seeds:
             synthetic_recording(root / "eth" / part / f"scene{seed}.txt", seed)
     return root
+
+
+@pytest.fixture(scope="session")
+def tiny_checkpoints(synthetic_data_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A checkpoint folder laid out like ``checkpoints/``: tiny Trajectron++ and Grouptron
+    models trained one epoch on the synthetic eth split (central derivatives)."""
+    import dataclasses
+
+    from grouptron.config import ExperimentConfig, TrainConfig
+    from grouptron.data.dataset import load_groups, load_part
+    from grouptron.training.trainer import train
+    from tests.model.test_cvae import SMALL
+
+    root = tmp_path_factory.mktemp("checkpoints")
+    for model in ("trajectron++", "grouptron"):
+        config = ExperimentConfig(
+            model_name=model,
+            model=dataclasses.replace(SMALL, group_dim=4),
+            train=TrainConfig(epochs=1, batch_size=64, threads=1),
+        )
+        parts = [
+            load_part(synthetic_data_dir, "eth", p, config.data).samples for p in ("train", "val")
+        ]
+        groups = (
+            [
+                load_groups(synthetic_data_dir, "eth", p, config.data, config.groups, s)
+                for p, s in zip(("train", "val"), parts, strict=True)
+            ]
+            if model == "grouptron"
+            else [None, None]
+        )
+        train(
+            config,
+            *parts,
+            root / f"{model}-eth-central",
+            progress=False,
+            train_groups=groups[0],
+            val_groups=groups[1],
+        )
+    return root

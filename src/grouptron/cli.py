@@ -30,11 +30,12 @@ from grouptron.data.dataset import load_groups, load_part
 from grouptron.data.download import fetch_dataset
 from grouptron.data.locate import resolve_data_dir
 from grouptron.data.reader import read_tracks
-from grouptron.data.samples import SampleSet
 from grouptron.data.scene import Scene, build_scene
 from grouptron.data.subsets import parse_univ_n, univ_n_mask
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import MODES, evaluate_model
+from grouptron.evaluation.report import PROTOCOLS, ReportSettings, find_checkpoints, run_report
+from grouptron.evaluation.report_tables import report_markdown
 from grouptron.evaluation.results import (
     EvaluationResult,
     mean_over_splits,
@@ -42,13 +43,18 @@ from grouptron.evaluation.results import (
     results_table,
     score,
 )
+from grouptron.evaluation.test_sets import load_test_set
 from grouptron.geometry import DERIVATIVE_SCHEMES
-from grouptron.groups.assign import SampleGroups
 from grouptron.groups.clustering import LINKAGES
 from grouptron.groups.distances import DISTANCE_KINDS
 from grouptron.groups.labels import read_group_labels, read_id_map
 from grouptron.groups.scene import groups_per_step, position_grid, score_against_labels
-from grouptron.io import write_csv_atomically
+from grouptron.inference.tracks import FORECAST_MODES, forecast_scene
+from grouptron.io import (
+    write_array_csv_atomically,
+    write_csv_atomically,
+    write_text_atomically,
+)
 from grouptron.model.factory import MODEL_NAMES, build_model, load_weights, uses_groups
 from grouptron.training.checkpoint import load_checkpoint
 from grouptron.training.trainer import LAST, train
@@ -56,6 +62,7 @@ from grouptron.viz.groups import plot_step_groups
 
 log = logging.getLogger("grouptron")
 EXIT_USAGE = 2
+REPORT_CHECKPOINTS = "checkpoints"
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefaultsHelpFormatter):
@@ -92,14 +99,23 @@ def _add_data_options(parser: argparse.ArgumentParser, derivatives: bool = True)
     )
 
 
-def _positive_int(value: str) -> int:
+def _int_at_least(value: str, lowest: int) -> int:
     try:
         number = int(value)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value!r}") from None
-    if number < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value!r}")
+        number = lowest - 1
+    if number < lowest:
+        wanted = "a positive integer" if lowest == 1 else f"an integer >= {lowest}"
+        raise argparse.ArgumentTypeError(f"expected {wanted}, got {value!r}")
     return number
+
+
+def _positive_int(value: str) -> int:
+    return _int_at_least(value, 1)
+
+
+def _non_negative_int(value: str) -> int:
+    return _int_at_least(value, 0)
 
 
 def _device(value: str) -> torch.device:
@@ -189,35 +205,6 @@ def cmd_data_stats(args: argparse.Namespace) -> int:
 # --- evaluate ---------------------------------------------------------------------------------
 
 
-def _test_samples(
-    data_dir: Path,
-    split: str,
-    config: DataConfig,
-    min_present: int | None,
-    no_cache: bool,
-    group_config: GroupConfig | None = None,
-) -> tuple[SampleSet, SampleGroups | None]:
-    """A split's test samples (optionally a UNIV-N subset) and, for Grouptron, their groups."""
-    samples = load_part(data_dir, split, "test", config, use_cache=not no_cache).samples
-    if not len(samples):
-        raise GrouptronError(
-            f"{split}: no test samples (every test sample needs {config.history_steps} "
-            f"observed and {config.horizon_steps} future steps)"
-        )
-    groups = None
-    if group_config is not None:
-        groups = load_groups(
-            data_dir, split, "test", config, group_config, samples, use_cache=not no_cache
-        )
-    if min_present is not None:
-        keep = univ_n_mask(samples, min_present)
-        if not keep.any():
-            raise GrouptronError(f"no univ test sample has {min_present} pedestrians or more")
-        groups = groups.subset(keep, samples) if groups is not None else None
-        samples = samples.subset(keep)
-    return samples, groups
-
-
 def _eval_modes(value: str) -> tuple[str, ...]:
     if value == "all":
         return MODES
@@ -259,12 +246,13 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     results: list[EvaluationResult] = []
     group_config = experiment.groups if model is not None and uses_groups(experiment) else None
     for split in splits:
-        samples, groups = _test_samples(
-            data_dir, split, config, min_present, args.no_cache, group_config
+        samples, groups = load_test_set(
+            data_dir, split, config, min_present, group_config, use_cache=not args.no_cache
         )
         if model is None:
             pred = constant_velocity(samples.hist_rel_m.astype("float64"), config.horizon_steps)
-            results.append(score(split, "constant-velocity", args.subset, pred, samples))
+            cv = score(split, "constant-velocity", args.subset, pred, samples)
+            results.append(dataclasses.replace(cv, protocol=config.derivatives))
             continue
         scores = evaluate_model(
             model,
@@ -287,12 +275,80 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
                     mode=s.mode,
                     nll=s.nll if s.mode == "nll" else None,
                     checkpoint=str(args.checkpoint),
+                    protocol=config.derivatives,
                 )
             )
     if len(splits) == len(SPLITS):
         for mode in dict.fromkeys(r.mode for r in results):
             results.append(mean_over_splits([r for r in results if r.mode == mode]))
     print(results_json(results) if args.format == "json" else results_table(results))
+    return 0
+
+
+# --- report -----------------------------------------------------------------------------------
+
+
+def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
+    """The canonical command line that regenerates this report (written into it)."""
+    parts = ["grouptron report", f"--protocol {args.protocol}", f"--mode {','.join(modes)}"]
+    if args.nll_max_samples:
+        parts.append(f"--nll-max-samples {args.nll_max_samples}")
+    if args.checkpoints != REPORT_CHECKPOINTS:
+        parts.append(f"--checkpoints {args.checkpoints}")
+    if args.seed:
+        parts.append(f"--seed {args.seed}")
+    if args.out:
+        parts.append(f"--out {args.out}")
+    return " ".join(parts)
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    protocols = PROTOCOLS if args.protocol == "both" else (args.protocol,)
+    modes = _eval_modes(args.mode)
+    settings = ReportSettings(
+        modes=modes,
+        seed=args.seed,
+        nll_max_samples=args.nll_max_samples,
+        use_cache=not args.no_cache,
+    )
+    data_dir = resolve_data_dir(args.data_dir)
+    checkpoints = find_checkpoints(Path(args.checkpoints), protocols)
+    torch.set_num_threads(args.threads)
+    results = run_report(data_dir, checkpoints, protocols, settings, progress=not args.quiet)
+    if args.format == "json":
+        text = results_json(results) + "\n"
+    else:
+        text = report_markdown(results, protocols, _report_command(args, modes))
+    if args.out:
+        write_text_atomically(Path(args.out), text)
+        print(f"wrote {args.out}")
+    else:
+        print(text, end="")
+    return 0
+
+
+# --- predict ----------------------------------------------------------------------------------
+
+
+def cmd_predict(args: argparse.Namespace) -> int:
+    checkpoint = load_checkpoint(args.checkpoint)
+    experiment = checkpoint.config
+    model = build_model(experiment)
+    load_weights(model, checkpoint.model_state, args.checkpoint)
+    torch.set_num_threads(args.threads)
+    frames_per_step = args.frames_per_step or experiment.data.frames_per_step
+    data = dataclasses.replace(experiment.data, frames_per_step=frames_per_step)
+    experiment = dataclasses.replace(experiment, data=data)
+    scene = build_scene(read_tracks(args.tracks, frames_per_step, args.on_gap), data)
+    forecast = forecast_scene(
+        model, experiment, scene, args.mode, args.samples, args.seed, progress=not args.quiet
+    )
+    header, rows, formats = forecast.table()
+    write_array_csv_atomically(Path(args.out), header, rows, formats)
+    print(
+        f"wrote {len(rows)} rows for {len(forecast.frame)} (pedestrian, frame) pairs "
+        f"({experiment.model_name}, {data.derivatives} derivatives, {args.mode}) to {args.out}"
+    )
     return 0
 
 
@@ -318,6 +374,7 @@ def cmd_train(args: argparse.Namespace) -> int:
             "batch_size": args.batch_size,
             "learning_rate": args.lr,
             "threads": args.threads,
+            "init_from": args.init_from,
         }.items()
         if value is not None
     }
@@ -583,6 +640,81 @@ def build_parser() -> argparse.ArgumentParser:
     _add_data_options(evaluate)
     evaluate.set_defaults(handler=cmd_evaluate)
 
+    report = commands.add_parser(
+        "report",
+        help="regenerate the paper's tables from a folder of checkpoints",
+        description="Evaluate every <model>-<split>-<protocol>/best.safetensors in --checkpoints "
+        "on its test set (and univ ones on UNIV-40/45/50), with constant velocity alongside, "
+        "and write the Grouptron paper's Tables I and II with our numbers beside the published "
+        "ones, the difference in percent, best-of-20, KDE NLL and the reproduction targets.",
+        formatter_class=_Formatter,
+        epilog="examples:\n"
+        "  grouptron report --mode ml                      # Tables I and II only (minutes)\n"
+        "  grouptron report --out RESULTS.md --nll-max-samples 500\n"
+        "  grouptron report --protocol central --format json --out results.json",
+    )
+    report.add_argument(
+        "--checkpoints", default=REPORT_CHECKPOINTS, help="folder of checkpoint folders"
+    )
+    report.add_argument("--protocol", choices=(*PROTOCOLS, "both"), default="both")
+    report.add_argument(
+        "--mode",
+        default="ml,best-of-20,nll",
+        help=f"comma-separated of {', '.join(MODES)}, or all",
+    )
+    report.add_argument(
+        "--nll-max-samples",
+        type=_non_negative_int,
+        default=0,
+        help="KDE NLL on at most this many seeded random test samples per split (0: all; "
+        "the NLL decodes 2000 futures per sample and dominates the run time)",
+    )
+    report.add_argument("--out", help="write the report here (default: standard output)")
+    report.add_argument("--format", choices=("markdown", "json"), default="markdown")
+    report.add_argument("--seed", type=int, default=0, help="seed of the sampling modes")
+    report.add_argument("--threads", type=_positive_int, default=2, help="CPU threads")
+    report.add_argument("--quiet", action="store_true", help="no progress output")
+    _add_data_options(report, derivatives=False)
+    report.set_defaults(handler=cmd_report)
+
+    predict = commands.add_parser(
+        "predict",
+        help="forecast every pedestrian of a track file with a trained checkpoint",
+        description="For every pedestrian and frame with 8 observed steps (the last at that "
+        "frame), write the 12 predicted positions as CSV rows 'frame,id,step,x,y': frame is "
+        "the last observed frame, step k (1..12) the position k steps (k * frames-per-step "
+        "frames) later, x/y in the file's coordinates. --mode samples adds a 'sample' column "
+        "and writes --samples futures per pedestrian and frame. The most likely (ml) output "
+        "equals what `grouptron evaluate --mode ml` scores.",
+        formatter_class=_Formatter,
+        epilog="examples:\n"
+        "  grouptron predict --checkpoint checkpoints/grouptron-eth-central/best.safetensors \\\n"
+        "      --tracks biwi_eth.txt --out forecast.csv\n"
+        "  grouptron predict --checkpoint CKPT --tracks tracks.txt --out s.csv --mode samples",
+    )
+    predict.add_argument("--checkpoint", required=True, help="a .safetensors checkpoint")
+    predict.add_argument("--tracks", required=True, help="a 'frame id x y' track file")
+    predict.add_argument("--out", required=True, help="CSV file to write")
+    predict.add_argument("--mode", choices=FORECAST_MODES, default="ml")
+    predict.add_argument(
+        "--samples", type=_positive_int, default=20, help="futures per pedestrian (samples)"
+    )
+    predict.add_argument("--seed", type=int, default=0, help="seed of --mode samples")
+    predict.add_argument(
+        "--frames-per-step",
+        type=_positive_int,
+        help="frames between steps 0.4 s apart (default: the checkpoint's, 10 for ETH/UCY)",
+    )
+    predict.add_argument(
+        "--on-gap",
+        choices=("split", "error"),
+        default="split",
+        help="split tracks with gaps (with a warning) or refuse them",
+    )
+    predict.add_argument("--threads", type=_positive_int, default=2, help="CPU threads")
+    predict.add_argument("--quiet", action="store_true", help="no progress bar")
+    predict.set_defaults(handler=cmd_predict)
+
     train_cmd = commands.add_parser(
         "train",
         help="train a model on one split",
@@ -594,7 +726,9 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="examples:\n"
         "  grouptron train --split eth --model trajectron++ --epochs 10\n"
         "  grouptron train --split univ --derivatives backward --out runs/univ-causal\n"
-        "  grouptron train --split eth --resume",
+        "  grouptron train --split eth --resume\n"
+        "  grouptron train --split eth --derivatives backward --epochs 3 \\\n"
+        "      --init-from runs/trajectron++-eth-central/last.safetensors",
     )
     train_cmd.add_argument("--split", required=True, choices=SPLITS)
     train_cmd.add_argument("--model", default="trajectron++", choices=MODEL_NAMES)
@@ -604,6 +738,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--resume",
         action="store_true",
         help="continue the run in --out with its stored configuration (--epochs may extend it)",
+    )
+    train_cmd.add_argument(
+        "--init-from",
+        help="warm start from another run's last.safetensors (same model): its weights, "
+        "optimiser state and step count, e.g. to move a central run to backward derivatives",
     )
     train_cmd.add_argument("--config", help="JSON file with an ExperimentConfig")
     train_cmd.add_argument("--seed", type=int)

@@ -145,6 +145,10 @@ class TrainConfig:
     eval_batch_size: int = 256
     bf16: bool = False
     """Run the decoder recurrence in bfloat16 autocast (CPU); fp32 otherwise."""
+    init_from: str = ""
+    """Warm start: a full training checkpoint (``last.safetensors``) of the same model whose
+    weights, optimiser state and step count start this run; its schedules continue from there.
+    Empty: start from the seed."""
 
     def __post_init__(self) -> None:
         if self.epochs < 1 or self.batch_size < 1 or self.eval_batch_size < 1:

@@ -5,8 +5,11 @@ from __future__ import annotations
 import csv
 import os
 import tempfile
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
+from typing import TextIO
+
+import numpy as np
 
 from grouptron.errors import GrouptronError
 
@@ -15,15 +18,40 @@ def write_csv_atomically(
     path: Path, header: Sequence[str], rows: Iterable[Sequence[object]]
 ) -> None:
     """Write a CSV into a temporary file beside ``path`` and rename it into place."""
+
+    def write(handle: TextIO) -> None:
+        writer = csv.writer(handle)
+        writer.writerow(header)
+        writer.writerows(rows)
+
+    _write_atomically(path, write)
+
+
+def write_array_csv_atomically(
+    path: Path, header: Sequence[str], rows: np.ndarray, formats: Sequence[str]
+) -> None:
+    """Write a numeric (R, C) table as CSV with one printf format per column, atomically."""
+
+    def write(handle: TextIO) -> None:
+        handle.write(",".join(header) + "\n")
+        np.savetxt(handle, rows, fmt=list(formats), delimiter=",")
+
+    _write_atomically(path, write)
+
+
+def write_text_atomically(path: Path, text: str) -> None:
+    """Write ``text`` into a temporary file beside ``path`` and rename it into place."""
+    _write_atomically(path, lambda handle: handle.write(text))
+
+
+def _write_atomically(path: Path, write: Callable[[TextIO], object]) -> None:
     if path.is_dir():
         raise GrouptronError(f"{path} is a folder; give a file name for the output")
     path.parent.mkdir(parents=True, exist_ok=True)
     descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
     try:
         with os.fdopen(descriptor, "w", newline="") as handle:
-            writer = csv.writer(handle)
-            writer.writerow(header)
-            writer.writerows(rows)
+            write(handle)
         os.chmod(temporary, 0o644)
         os.replace(temporary, path)
     finally:

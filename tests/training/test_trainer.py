@@ -62,3 +62,34 @@ def test_resume_refuses_another_config_and_a_fresh_run_refuses_an_old_folder(
         train(other, train_set, val_set, tmp_path, resume=True, progress=False)
     with pytest.raises(GrouptronError, match="nothing to resume"):
         train(one, train_set, val_set, tmp_path / "empty", resume=True, progress=False)
+
+
+def test_warm_start_continues_weights_and_schedule_under_another_protocol(
+    synthetic_data_dir: Path, tmp_path: Path
+) -> None:
+    train_set, val_set = parts(synthetic_data_dir)
+    one = dataclasses.replace(TINY, train=dataclasses.replace(TINY.train, epochs=1))
+    source = train(one, train_set, val_set, tmp_path / "central", progress=False)
+    backward = dataclasses.replace(
+        one,
+        data=dataclasses.replace(one.data, derivatives="backward"),
+        train=dataclasses.replace(one.train, init_from=str(tmp_path / "central" / LAST)),
+    )
+    moved = train(backward, *parts(synthetic_data_dir, backward), tmp_path / "b", progress=False)
+    assert moved.epoch == 1 and moved.iteration == 2 * source.iteration
+    assert moved.optimizer.param_groups[0]["lr"] < source.optimizer.param_groups[0]["lr"]
+    card = (tmp_path / "b" / "README.md").read_text()
+    assert "backward derivatives (causal)" in card and "warm start from" in card
+    assert "| epochs trained | 1 (" in card and "cpu:" in card
+    records = [json.loads(line) for line in (tmp_path / "b/metrics.jsonl").open()]
+    assert records[0]["epoch_seconds"] >= records[0]["train_seconds"] > 0
+    # The source must be a full training state of the same architecture.
+    wrong = dataclasses.replace(backward, model=dataclasses.replace(backward.model, latent_modes=3))
+    with pytest.raises(GrouptronError, match="same architecture"):
+        train(wrong, train_set, val_set, tmp_path / "g", progress=False)
+    weights_only = dataclasses.replace(
+        backward,
+        train=dataclasses.replace(backward.train, init_from=str(tmp_path / "central" / BEST)),
+    )
+    with pytest.raises(GrouptronError, match="weights only"):
+        train(weights_only, train_set, val_set, tmp_path / "w", progress=False)

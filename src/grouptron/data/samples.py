@@ -83,6 +83,8 @@ class SampleSet:
 
     def subset(self, keep: np.ndarray) -> SampleSet:
         """The samples where the boolean (S,) mask ``keep`` is True, neighbours included."""
+        if keep.dtype != np.bool_ or keep.shape != (len(self),):
+            raise ValueError(f"subset needs a boolean mask of shape ({len(self)},)")
         index = np.flatnonzero(keep)
         edge_index, counts = edge_rows(self.nbr_offsets, index)
         per_sample = {
@@ -120,7 +122,11 @@ def _dense_grid(scene: Scene, pad_before: int, pad_after: int) -> tuple[np.ndarr
 
 
 def scene_samples(
-    scene: Scene, config: DataConfig, min_history: int, scene_index: int = 0
+    scene: Scene,
+    config: DataConfig,
+    min_history: int,
+    scene_index: int = 0,
+    require_future: bool = True,
 ) -> SampleSet:
     """All samples of a scene whose ego has ``min_history`` observed points up to ``t`` and a
     full future of ``config.horizon_steps``.
@@ -130,6 +136,8 @@ def scene_samples(
         config: the data protocol.
         min_history: 2 for training/validation (t-1, t), ``history_steps`` for testing.
         scene_index: stored in ``SampleSet.scene_index``.
+        require_future: False keeps samples whose future is cut short (forecasting new
+            tracks); their missing future positions are NaN.
     """
     T, H = config.history_steps, config.horizon_steps
     scale = np.asarray(config.state_scale)
@@ -138,7 +146,9 @@ def scene_samples(
 
     # A row is a sample when its track has enough points before and after it.
     first, last = scene.track_first_step[scene.track], scene.track_last_step[scene.track]
-    is_sample = (scene.step - first >= min_history - 1) & (last - scene.step >= H)
+    is_sample = scene.step - first >= min_history - 1
+    if require_future:
+        is_sample &= last - scene.step >= H
     track, step = scene.track[is_sample], scene.step[is_sample]
     ego_now = scene.state_scene[is_sample]  # (S, 6)
 
@@ -152,6 +162,7 @@ def scene_samples(
 
     fut_cols = step[:, None] + pad_before + 1 + np.arange(H)  # (S, H)
     fut_rel = state_grid[track[:, None], fut_cols, :2] - ego_now[:, None, :2]  # (S, H, 2)
+    fut_rel[~present_grid[track[:, None], fut_cols]] = np.nan
 
     # Neighbours at t: the ego's outgoing edges at its step, already sorted by (src, step).
     edges = perception_edges(scene, config.perception_radius_m, config.edge_ramp_weights)

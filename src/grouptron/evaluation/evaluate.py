@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -51,7 +52,85 @@ def batches(
         yield index, make_batch(samples, index, config.data, groups=groups)
 
 
+@dataclass(frozen=True)
+class SampleScores:
+    """Per-sample scores of one mode: (S,) arrays, NaN where the mode does not define them."""
+
+    mode: str
+    ade: np.ndarray
+    fde: np.ndarray
+    nll: np.ndarray
+
+    def summary(self, keep: np.ndarray | None = None) -> ModeScores:
+        """Means over all samples, or over the samples where the (S,) mask ``keep`` is true."""
+        ade, fde, nll = (v if keep is None else v[keep] for v in (self.ade, self.fde, self.nll))
+        count = len(ade)
+        if self.mode != "nll":
+            return ModeScores(self.mode, count, _mean(ade), _mean(fde))
+        undefined = int(np.isnan(nll).sum())
+        defined = nll[~np.isnan(nll)]
+        return ModeScores(self.mode, count, math.nan, math.nan, _mean(defined), undefined)
+
+
+def _mean(values: np.ndarray) -> float:
+    return float(values.mean()) if len(values) else math.nan
+
+
 @torch.inference_mode()
+def score_samples(
+    model: TrajectronCVAE,
+    config: ExperimentConfig,
+    samples: SampleSet,
+    modes: tuple[str, ...] = ("ml",),
+    batch_size: int = 256,
+    seed: int = 0,
+    progress: bool = False,
+    groups: SampleGroups | None = None,
+    device: torch.device | str = "cpu",
+) -> list[SampleScores]:
+    """Per-sample ADE/FDE (metres) of each requested mode, and the KDE NLL for ``"nll"``.
+
+    Every sample is predicted independently of its batch, so means over a subset of these
+    scores equal an evaluation of that subset (UNIV-N is scored this way). Sampling modes use a
+    generator seeded with ``seed``, so results are reproducible. Grouptron needs the samples'
+    ``groups``. The model must already be on ``device``.
+    """
+    unknown = set(modes) - set(MODES)
+    if unknown:
+        raise ValueError(f"unknown evaluation modes {sorted(unknown)}")
+    model.eval()
+    horizon, dt = config.data.horizon_steps, config.data.dt_s
+    generator = torch.Generator(device=device).manual_seed(seed)
+    count = len(samples)
+    nll_batch = max(1, batch_size // 64)
+    results = []
+    for mode in modes:
+        ade, fde, nll = (np.full(count, np.nan) for _ in range(3))
+        size = nll_batch if mode == "nll" else batch_size
+        iterator = batches(samples, config, size, groups)
+        total = -(-count // size)
+        for index, batch in tqdm(
+            iterator, total=total, desc=mode, disable=not progress, leave=False
+        ):
+            batch = batch.to(device)
+            truth = batch.fut_rel_m.double().cpu().numpy()  # (B, H, 2)
+            if mode in ("ml", "ml-argmax"):
+                predict = predict_most_likely if mode == "ml" else predict_argmax_latent
+                pred = predict(model, batch, horizon, dt).double().cpu().numpy()
+                ade[index], fde[index] = metrics.ade(pred, truth), metrics.fde(pred, truth)
+                continue
+            k = BEST_OF if mode == "best-of-20" else NLL_SAMPLES
+            draws = predict_samples(model, batch, horizon, dt, k, generator)
+            draws_np = draws.double().cpu().numpy()  # (B, K, H, 2)
+            if mode == "best-of-20":
+                ade[index] = metrics.min_ade_k(draws_np, truth)
+                fde[index] = metrics.min_fde_k(draws_np, truth)
+            else:
+                nll[index] = metrics.kde_nll(draws_np, truth)
+        results.append(SampleScores(mode, ade, fde, nll))
+    return results
+
+
 def evaluate_model(
     model: TrajectronCVAE,
     config: ExperimentConfig,
@@ -63,63 +142,8 @@ def evaluate_model(
     groups: SampleGroups | None = None,
     device: torch.device | str = "cpu",
 ) -> list[ModeScores]:
-    """Mean ADE/FDE (metres) of each requested mode, and the KDE NLL for ``"nll"``.
-
-    Sampling modes use a generator seeded with ``seed``, so results are reproducible.
-    Grouptron needs the samples' ``groups``. The model must already be on ``device``.
-    """
-    unknown = set(modes) - set(MODES)
-    if unknown:
-        raise ValueError(f"unknown evaluation modes {sorted(unknown)}")
-    model.eval()
-    horizon, dt = config.data.horizon_steps, config.data.dt_s
-    generator = torch.Generator(device=device).manual_seed(seed)
-    sums = {mode: np.zeros(3) for mode in modes}  # ade, fde, nll sums
-    undefined = 0
-    nll_batch = max(1, batch_size // 64)
-    for mode in modes:
-        size = nll_batch if mode == "nll" else batch_size
-        iterator = batches(samples, config, size, groups)
-        total = -(-len(samples) // size)
-        for _, batch in tqdm(iterator, total=total, desc=mode, disable=not progress, leave=False):
-            batch = batch.to(device)
-            truth = batch.fut_rel_m.double().cpu().numpy()
-            if mode == "ml":
-                pred = predict_most_likely(model, batch, horizon, dt).double().cpu().numpy()
-            elif mode == "ml-argmax":
-                pred = predict_argmax_latent(model, batch, horizon, dt).double().cpu().numpy()
-            else:
-                k = BEST_OF if mode == "best-of-20" else NLL_SAMPLES
-                draws = predict_samples(model, batch, horizon, dt, k, generator)
-                draws_np = draws.double().cpu().numpy()  # (B, K, H, 2)
-                if mode == "best-of-20":
-                    sums[mode] += [
-                        metrics.min_ade_k(draws_np, truth).sum(),
-                        metrics.min_fde_k(draws_np, truth).sum(),
-                        0.0,
-                    ]
-                    continue
-                nll = metrics.kde_nll(draws_np, truth)
-                undefined += int(np.isnan(nll).sum())
-                sums[mode] += [np.nan, np.nan, np.nansum(nll)]
-                continue
-            sums[mode] += [metrics.ade(pred, truth).sum(), metrics.fde(pred, truth).sum(), 0.0]
-    results = []
-    count = len(samples)
-    for mode in modes:
-        ade_sum, fde_sum, nll_sum = sums[mode]
-        if mode == "nll":
-            defined = count - undefined
-            results.append(
-                ModeScores(
-                    mode,
-                    count,
-                    float("nan"),
-                    float("nan"),
-                    nll_sum / defined if defined else float("nan"),
-                    undefined,
-                )
-            )
-        else:
-            results.append(ModeScores(mode, count, ade_sum / count, fde_sum / count))
-    return results
+    """Mean ADE/FDE (metres) of each requested mode over ``samples`` (see ``score_samples``)."""
+    per_sample = score_samples(
+        model, config, samples, modes, batch_size, seed, progress, groups, device
+    )
+    return [scores.summary() for scores in per_sample]

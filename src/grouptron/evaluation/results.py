@@ -34,10 +34,12 @@ class EvaluationResult:
     mode: str | None = None
     nll: float | None = None
     checkpoint: str | None = None
+    protocol: str | None = None
+    """The derivative scheme of the inputs: ``central`` (the papers') or ``backward``."""
 
     def to_dict(self) -> dict[str, object]:
         row = dataclasses.asdict(self)
-        for optional in ("mode", "nll", "checkpoint"):
+        for optional in ("mode", "nll", "checkpoint", "protocol"):
             if row[optional] is None:
                 del row[optional]
         return {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in row.items()}

@@ -26,6 +26,12 @@ class MetricsWriter:
                 writer.writeheader()
             writer.writerow(record)
 
+    def records(self) -> list[dict[str, Any]]:
+        """Every record written so far, in order."""
+        if not self.jsonl.exists():
+            return []
+        return [json.loads(line) for line in self.jsonl.read_text().splitlines() if line]
+
     def _fieldnames(self) -> list[str]:
         with self.csv.open() as handle:
             return next(csv.reader(handle))
@@ -34,8 +40,7 @@ class MetricsWriter:
         """Drop records of epochs after ``epoch`` (a resumed run redoes them)."""
         if not self.jsonl.exists():
             return
-        records = [json.loads(line) for line in self.jsonl.read_text().splitlines() if line]
-        kept = [r for r in records if r.get("epoch", 0) <= epoch]
+        kept = [r for r in self.records() if r.get("epoch", 0) <= epoch]
         self.jsonl.unlink()
         if self.csv.exists():
             self.csv.unlink()

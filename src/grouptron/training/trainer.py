@@ -34,6 +34,7 @@ from grouptron.training import schedules
 from grouptron.training.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from grouptron.training.losses import elbo_loss
 from grouptron.training.metrics_log import MetricsWriter
+from grouptron.training.model_card import describe_device, write_model_card
 
 log = logging.getLogger(__name__)
 
@@ -76,6 +77,8 @@ def setup(
                 f"{out_dir} already holds a training run; pass --resume to continue it or "
                 "choose another --out"
             )
+        if config.train.init_from:
+            _warm_start(state, config, Path(config.train.init_from), device)
         return state
     if not last.exists():
         raise GrouptronError(f"nothing to resume: {last} does not exist")
@@ -98,6 +101,38 @@ def setup(
     state.epoch, state.iteration = checkpoint.epoch, checkpoint.iteration
     state.best_val_fde = checkpoint.extra.get("best_val_fde", math.inf)
     return state
+
+
+def _warm_start(
+    state: TrainState, config: ExperimentConfig, source: Path, device: torch.device
+) -> None:
+    """Start from another run's weights, optimiser state and step count (not its epochs).
+
+    Used to move a trained model to another protocol (e.g. central -> backward derivatives):
+    the step count keeps the KL and logit-clip schedules and the learning-rate decay where
+    the source run left them instead of re-annealing a trained model.
+    """
+    checkpoint = load_checkpoint(source)
+    if checkpoint.config.model_name != config.model_name or (
+        checkpoint.config.model != config.model
+    ):
+        raise GrouptronError(
+            f"{source} holds a {checkpoint.config.model_name} model with other settings; "
+            f"--init-from needs a {config.model_name} checkpoint of the same architecture"
+        )
+    if checkpoint.optimizer_state is None or checkpoint.extra is None:
+        raise GrouptronError(f"{source} holds weights only; --init-from needs last.safetensors")
+    load_weights(
+        state.model, {k: v.to(device) for k, v in checkpoint.model_state.items()}, str(source)
+    )
+    try:
+        state.optimizer.load_state_dict(checkpoint.optimizer_state)
+        state.scheduler.load_state_dict(checkpoint.extra["scheduler"])
+    except (KeyError, ValueError, TypeError, RuntimeError) as exc:
+        raise GrouptronError(
+            f"{source} cannot start a run: damaged training state ({exc})"
+        ) from None
+    state.iteration = checkpoint.iteration
 
 
 def train_epoch(
@@ -238,6 +273,7 @@ def train(
         if max_iterations is not None and state.iteration >= max_iterations:
             break
         record: dict[str, Any] = {"epoch": state.epoch + 1}
+        epoch_started = time.perf_counter()
         record.update(
             train_epoch(state, config, train_samples, progress, max_iterations, train_groups)
         )
@@ -249,6 +285,8 @@ def train(
         record["learning_rate"] = state.scheduler.get_last_lr()[0]
         if len(val_samples):
             record.update(validate(state, config, val_samples, val_groups))
+        record["epoch_seconds"] = time.perf_counter() - epoch_started
+        record["device"] = describe_device(torch.device(device), config.train.threads)
         state.history.append(record)
         writer.write(record)
         val_fde = record.get("val_ml_fde", math.nan)
@@ -256,6 +294,7 @@ def train(
             state.best_val_fde = val_fde
             save_checkpoint(out_dir / BEST, _checkpoint(state, config, weights_only=True))
         save_checkpoint(out_dir / LAST, _checkpoint(state, config, weights_only=False))
+        write_model_card(out_dir, config, writer.records())
         if progress:
             shown = {k: round(v, 4) for k, v in record.items() if isinstance(v, float)}
             tqdm.write(f"epoch {state.epoch}: {shown}")

@@ -1,0 +1,261 @@
+"""The report's rows as Markdown: the paper's Tables I and II with our numbers beside the
+published ones, then best-of-20, KDE NLL, the targets and the checkpoints used.
+
+Cells print FDE/ADE like the paper. "Δ" cells are (ours - published) / published in percent
+for FDE / ADE; negative is better.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from grouptron.data.constants import SPLITS, UNIV_N_PAPER
+from grouptron.evaluation.published import TABLE_I, TABLE_II
+from grouptron.evaluation.report import CONSTANT_VELOCITY
+from grouptron.evaluation.results import MEAN_ROW, EvaluationResult
+
+TABLE_I_COLUMNS = (*SPLITS, MEAN_ROW)
+TABLE_II_COLUMNS = ("univ", *(f"univ-{n}" for n in UNIV_N_PAPER))
+DISPLAY = {
+    "trajectron++": "Trajectron++",
+    "grouptron": "Grouptron",
+    CONSTANT_VELOCITY: "constant velocity",
+    MEAN_ROW: "AVG",
+}
+OURS_MODELS = ("trajectron++", "grouptron")
+TARGET_TOLERANCE = 0.05
+"""The reproduction targets: within 5% of the published row on every split."""
+
+Key = tuple[str, str | None, str, str | None]  # model, protocol, column, mode
+
+
+def _name(value: str) -> str:
+    return DISPLAY.get(value, value.upper())
+
+
+def _column(row: EvaluationResult) -> str:
+    return row.subset if row.subset is not None else row.split
+
+
+def index_rows(rows: Sequence[EvaluationResult]) -> dict[Key, EvaluationResult]:
+    return {(r.model, r.protocol, _column(r), r.mode): r for r in rows}
+
+
+def _pair(fde: float, ade: float) -> str:
+    if math.isnan(fde) or math.isnan(ade):
+        return "-"
+    return f"{fde:.3f}/{ade:.3f}"
+
+
+def _published(values: tuple[float, float]) -> str:
+    """A published (FDE, ADE) as the paper prints it: two decimals, three where it has them."""
+    return "/".join(f"{v:.3f}"[:-1] if f"{v:.3f}".endswith("0") else f"{v:.3f}" for v in values)
+
+
+def _percent(ours: float, reference: float) -> str:
+    return f"{100.0 * (ours - reference) / reference:+.1f}%"
+
+
+def _table(header: Sequence[str], lines: Sequence[Sequence[str]]) -> list[str]:
+    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return out + ["| " + " | ".join(line) + " |" for line in lines]
+
+
+def _ml_table(
+    rows: dict[Key, EvaluationResult],
+    columns: Sequence[str],
+    published: dict[str, dict[str, tuple[float, float]]],
+    protocols: Sequence[str],
+) -> list[str]:
+    """Published rows, our rows per protocol, Δ to published (central) and Grouptron vs ours."""
+    lines: list[list[str]] = []
+
+    def ours(model: str, protocol: str, column: str) -> EvaluationResult | None:
+        return rows.get((model, protocol, column, "ml"))
+
+    for method, values in published.items():
+        if method in OURS_MODELS:
+            continue
+        lines.append([method, "published", *(_published(values[c]) for c in columns)])
+    for model in OURS_MODELS:
+        if model in published:
+            values = published[model]
+            lines.append([_name(model), "published", *(_published(values[c]) for c in columns)])
+        for protocol in protocols:
+            cells = [ours(model, protocol, c) for c in columns]
+            if not any(cells):
+                continue
+            lines.append(
+                [
+                    _name(model),
+                    f"ours, {protocol}",
+                    *(_pair(r.fde, r.ade) if r else "-" for r in cells),
+                ]
+            )
+            if protocol == "central" and model in published:
+                lines.append(
+                    [
+                        "",
+                        "Δ ours vs published",
+                        *(
+                            f"{_percent(r.fde, published[model][c][0])} / "
+                            f"{_percent(r.ade, published[model][c][1])}"
+                            if r
+                            else "-"
+                            for r, c in zip(cells, columns, strict=True)
+                        ),
+                    ]
+                )
+    for protocol in protocols:
+        pairs = [
+            (ours("grouptron", protocol, c), ours("trajectron++", protocol, c)) for c in columns
+        ]
+        if any(g and t for g, t in pairs):
+            lines.append(
+                [
+                    "Grouptron vs Trajectron++",
+                    f"Δ ours, {protocol}",
+                    *(
+                        f"{_percent(g.fde, t.fde)} / {_percent(g.ade, t.ade)}" if g and t else "-"
+                        for g, t in pairs
+                    ),
+                ]
+            )
+    cv = [rows.get((CONSTANT_VELOCITY, protocols[0], c, "ml")) for c in columns]
+    if any(cv):
+        lines.append(
+            [_name(CONSTANT_VELOCITY), "ours", *(_pair(r.fde, r.ade) if r else "-" for r in cv)]
+        )
+    return _table(["method", "source", *(_name(c) for c in columns)], lines)
+
+
+def _mode_table(
+    rows: dict[Key, EvaluationResult],
+    columns: Sequence[str],
+    mode: str,
+    protocols: Sequence[str],
+) -> list[str]:
+    """One line per (model, protocol): FDE/ADE, or the NLL in nats for ``nll``."""
+    lines = []
+    for protocol in protocols:
+        for model in OURS_MODELS:
+            cells = [rows.get((model, protocol, c, mode)) for c in columns]
+            if not any(cells):
+                continue
+            if mode == "nll":
+                text = [
+                    f"{r.nll:.3f} ({r.samples})" if r and r.nll is not None else "-" for r in cells
+                ]
+            else:
+                text = [_pair(r.fde, r.ade) if r else "-" for r in cells]
+            lines.append([_name(model), protocol, *text])
+    if not lines:
+        return []
+    return _table(["model", "protocol", *(_name(c) for c in columns)], lines)
+
+
+def target_checks(rows: dict[Key, EvaluationResult], protocols: Sequence[str]) -> list[str]:
+    """The reproduction targets, each with its measured evidence and 'met' or 'NOT met'."""
+    checks = []
+
+    def ml(model: str, protocol: str, column: str) -> EvaluationResult | None:
+        return rows.get((model, protocol, column, "ml"))
+
+    def verdict(ok: bool) -> str:
+        return "met" if ok else "NOT met"
+
+    if "central" in protocols:
+        for model in OURS_MODELS:
+            worst: list[tuple[float, str]] = []
+            for split in SPLITS:
+                r = ml(model, "central", split)
+                if r is None:
+                    continue
+                fde_ref, ade_ref = TABLE_I[model][split]
+                worst.append((r.fde / fde_ref - 1.0, f"{split} FDE"))
+                worst.append((r.ade / ade_ref - 1.0, f"{split} ADE"))
+            if len(worst) == 2 * len(SPLITS):
+                excess, where = max(worst)
+                checks.append(
+                    f"{_name(model)} within 5% of its published row on every split (central): "
+                    f"{verdict(excess <= TARGET_TOLERANCE)} (largest excess {100 * excess:+.1f}% "
+                    f"on {where})"
+                )
+        mean = ml("grouptron", "central", MEAN_ROW)
+        if mean is not None:
+            fde_ref, ade_ref = TABLE_I["grouptron"][MEAN_ROW]
+            ok = mean.fde <= fde_ref and mean.ade <= ade_ref
+            checks.append(
+                f"Grouptron AVG at or below published {fde_ref:.2f}/{ade_ref:.2f}: "
+                f"{verdict(ok)} ({_pair(mean.fde, mean.ade)})"
+            )
+        for column in TABLE_II_COLUMNS[1:]:
+            r = ml("grouptron", "central", column)
+            if r is not None:
+                fde_ref, ade_ref = TABLE_II["grouptron"][column]
+                ok = r.fde <= fde_ref and r.ade <= ade_ref
+                checks.append(
+                    f"Grouptron {column.upper()} at or below published "
+                    f"{fde_ref:.2f}/{ade_ref:.2f}: {verdict(ok)} ({_pair(r.fde, r.ade)})"
+                )
+    for protocol in protocols:
+        for column in (MEAN_ROW, *TABLE_II_COLUMNS):
+            g, t = ml("grouptron", protocol, column), ml("trajectron++", protocol, column)
+            if g is None or t is None:
+                continue
+            checks.append(
+                f"Grouptron FDE below our Trajectron++ on {_name(column)} ({protocol}): "
+                f"{verdict(g.fde < t.fde)} ({g.fde:.3f} vs {t.fde:.3f})"
+            )
+    return [f"- {check}" for check in checks]
+
+
+def report_markdown(
+    results: Sequence[EvaluationResult], protocols: Sequence[str], command: str
+) -> str:
+    """The whole report as a Markdown document."""
+    rows = index_rows(results)
+    modes = dict.fromkeys(r.mode for r in results if r.model != CONSTANT_VELOCITY)
+    out = [
+        "# Results",
+        "",
+        f"Generated by `{command}` from the checkpoints listed at the end; do not edit by hand.",
+        "Cells are FDE/ADE in metres on the test sets (leave one location out), as in the",
+        "Grouptron paper. *published* rows are copied from the paper (central protocol);",
+        "*ours* rows are measured. Δ is the difference in percent (negative: lower error).",
+        "Protocols: `central` derivatives are the papers' inputs (the velocity at the last",
+        "observed step uses the next, unobserved position); `backward` derivatives are causal.",
+        "",
+        "## Table I: ETH/UCY, most likely prediction",
+        "",
+        *_ml_table(rows, TABLE_I_COLUMNS, TABLE_I, protocols),
+        "",
+        "## Table II: dense UNIV subsets (UNIV-N: N or more people in view), most likely",
+        "",
+        *_ml_table(rows, TABLE_II_COLUMNS, TABLE_II, protocols),
+    ]
+    extra = {
+        "ml-argmax": "Most likely latent value only (decode the argmax z, follow its means)",
+        "best-of-20": "Best of 20 samples (minFDE/minADE)",
+        "nll": "KDE NLL in nats (Scott's bandwidth; 2000 futures per sample; "
+        "in brackets: samples scored)",
+    }
+    for mode, title in extra.items():
+        if mode in modes:
+            table = _mode_table(rows, (*TABLE_I_COLUMNS, *TABLE_II_COLUMNS[1:]), mode, protocols)
+            out += ["", f"## {title}", "", *table]
+    checks = target_checks(rows, protocols)
+    if checks:
+        out += ["", "## Targets", "", *checks]
+    used = sorted(
+        {
+            (r.checkpoint, r.samples)
+            for r in results
+            if r.checkpoint and r.subset is None and r.mode == "ml"
+        }
+    )
+    if used:
+        out += ["", "## Checkpoints", ""]
+        out += _table(["checkpoint", "test samples"], [[f"`{p}`", str(n)] for p, n in used])
+    return "\n".join(out) + "\n"

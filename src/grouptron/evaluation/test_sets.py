@@ -1,0 +1,42 @@
+"""The test samples of a split (optionally a UNIV-N subset) with, for Grouptron, their groups."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from grouptron.config import DataConfig, GroupConfig
+from grouptron.data.dataset import load_groups, load_part
+from grouptron.data.samples import SampleSet
+from grouptron.data.subsets import univ_n_mask
+from grouptron.errors import GrouptronError
+from grouptron.groups.assign import SampleGroups
+
+
+def load_test_set(
+    data_dir: Path,
+    split: str,
+    config: DataConfig,
+    min_present: int | None = None,
+    group_config: GroupConfig | None = None,
+    use_cache: bool = True,
+) -> tuple[SampleSet, SampleGroups | None]:
+    """A split's test samples, restricted to UNIV-N when ``min_present`` is N, and their
+    groups when ``group_config`` is given (Grouptron); both cached on disk."""
+    samples = load_part(data_dir, split, "test", config, use_cache=use_cache).samples
+    if not len(samples):
+        raise GrouptronError(
+            f"{split}: no test samples (every test sample needs {config.history_steps} "
+            f"observed and {config.horizon_steps} future steps)"
+        )
+    groups = None
+    if group_config is not None:
+        groups = load_groups(
+            data_dir, split, "test", config, group_config, samples, use_cache=use_cache
+        )
+    if min_present is not None:
+        keep = univ_n_mask(samples, min_present)
+        if not keep.any():
+            raise GrouptronError(f"no {split} test sample has {min_present} pedestrians or more")
+        groups = groups.subset(keep, samples) if groups is not None else None
+        samples = samples.subset(keep)
+    return samples, groups

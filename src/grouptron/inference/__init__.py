@@ -1,0 +1,1 @@
+"""Forecasting new tracks with a trained model."""

@@ -1,0 +1,112 @@
+"""A model card (README.md) beside every run's checkpoints, rewritten after every epoch.
+
+It says what the weights are (model, split, protocol), how they were trained (recipe, epochs,
+wall time, machine) and how they did on validation, so a shipped checkpoint explains itself.
+"""
+
+from __future__ import annotations
+
+import math
+import platform
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from grouptron.config import ExperimentConfig
+from grouptron.io import write_text_atomically
+
+CARD = "README.md"
+DISPLAY_NAMES = {"trajectron++": "Trajectron++", "grouptron": "Grouptron"}
+PROTOCOL_NOTES = {
+    "central": "central derivatives (the papers' protocol; the last observed velocity uses "
+    "the next position)",
+    "backward": "backward derivatives (causal)",
+}
+
+
+def describe_device(device: torch.device, threads: int) -> str:
+    """E.g. ``"cpu: AMD EPYC 7B13, 2 threads"`` or ``"cuda: NVIDIA H100 80GB HBM3"``."""
+    if device.type == "cuda":
+        return f"cuda: {torch.cuda.get_device_name(device)}"
+    return f"{device.type}: {_cpu_name()}, {threads} threads"
+
+
+def _cpu_name() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown CPU"
+
+
+def _minutes(seconds: float) -> str:
+    return f"{seconds / 60:.1f} min"
+
+
+def render_model_card(name: str, config: ExperimentConfig, records: list[dict[str, Any]]) -> str:
+    """The card of a run from its configuration and per-epoch metric records."""
+    train = config.train
+    scored = [r for r in records if not math.isnan(r.get("val_ml_fde", math.nan))]
+    best = min(scored, key=lambda r: r["val_ml_fde"]) if scored else None
+    last = records[-1] if records else {}
+    timed = [r["epoch_seconds"] for r in records if "epoch_seconds" in r]
+    untimed = [r.get("train_seconds", 0.0) for r in records if "epoch_seconds" not in r]
+    wall = _minutes(sum(timed)) + f" for {len(timed)} epochs (training and validation)"
+    if untimed:
+        wall += (
+            f"; {len(untimed)} earlier epochs logged {_minutes(sum(untimed))} of optimiser steps"
+        )
+    devices = ", ".join(dict.fromkeys(str(r["device"]) for r in records if "device" in r))
+    augmentation = "24-angle rotation augmentation, " if train.rotation_augmentation else ""
+    recipe = (
+        f"Adam {train.learning_rate:g}, decay {train.lr_decay_per_iter:g} per step, batch "
+        f"{train.batch_size}, {augmentation}value clipping {train.grad_clip_value:g}, "
+        f"seed {train.seed}; {train.epochs} epochs scheduled"
+    )
+    if train.init_from:
+        recipe += f"; warm start from `{train.init_from}` (its weights, optimiser and step count)"
+    rows = [
+        ("model", DISPLAY_NAMES.get(config.model_name, config.model_name)),
+        (
+            "split",
+            f"{config.split} (trained on the train parts of the other four locations, "
+            "validated on their val parts)",
+        ),
+        ("protocol", PROTOCOL_NOTES.get(config.data.derivatives, config.data.derivatives)),
+        ("recipe", recipe),
+        ("epochs trained", f"{last.get('epoch', 0)} ({last.get('iteration', 0)} steps in all)"),
+        (
+            "selected",
+            f"epoch {best['epoch']} (best validation ML FDE; test data never used), in "
+            "`best.safetensors`"
+            if best
+            else "no validation yet",
+        ),
+        (
+            "validation ML ADE / FDE",
+            f"{best['val_ml_ade']:.3f} / {best['val_ml_fde']:.3f} m (constant velocity on the "
+            f"same samples: {best['val_cv_ade']:.3f} / {best['val_cv_fde']:.3f} m)"
+            if best
+            else "-",
+        ),
+        ("wall time", wall),
+        ("machine", devices or "not recorded"),
+    ]
+    lines = [f"# {name}", "", "| | |", "|---|---|"]
+    lines += [f"| {key} | {value} |" for key, value in rows]
+    lines += [
+        "",
+        "`last.safetensors` holds the full training state: continue with "
+        f"`grouptron train --split {config.split} --model {config.model_name} --out <this folder> "
+        "--resume --epochs N`. Per-epoch metrics: `metrics.csv`, `metrics.jsonl`.",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def write_model_card(
+    out_dir: Path, config: ExperimentConfig, records: list[dict[str, Any]]
+) -> None:
+    write_text_atomically(out_dir / CARD, render_model_card(out_dir.name, config, records))

@@ -1,0 +1,90 @@
+"""Forecasting track files: coordinates, frames and agreement with the evaluator."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grouptron.cli import main
+from grouptron.data.dataset import load_groups, load_part, load_scenes
+from grouptron.data.locate import split_files
+from grouptron.evaluation.evaluate import evaluate_model
+from grouptron.inference.tracks import forecast_scene
+from grouptron.model.factory import build_model, load_weights
+from grouptron.training.checkpoint import load_checkpoint
+from tests.conftest import write_tracks
+
+
+@pytest.mark.parametrize("model_name", ["trajectron++", "grouptron"])
+def test_ml_forecast_reproduces_the_evaluator(
+    tiny_checkpoints: Path, synthetic_data_dir: Path, model_name: str
+) -> None:
+    path = tiny_checkpoints / f"{model_name}-eth-central/best.safetensors"
+    checkpoint = load_checkpoint(path)
+    config = checkpoint.config
+    model = build_model(config)
+    load_weights(model, checkpoint.model_state, str(path))
+    (scene,) = load_scenes(split_files(synthetic_data_dir, "eth", "test"), config.data)
+    forecast = forecast_scene(model, config, scene)
+    # Forecasts are made wherever 8 steps are observed, also without a known future.
+    has_future = ~np.isnan(forecast.samples.fut_rel_m).any(axis=(1, 2))
+    assert has_future.any() and not has_future.all()
+    # Where the file has the future, the truth is the file's own positions k steps later.
+    table = np.loadtxt(split_files(synthetic_data_dir, "eth", "test")[0])
+    position = {(int(f), int(i)): (x, y) for f, i, x, y in table}
+    truth = np.array(
+        [
+            [position[(int(f + 10 * k), int(p))] for k in range(1, 13)]
+            for f, p in zip(forecast.frame[has_future], forecast.ped_id[has_future], strict=True)
+        ]
+    )  # (S, 12, 2)
+    error = np.linalg.norm(forecast.positions[has_future, 0] - truth, axis=-1)  # (S, 12)
+    test = load_part(synthetic_data_dir, "eth", "test", config.data)
+    groups = None
+    if model_name == "grouptron":
+        groups = load_groups(
+            synthetic_data_dir, "eth", "test", config.data, config.groups, test.samples
+        )
+    (scores,) = evaluate_model(model, config, test.samples, ("ml",), groups=groups)
+    assert len(truth) == scores.samples
+    assert error.mean() == pytest.approx(scores.ade, abs=1e-3)  # file has 3 decimals
+    assert error[:, -1].mean() == pytest.approx(scores.fde, abs=1e-3)
+
+
+def test_predict_command_writes_ml_and_sample_rows(
+    tiny_checkpoints: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    rows = [(100 + 10 * s, 7, 1.0 + 0.5 * s, -2.0) for s in range(9)]
+    rows += [(100 + 10 * s, 8, 1.0 + 0.5 * s, 0.0) for s in range(3, 9)]
+    tracks = write_tracks(tmp_path / "walk.txt", rows)
+    checkpoint = str(tiny_checkpoints / "grouptron-eth-central/best.safetensors")
+    common = ["predict", "--checkpoint", checkpoint, "--tracks", str(tracks), "--quiet"]
+    out = tmp_path / "ml.csv"
+    assert main([*common, "--out", str(out)]) == 0
+    with out.open() as handle:
+        ml = list(csv.DictReader(handle))
+    # Pedestrian 7 has 8 observed steps at frames 170 and 180; pedestrian 8 never does.
+    assert [(r["frame"], r["id"]) for r in ml[::12]] == [("170", "7"), ("180", "7")]
+    assert [int(r["step"]) for r in ml[:12]] == list(range(1, 13))
+    assert all(abs(float(r["x"])) < 60 and abs(float(r["y"]) + 2) < 30 for r in ml)
+    out = tmp_path / "samples.csv"
+    assert main([*common, "--out", str(out), "--mode", "samples", "--samples", "3"]) == 0
+    with out.open() as handle:
+        drawn = list(csv.DictReader(handle))
+    assert len(drawn) == 2 * 3 * 12 and {r["sample"] for r in drawn} == {"0", "1", "2"}
+
+
+def test_predict_refuses_short_tracks_and_missing_files(
+    tiny_checkpoints: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tracks = write_tracks(tmp_path / "short.txt", [(10 * s, 1, 0.1 * s, 0.0) for s in range(5)])
+    checkpoint = str(tiny_checkpoints / "trajectron++-eth-central/best.safetensors")
+    common = ["predict", "--checkpoint", checkpoint, "--out", str(tmp_path / "o.csv")]
+    assert main([*common, "--tracks", str(tracks)]) == 2
+    assert "nothing to forecast" in capsys.readouterr().err
+    assert main([*common, "--tracks", str(tmp_path / "missing.txt")]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+    assert not (tmp_path / "o.csv").exists()
