@@ -25,10 +25,10 @@ $(STAMP): pyproject.toml
 	$(BIN)/pip install --quiet -e '.[dev]'
 	touch $(STAMP)
 
+# The paper's Tables I and II (most likely predictions) from the shipped checkpoints.
 demo: install
 	$(BIN)/grouptron data fetch
-	$(BIN)/grouptron data stats --split all
-	$(BIN)/grouptron evaluate --model constant-velocity --split all
+	$(BIN)/grouptron report --mode ml
 
 lint: install
 	$(BIN)/ruff check src tests benchmarks

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 import torch
 
-from grouptron.config import ExperimentConfig, TrainConfig
+from grouptron.config import ExperimentConfig, TrainConfig, load_config
 from grouptron.data.dataset import load_part
 from grouptron.data.samples import SampleSet
 from grouptron.errors import GrouptronError
@@ -78,6 +78,7 @@ def test_warm_start_continues_weights_and_schedule_under_another_protocol(
     moved = train(backward, *parts(synthetic_data_dir, backward), tmp_path / "b", progress=False)
     assert moved.epoch == 1 and moved.iteration == 2 * source.iteration
     assert moved.optimizer.param_groups[0]["lr"] < source.optimizer.param_groups[0]["lr"]
+    assert load_config(ExperimentConfig, tmp_path / "b" / "config.json") == backward
     card = (tmp_path / "b" / "README.md").read_text()
     assert "backward derivatives (causal)" in card and "warm start from" in card
     assert "| epochs trained | 1 (" in card and "cpu:" in card

@@ -20,7 +20,7 @@ import torch
 from tqdm import tqdm
 
 from grouptron.baselines.constant_velocity import constant_velocity
-from grouptron.config import ExperimentConfig
+from grouptron.config import ExperimentConfig, save_config
 from grouptron.data.augment import draw_rotation_angles
 from grouptron.data.samples import SampleSet
 from grouptron.errors import GrouptronError
@@ -39,6 +39,7 @@ from grouptron.training.model_card import describe_device, write_model_card
 log = logging.getLogger(__name__)
 
 LAST = "last.safetensors"
+CONFIG = "config.json"
 BEST = "best.safetensors"
 
 
@@ -266,6 +267,7 @@ def train(
     out_dir.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(config.train.threads)
     state = setup(config, out_dir, resume, torch.device(device))
+    save_config(config, out_dir / CONFIG)  # the same JSON as in the checkpoints, for reading
     writer = MetricsWriter(out_dir)
     if resume:
         writer.truncate_after(state.epoch)
