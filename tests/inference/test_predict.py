@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,7 @@ from grouptron.evaluation.evaluate import evaluate_model
 from grouptron.inference.tracks import forecast_scene
 from grouptron.model.factory import build_model, load_weights
 from grouptron.training.checkpoint import load_checkpoint
-from tests.conftest import write_tracks
+from tests.conftest import REPO, write_tracks
 
 
 @pytest.mark.parametrize("model_name", ["trajectron++", "grouptron"])
@@ -88,3 +89,31 @@ def test_predict_refuses_short_tracks_and_missing_files(
     assert main([*common, "--tracks", str(tmp_path / "missing.txt")]) == 2
     assert capsys.readouterr().err.count("\n") == 1
     assert not (tmp_path / "o.csv").exists()
+
+
+@pytest.mark.realdata
+def test_shipped_checkpoint_csv_reproduces_the_evaluator_on_eth(
+    eth_ucy_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    checkpoint = REPO / "checkpoints/trajectron++-eth-central/best.safetensors"
+    if not checkpoint.exists():
+        pytest.skip("shipped checkpoints not present")
+    tracks = eth_ucy_dir / "eth/test/biwi_eth.txt"
+    out = tmp_path / "eth.csv"
+    predict = ["predict", "--checkpoint", str(checkpoint), "--tracks", str(tracks), "--quiet"]
+    assert main([*predict, "--out", str(out)]) == 0
+    capsys.readouterr()
+    evaluate = ["evaluate", "--checkpoint", str(checkpoint), "--data-dir", str(eth_ucy_dir)]
+    assert main([*evaluate, "--quiet", "--format", "json"]) == 0
+    (scores,) = json.loads(capsys.readouterr().out)["results"]
+    # Score the CSV against the file itself, wherever the file has all 12 future positions.
+    observed = np.loadtxt(tracks)
+    truth = {(int(f), float(i)): (x, y) for f, i, x, y in observed}
+    rows = np.loadtxt(out, delimiter=",", skiprows=1)  # frame, id, step, x, y
+    future = [truth.get((int(f + 10 * k), float(i))) for f, i, k, _, _ in rows]
+    error = np.array([np.hypot(x - t[0], y - t[1]) if t else np.nan for (*_, x, y), t in
+                      zip(rows, future, strict=True)]).reshape(-1, 12)  # fmt: skip
+    complete = ~np.isnan(error).any(axis=1)
+    assert complete.sum() == scores["samples"] == 364
+    assert error[complete].mean() == pytest.approx(scores["ade"], abs=1e-4)
+    assert error[complete, -1].mean() == pytest.approx(scores["fde"], abs=1e-4)
