@@ -70,7 +70,8 @@ def synthetic_data_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="session")
 def tiny_checkpoints(synthetic_data_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A checkpoint folder laid out like ``checkpoints/``: tiny Trajectron++ and Grouptron
-    models trained one epoch on the synthetic eth split (central derivatives)."""
+    models trained one epoch on the synthetic eth split (central derivatives), and a tiny
+    backward-derivative Grouptron."""
     import dataclasses
 
     from grouptron.config import ExperimentConfig, TrainConfig
@@ -79,9 +80,11 @@ def tiny_checkpoints(synthetic_data_dir: Path, tmp_path_factory: pytest.TempPath
     from tests.model.test_cvae import SMALL
 
     root = tmp_path_factory.mktemp("checkpoints")
-    for model in ("trajectron++", "grouptron"):
+    runs = [("trajectron++", "central"), ("grouptron", "central"), ("grouptron", "backward")]
+    for model, protocol in runs:
         config = ExperimentConfig(
             model_name=model,
+            data=dataclasses.replace(ExperimentConfig().data, derivatives=protocol),
             model=dataclasses.replace(SMALL, group_dim=4),
             train=TrainConfig(epochs=1, batch_size=64, threads=1),
         )
@@ -99,7 +102,7 @@ def tiny_checkpoints(synthetic_data_dir: Path, tmp_path_factory: pytest.TempPath
         train(
             config,
             *parts,
-            root / f"{model}-eth-central",
+            root / f"{model}-eth-{protocol}",
             progress=False,
             train_groups=groups[0],
             val_groups=groups[1],

@@ -14,3 +14,14 @@ future ``t+1..t+12``. Every step is 0.4 s (the ETH/UCY convention).
 """
 
 __version__ = "0.1.0"
+
+__all__ = ["Forecast", "Predictor", "StreamSession", "__version__"]
+
+
+def __getattr__(name: str) -> object:
+    # The API pulls in PyTorch; import it on first use so `import grouptron` stays light.
+    if name in ("Forecast", "Predictor", "StreamSession"):
+        from grouptron.inference import predictor
+
+        return getattr(predictor, name)
+    raise AttributeError(f"module 'grouptron' has no attribute {name!r}")

@@ -154,6 +154,25 @@ def read_tracks(
     if frames_per_step < 1:
         raise DataFormatError(path, f"frames per step must be >= 1, not {frames_per_step}")
     values, lines = _parse(path)
+    return table_from_values(path, values, lines, frames_per_step, on_gap)
+
+
+def table_from_values(
+    source: Path,
+    values: np.ndarray,
+    lines: np.ndarray,
+    frames_per_step: int = FRAMES_PER_STEP,
+    on_gap: GapPolicy = "split",
+    warn_on_gap: bool = True,
+) -> TrackTable:
+    """Validate finite (R, 4) ``frame id x y`` values into a table; errors name ``source`` and
+    the entry of ``lines`` (file line or row number) at fault. See :func:`read_tracks`.
+    ``warn_on_gap=False`` splits gapped tracks silently (missed detections in live data)."""
+    if frames_per_step < 1:
+        raise DataFormatError(source, f"frames per step must be >= 1, not {frames_per_step}")
+    if len(values) == 0:
+        raise DataFormatError(source, "no 'frame id x y' rows")
+    path = source
     _check_integers(path, values, lines)
     frame = values[:, 0].astype(np.int64)
     ped_id = values[:, 1].astype(np.int64)
@@ -194,12 +213,13 @@ def read_tracks(
         )
         if on_gap == "error":
             raise DataFormatError(path, message, int(lines[where + 1]))
-        log.warning(
-            "%s: %d track gap(s); split into separate tracks (first: %s)",
-            path,
-            int(gap.sum()),
-            message,
-        )
+        if warn_on_gap:
+            log.warning(
+                "%s: %d track gap(s); split into separate tracks (first: %s)",
+                path,
+                int(gap.sum()),
+                message,
+            )
     new_track = np.concatenate([[True], ~same_ped | gap])
     track = np.cumsum(new_track) - 1
     return TrackTable(

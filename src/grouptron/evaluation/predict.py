@@ -6,7 +6,7 @@ import torch
 
 from grouptron.evaluation.mixture_mode import mixture_mode
 from grouptron.model.batch import Batch
-from grouptron.model.cvae import Encoding, TrajectronCVAE
+from grouptron.model.cvae import Encoding, TrajectronCVAE, VelocityGaussians
 
 
 def encode_prior(model: TrajectronCVAE, batch: Batch) -> Encoding:
@@ -23,8 +23,22 @@ def predict_most_likely(
     Every latent value is decoded feeding back its mean; at each step the velocity is the mode
     of the Z-component mixture weighted by p(z|x); velocities are integrated to positions.
     """
+    encoding, velocity = decode_every_latent(model, batch, horizon)
+    return most_likely_positions(encoding, velocity, horizon, dt_s)
+
+
+def decode_every_latent(
+    model: TrajectronCVAE, batch: Batch, horizon: int
+) -> tuple[Encoding, VelocityGaussians]:
+    """p(z|x) and the velocity Gaussians of all Z latent values, each following its means."""
     encoding = encode_prior(model, batch)
-    velocity = model.decode(encoding.x, batch.state_now_st, None, horizon, "mean")
+    return encoding, model.decode(encoding.x, batch.state_now_st, None, horizon, "mean")
+
+
+def most_likely_positions(
+    encoding: Encoding, velocity: VelocityGaussians, horizon: int, dt_s: float
+) -> torch.Tensor:
+    """(B, H, 2): per step, the mode of the p(z|x)-weighted velocity mixture, integrated."""
     B, Z = encoding.p_logits.shape
     log_weights = encoding.p_logits[:, None, :].expand(B, horizon, Z)  # (B, H, Z)
     mode = mixture_mode(

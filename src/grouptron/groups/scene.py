@@ -56,15 +56,32 @@ def groups_per_step(
     pad = history_steps - 1
     pos, present = position_grid(scene, pad)
     for step in range(0, scene.num_steps, every):  # one clustering per step
-        tracks = np.flatnonzero(present[:, step + pad])
-        if len(tracks) == 0:
-            continue
-        window = slice(step, step + pad + 1)
-        distances = pairwise_distances(
-            pos[tracks, window], present[tracks, window], config.distance, config.quantile
-        )
-        labels = agglomerative_groups(distances, config.linkage)
-        yield StepGroups(step, tracks, labels, distances, pos[tracks, step + pad])
+        found = _cluster_step(pos, present, step, pad, config)
+        if found is not None:
+            yield found
+
+
+def groups_at_step(
+    scene: Scene, config: GroupConfig, step: int, history_steps: int = HISTORY_STEPS
+) -> StepGroups | None:
+    """The scene-wide groups of one step (None when nobody is present)."""
+    pad = history_steps - 1
+    pos, present = position_grid(scene, pad)
+    return _cluster_step(pos, present, step, pad, config)
+
+
+def _cluster_step(
+    pos: np.ndarray, present: np.ndarray, step: int, pad: int, config: GroupConfig
+) -> StepGroups | None:
+    tracks = np.flatnonzero(present[:, step + pad])
+    if len(tracks) == 0:
+        return None
+    window = slice(step, step + pad + 1)
+    distances = pairwise_distances(
+        pos[tracks, window], present[tracks, window], config.distance, config.quantile
+    )
+    labels = agglomerative_groups(distances, config.linkage)
+    return StepGroups(step, tracks, labels, distances, pos[tracks, step + pad])
 
 
 def score_against_labels(

@@ -21,6 +21,12 @@ def covariance_entries(log_sigma: torch.Tensor, corr: torch.Tensor) -> torch.Ten
     )
 
 
+def covariance_matrices(entries: torch.Tensor) -> torch.Tensor:
+    """(..., 3) covariance entries -> (..., 2, 2) symmetric matrices."""
+    var_x, cov_xy, var_y = entries.unbind(-1)
+    return torch.stack([torch.stack([var_x, cov_xy], -1), torch.stack([cov_xy, var_y], -1)], -2)
+
+
 def log_prob(points: torch.Tensor, mean: torch.Tensor, cov: torch.Tensor) -> torch.Tensor:
     """Bivariate Gaussian log-density: (..., 2) points, (..., 2) means, (..., 3) cov -> (...)."""
     var_x, cov_xy, var_y = cov.unbind(-1)

@@ -1,0 +1,322 @@
+"""The Python API: forecasts for live or recorded tracks from a trained checkpoint.
+
+    predictor = Predictor.from_checkpoint("grouptron-univ-backward")
+    forecast = predictor.predict(tracks)            # (R, 4) frame, id, x, y
+    session = predictor.stream()
+    forecast = session.update(frame, ids, xy)       # one frame at a time
+
+Only positions up to the forecast frame are used. Every agent observed at that frame with
+``history_steps`` consecutive steps gets a forecast; the others are skipped.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from grouptron.config import ExperimentConfig
+from grouptron.data.reader import table_from_values
+from grouptron.data.samples import SampleSet, scene_samples
+from grouptron.data.scene import Scene, build_scene
+from grouptron.errors import GrouptronError
+from grouptron.evaluation.evaluate import batches
+from grouptron.evaluation.predict import (
+    decode_every_latent,
+    most_likely_positions,
+    predict_samples,
+)
+from grouptron.groups.assign import assign_groups
+from grouptron.groups.scene import groups_at_step
+from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.factory import build_model, load_weights, uses_groups
+from grouptron.model.gaussians import covariance_matrices
+from grouptron.training.checkpoint import load_checkpoint
+
+log = logging.getLogger(__name__)
+
+CHECKPOINTS_ENV = "GROUPTRON_CHECKPOINTS"
+WEIGHTS_FILE = "best.safetensors"
+TRACK_COLUMNS = ("frame", "id", "x", "y")
+
+
+@dataclass(frozen=True)
+class Forecast:
+    """Forecasts of ``N`` agents made at one frame (positions in the input's coordinates).
+
+    Attributes:
+        frame: the frame forecast from (the last observation used).
+        ids: (N,) agent ids, ascending.
+        most_likely: (N, H, 2) most likely positions at steps 1..H after ``frame``.
+        samples: (N, K, H, 2) sampled futures, or None when none were asked for.
+        mixture_log_weights: (N, Z) log p(z|x) of the Z latent values.
+        mixture_means: (N, Z, H, 2) position means of each latent value's Gaussians.
+        mixture_covariances: (N, Z, H, 2, 2) their covariances (m^2).
+        group: (N,) scene-wide group of every agent at ``frame`` (agglomerative clustering of
+            everyone present on their histories, C(N) groups; numbered from 0).
+    """
+
+    frame: int
+    ids: np.ndarray
+    most_likely: np.ndarray
+    samples: np.ndarray | None
+    mixture_log_weights: np.ndarray
+    mixture_means: np.ndarray
+    mixture_covariances: np.ndarray
+    group: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+
+def _as_track_array(tracks: Any) -> np.ndarray:
+    """(R, 4) float64 ``frame, id, x, y`` from an array or a table with those columns."""
+    if hasattr(tracks, "columns"):  # a DataFrame-like table: pick the columns by name
+        missing = [c for c in TRACK_COLUMNS if c not in list(tracks.columns)]
+        if missing:
+            raise GrouptronError(f"tracks lack the columns {missing} (need frame, id, x, y)")
+        tracks = np.column_stack([np.asarray(tracks[c], dtype=np.float64) for c in TRACK_COLUMNS])
+    try:
+        values = np.asarray(tracks, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise GrouptronError("tracks must be numbers: rows of frame, id, x, y") from None
+    if values.ndim != 2 or values.shape[1] != 4:
+        raise GrouptronError(
+            f"tracks must have shape (rows, 4) = frame, id, x, y; got {values.shape}"
+        )
+    bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
+    if bad.size:
+        raise GrouptronError(f"tracks row {int(bad[0])} is not finite: {values[bad[0]].tolist()}")
+    return values
+
+
+def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | None = None) -> Path:
+    """A checkpoint file from a path or a shipped name such as ``"grouptron-univ-backward"``.
+
+    Names are looked up in ``checkpoints_dir``, ``$GROUPTRON_CHECKPOINTS`` and ``./checkpoints``.
+    """
+    path = Path(name_or_path)
+    if path.is_file():
+        return path
+    if path.is_dir() and (path / WEIGHTS_FILE).is_file():
+        return path / WEIGHTS_FILE
+    folders = [Path(d) for d in (checkpoints_dir, os.environ.get(CHECKPOINTS_ENV)) if d]
+    folders.append(Path("checkpoints"))
+    for folder in folders:
+        candidate = folder / str(name_or_path) / WEIGHTS_FILE
+        if candidate.is_file():
+            return candidate
+    known = sorted(
+        {p.parent.name for f in folders if f.is_dir() for p in f.glob(f"*/{WEIGHTS_FILE}")}
+    )
+    hint = f"; known names: {', '.join(known)}" if known else ""
+    raise GrouptronError(
+        f"no checkpoint {name_or_path!s}: not a file, and no {WEIGHTS_FILE} under "
+        f"{', '.join(str(f) for f in folders)}{hint}"
+    )
+
+
+class Predictor:
+    """A trained Trajectron++ or Grouptron model ready to forecast tracks."""
+
+    def __init__(self, model: TrajectronCVAE, config: ExperimentConfig, source: str = "") -> None:
+        self.model = model.eval()
+        self.config = config
+        self.source = source
+        self._warned_central = False
+
+    @classmethod
+    def from_checkpoint(
+        cls,
+        name_or_path: str | Path,
+        checkpoints_dir: str | Path | None = None,
+        threads: int | None = None,
+    ) -> Predictor:
+        """Load a ``.safetensors`` checkpoint (never a pickle) by path or shipped name."""
+        path = resolve_checkpoint(name_or_path, checkpoints_dir)
+        checkpoint = load_checkpoint(path)
+        model = build_model(checkpoint.config)
+        load_weights(model, checkpoint.model_state, str(path))
+        if threads is not None:
+            torch.set_num_threads(threads)
+        return cls(model, checkpoint.config, str(path))
+
+    @property
+    def history_steps(self) -> int:
+        return self.config.data.history_steps
+
+    @property
+    def frames_per_step(self) -> int:
+        return self.config.data.frames_per_step
+
+    def predict(
+        self,
+        tracks: Any,
+        t: int | None = None,
+        num_samples: int = 0,
+        seed: int = 0,
+    ) -> Forecast:
+        """Forecast every agent observed at frame ``t`` (default: the last frame) with
+        ``history_steps`` consecutive steps up to it; rows after ``t`` are ignored.
+
+        Args:
+            tracks: (R, 4) rows ``frame, id, x, y`` (an array, a list of rows, or a table with
+                those columns); frames on a grid of ``frames_per_step`` (10 for ETH/UCY-like
+                0.4 s steps), ids integers, coordinates in metres.
+            t: the frame to forecast from.
+            num_samples: sampled futures per agent (0: only the most likely and the mixture).
+            seed: seed of the samples.
+        """
+        values = _as_track_array(tracks)
+        if len(values) == 0:
+            raise GrouptronError("tracks are empty: no frame, id, x, y rows")
+        frame = int(values[:, 0].max()) if t is None else int(t)
+        return self._forecast(values[values[:, 0] <= frame], frame, num_samples, seed)
+
+    def stream(self) -> StreamSession:
+        """A session that is fed one frame at a time and keeps the history it needs."""
+        return StreamSession(self)
+
+    def _forecast(self, values: np.ndarray, frame: int, num_samples: int, seed: int) -> Forecast:
+        if num_samples < 0:
+            raise GrouptronError(f"num_samples must be >= 0, not {num_samples}")
+        self._warn_if_central()
+        data = self.config.data
+        if len(values) == 0 or not (values[:, 0] == frame).any():
+            return self._empty(frame, num_samples)
+        table = table_from_values(
+            Path("tracks"),
+            values,
+            np.arange(len(values)),
+            data.frames_per_step,
+            on_gap="split",
+            warn_on_gap=False,
+        )
+        scene = build_scene(table, data, name="tracks")
+        step = (frame - scene.first_frame) // scene.frames_per_step
+        samples = scene_samples(scene, data, data.history_steps, require_future=False)
+        samples = samples.subset(samples.step == step)
+        if not len(samples):
+            return self._empty(frame, num_samples)
+        return self._run(scene, samples, frame, step, num_samples, seed)
+
+    @torch.inference_mode()
+    def _run(
+        self,
+        scene: Scene,
+        samples: SampleSet,
+        frame: int,
+        step: int,
+        num_samples: int,
+        seed: int,
+    ) -> Forecast:
+        data, H, dt = self.config.data, self.config.data.horizon_steps, self.config.data.dt_s
+        groups = (
+            assign_groups(samples, self.config.groups, data.position_scale_m)
+            if uses_groups(self.config)
+            else None
+        )
+        ((_, batch),) = batches(samples, self.config, len(samples), groups)
+        encoding, velocity = decode_every_latent(self.model, batch, H)
+        most_likely = most_likely_positions(encoding, velocity, H, dt).double().numpy()
+        mean = torch.cumsum(velocity.mean, dim=2) * dt  # (N, Z, H, 2) positions
+        cov = torch.cumsum(velocity.cov, dim=2) * dt**2  # (N, Z, H, 3)
+        drawn = None
+        if num_samples:
+            generator = torch.Generator().manual_seed(seed)
+            drawn = predict_samples(self.model, batch, H, dt, num_samples, generator)
+        origin = samples.pos_now_scene_m.astype(np.float64) + scene.centre_world_m  # (N, 2)
+        found = groups_at_step(scene, self.config.groups, step, data.history_steps)
+        group_of_track = np.full(scene.num_tracks, -1)
+        if found is not None:
+            group_of_track[found.tracks] = found.labels
+        ids = scene.ped_id[samples.track]
+        order = np.argsort(ids, kind="stable")
+        return Forecast(
+            frame=frame,
+            ids=ids[order],
+            most_likely=(most_likely + origin[:, None])[order],
+            samples=None
+            if drawn is None
+            else (drawn.double().numpy() + origin[:, None, None])[order],
+            mixture_log_weights=torch.log_softmax(encoding.p_logits, -1).double().numpy()[order],
+            mixture_means=(mean.double().numpy() + origin[:, None, None])[order],
+            mixture_covariances=covariance_matrices(cov).double().numpy()[order],
+            group=group_of_track[samples.track][order],
+        )
+
+    def _empty(self, frame: int, num_samples: int) -> Forecast:
+        H, Z = self.config.data.horizon_steps, self.config.model.latent_modes
+        return Forecast(
+            frame=frame,
+            ids=np.zeros(0),
+            most_likely=np.zeros((0, H, 2)),
+            samples=np.zeros((0, num_samples, H, 2)) if num_samples else None,
+            mixture_log_weights=np.zeros((0, Z)),
+            mixture_means=np.zeros((0, Z, H, 2)),
+            mixture_covariances=np.zeros((0, Z, H, 2, 2)),
+            group=np.zeros(0, dtype=np.int64),
+        )
+
+    def _warn_if_central(self) -> None:
+        if self.config.data.derivatives == "central" and not self._warned_central:
+            self._warned_central = True
+            warnings.warn(
+                f"{self.source or 'this model'} was trained with central derivatives, whose "
+                "velocity at the last observed step uses the next position; live tracks do not "
+                "have it, so forecasts are off-protocol. Use a 'backward' checkpoint for live "
+                "data.",
+                stacklevel=3,
+            )
+
+
+class StreamSession:
+    """Feeds a :class:`Predictor` one frame at a time.
+
+    Keeps, per agent, the last ``history_steps + 2`` steps (two more than the encoder reads, so
+    velocities and accelerations at the oldest step equal those of the whole track); agents
+    appear and vanish freely and a missed detection splits the agent's track.
+    """
+
+    def __init__(self, predictor: Predictor) -> None:
+        self.predictor = predictor
+        self._rows = np.zeros((0, 4))
+        self._last_frame: int | None = None
+
+    @property
+    def window_frames(self) -> int:
+        return (self.predictor.history_steps + 1) * self.predictor.frames_per_step
+
+    def update(
+        self, frame: int, ids: Any, xy: Any, num_samples: int = 0, seed: int = 0
+    ) -> Forecast:
+        """Add the agents observed at ``frame`` ((N,) ids, (N, 2) positions in metres) and
+        forecast every agent with enough history."""
+        ids_arr = np.asarray(ids, dtype=np.float64).reshape(-1)
+        xy_arr = (
+            np.asarray(xy, dtype=np.float64).reshape(-1, 2) if len(ids_arr) else np.zeros((0, 2))
+        )
+        if len(xy_arr) != len(ids_arr):
+            raise GrouptronError(f"{len(ids_arr)} ids but {len(xy_arr)} positions at frame {frame}")
+        if self._last_frame is not None:
+            if frame <= self._last_frame:
+                raise GrouptronError(
+                    f"frame {frame} is not after the previous frame {self._last_frame}"
+                )
+            if (frame - self._last_frame) % self.predictor.frames_per_step:
+                raise GrouptronError(
+                    f"frame {frame} is not on the {self.predictor.frames_per_step}-frame grid of "
+                    f"the previous frame {self._last_frame}"
+                )
+        new = np.column_stack([np.full(len(ids_arr), float(frame)), ids_arr, xy_arr])
+        _as_track_array(new)  # finite, shape
+        rows = np.concatenate([self._rows, new])
+        self._rows = rows[rows[:, 0] >= frame - self.window_frames]
+        self._last_frame = frame
+        return self.predictor._forecast(self._rows, frame, num_samples, seed)

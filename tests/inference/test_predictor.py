@@ -1,0 +1,120 @@
+"""The Python API: one-shot and streaming forecasts agree with each other and the evaluator."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grouptron import Predictor
+from grouptron.data.dataset import load_scenes
+from grouptron.data.locate import split_files
+from grouptron.errors import GrouptronError
+from grouptron.inference.tracks import forecast_scene
+
+
+@pytest.fixture(scope="module")
+def recording(synthetic_data_dir: Path) -> np.ndarray:
+    """(R, 4) frame, id, x, y rows of the synthetic test recording."""
+    return np.loadtxt(split_files(synthetic_data_dir, "eth", "test")[0])
+
+
+@pytest.fixture(scope="module")
+def causal(tiny_checkpoints: Path) -> Predictor:
+    return Predictor.from_checkpoint("grouptron-eth-backward", checkpoints_dir=tiny_checkpoints)
+
+
+def test_predict_matches_the_track_file_forecast(
+    causal: Predictor, recording: np.ndarray, synthetic_data_dir: Path
+) -> None:
+    (scene,) = load_scenes(split_files(synthetic_data_dir, "eth", "test"), causal.config.data)
+    whole = forecast_scene(causal.model, causal.config, scene)
+    frame = int(np.median(whole.frame))
+    forecast = causal.predict(recording, t=frame, num_samples=4)
+    at_frame = whole.frame == frame
+    assert len(forecast) == at_frame.sum() > 1
+    order = np.argsort(whole.ped_id[at_frame])
+    np.testing.assert_allclose(forecast.ids, whole.ped_id[at_frame][order])
+    np.testing.assert_allclose(
+        forecast.most_likely, whole.positions[at_frame][order][:, 0], atol=1e-5
+    )
+    N, Z, H = len(forecast), causal.config.model.latent_modes, 12
+    assert forecast.samples is not None and forecast.samples.shape == (N, 4, H, 2)
+    assert forecast.mixture_means.shape == (N, Z, H, 2)
+    np.testing.assert_allclose(np.exp(forecast.mixture_log_weights).sum(1), 1.0, rtol=1e-5)
+    cov = forecast.mixture_covariances
+    np.testing.assert_allclose(cov, cov.swapaxes(-1, -2))
+    assert (np.linalg.eigvalsh(cov) > 0).all()
+    assert ((forecast.group >= 0) & (forecast.group < N)).all()
+
+
+def test_streaming_equals_predicting_from_all_rows(
+    causal: Predictor, recording: np.ndarray
+) -> None:
+    session = causal.stream()
+    compared = 0
+    for frame in np.unique(recording[:, 0]):
+        rows = recording[recording[:, 0] == frame]
+        streamed = session.update(int(frame), rows[:, 1], rows[:, 2:])
+        direct = causal.predict(recording, t=int(frame))
+        np.testing.assert_array_equal(streamed.ids, direct.ids)
+        np.testing.assert_allclose(streamed.most_likely, direct.most_likely, atol=1e-5)
+        np.testing.assert_array_equal(streamed.group, direct.group)
+        compared += len(direct)
+    assert compared > 50
+    # The session keeps a bounded window, not the whole recording.
+    assert np.ptp(session._rows[:, 0]) <= session.window_frames
+
+
+def test_a_central_checkpoint_warns_on_live_tracks(
+    tiny_checkpoints: Path, recording: np.ndarray
+) -> None:
+    path = tiny_checkpoints / "trajectron++-eth-central" / "best.safetensors"
+    predictor = Predictor.from_checkpoint(path)
+    with pytest.warns(UserWarning, match="central derivatives"):
+        predictor.predict(recording)
+
+
+class _Table:
+    """A minimal DataFrame stand-in: named columns."""
+
+    def __init__(self, values: np.ndarray, names: tuple[str, ...]) -> None:
+        self.columns = list(names)
+        self._values = dict(zip(names, values.T, strict=True))
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self._values[name]
+
+
+def test_inputs_are_checked(causal: Predictor, recording: np.ndarray, tmp_path: Path) -> None:
+    table = _Table(recording[:, [2, 3, 0, 1]], ("x", "y", "frame", "id"))
+    np.testing.assert_allclose(
+        causal.predict(table).most_likely, causal.predict(recording).most_likely
+    )
+    bad = recording.copy()
+    bad[5, 2] = np.nan
+    cases = [
+        (lambda: causal.predict(recording[:, :3]), "shape|rows, 4"),
+        (lambda: causal.predict(bad), "row 5 is not finite"),
+        (lambda: causal.predict([["a", 1, 2, 3]]), "must be numbers"),
+        (lambda: causal.predict(np.zeros((0, 4))), "empty"),
+        (lambda: causal.predict(_Table(recording, ("frame", "id", "x", "z"))), "columns"),
+        (lambda: causal.predict(recording, num_samples=-1), "num_samples"),
+        (lambda: Predictor.from_checkpoint("nope", checkpoints_dir=tmp_path), "no checkpoint nope"),
+    ]
+    for call, message in cases:
+        with pytest.raises(GrouptronError, match=message):
+            call()
+    session = causal.stream()
+    session.update(100, [1, 2], [[0.0, 0.0], [1.0, 1.0]])
+    for frame, ids, xy, message in [
+        (100, [1], [[0, 0]], "not after"),
+        (105, [1], [[0, 0]], "grid"),
+        (110, [1, 2], [[0, 0]], "2 ids but 1 positions"),
+        (110, [1], [[np.inf, 0]], "not finite"),
+    ]:
+        with pytest.raises(GrouptronError, match=message):
+            session.update(frame, ids, xy)
+    # Nobody with 8 steps yet: an empty forecast, not an error.
+    assert len(session.update(110, [1], [[0.1, 0.1]])) == 0
