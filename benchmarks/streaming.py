@@ -1,0 +1,67 @@
+"""Latency of live forecasting: one ``stream().update`` (groups + most likely) per frame.
+
+Usage:
+    python benchmarks/streaming.py [--checkpoint NAME_OR_PATH] [--people 10,50,100,200]
+                                   [--frames 60] [--threads 2]
+
+A synthetic scene of N pedestrians walking in pairs and alone through a square sized for about
+one person per 4 m^2 is streamed frame by frame; the first 9 frames (before anyone has 8 steps)
+are not timed. Prints the median and 90th percentile of the update time per N.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+import torch
+
+from grouptron import Predictor
+
+
+def synthetic_frames(
+    people: int, frames: int, seed: int = 0
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(ids, (N, 2) positions) per frame; pairs share a heading and walk side by side."""
+    rng = np.random.default_rng(seed)
+    side = 2.0 * np.sqrt(people)
+    start = rng.uniform(0, side, (people, 2))
+    heading = rng.uniform(0, 2 * np.pi, people)
+    heading[1::2] = heading[::2][: people // 2]  # partners walk alike
+    start[1::2] = start[::2][: people // 2] + 0.6
+    velocity = 1.2 * np.stack([np.cos(heading), np.sin(heading)], 1)
+    out = []
+    for k in range(frames):
+        wobble = rng.normal(0, 0.02, (people, 2))
+        out.append((np.arange(people), start + velocity * 0.4 * k + wobble))
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--checkpoint", default="grouptron-univ-backward")
+    parser.add_argument("--people", default="10,50,100,200")
+    parser.add_argument("--frames", type=int, default=60)
+    parser.add_argument("--threads", type=int, default=2)
+    args = parser.parse_args()
+    torch.set_num_threads(args.threads)
+    predictor = Predictor.from_checkpoint(args.checkpoint)
+    print(f"{predictor.source}: {predictor.config.model_name}, {args.threads} threads")
+    print(f"{'people':>7} {'median ms':>10} {'p90 ms':>8} {'forecasts':>10}")
+    for people in (int(n) for n in args.people.split(",")):
+        session = predictor.stream()
+        times, count = [], 0
+        for k, (ids, xy) in enumerate(synthetic_frames(people, args.frames)):
+            started = time.perf_counter()
+            forecast = session.update(10 * k, ids, xy)
+            if k >= 9:
+                times.append(1000 * (time.perf_counter() - started))
+                count = len(forecast)
+        p90 = float(np.percentile(times, 90))
+        print(f"{people:>7} {statistics.median(times):>10.1f} {p90:>8.1f} {count:>10}")
+
+
+if __name__ == "__main__":
+    main()
