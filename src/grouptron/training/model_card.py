@@ -46,6 +46,12 @@ def _minutes(seconds: float) -> str:
     return f"{seconds / 60:.1f} min"
 
 
+def _epochs_trained(last: dict[str, Any], warm_started: bool) -> str:
+    steps = f"{last.get('iteration', 0)} optimiser steps"
+    steps += ", counting the warm start's" if warm_started else ""
+    return f"{last.get('epoch', 0)} ({steps})"
+
+
 def render_model_card(name: str, config: ExperimentConfig, records: list[dict[str, Any]]) -> str:
     """The card of a run from its configuration and per-epoch metric records."""
     train = config.train
@@ -54,11 +60,15 @@ def render_model_card(name: str, config: ExperimentConfig, records: list[dict[st
     last = records[-1] if records else {}
     timed = [r["epoch_seconds"] for r in records if "epoch_seconds" in r]
     untimed = [r.get("train_seconds", 0.0) for r in records if "epoch_seconds" not in r]
-    wall = _minutes(sum(timed)) + f" for {len(timed)} epochs (training and validation)"
+    parts = []
+    if timed:
+        parts.append(f"{_minutes(sum(timed))} for {len(timed)} epochs (training and validation)")
     if untimed:
-        wall += (
-            f"; {len(untimed)} earlier epochs logged {_minutes(sum(untimed))} of optimiser steps"
+        parts.append(
+            f"{_minutes(sum(untimed))} of optimiser steps for {len(untimed)} epochs whose "
+            "whole-epoch time was not logged"
         )
+    wall = "; ".join(parts) or "-"
     devices = ", ".join(dict.fromkeys(str(r["device"]) for r in records if "device" in r))
     augmentation = "24-angle rotation augmentation, " if train.rotation_augmentation else ""
     recipe = (
@@ -77,7 +87,7 @@ def render_model_card(name: str, config: ExperimentConfig, records: list[dict[st
         ),
         ("protocol", PROTOCOL_NOTES.get(config.data.derivatives, config.data.derivatives)),
         ("recipe", recipe),
-        ("epochs trained", f"{last.get('epoch', 0)} ({last.get('iteration', 0)} steps in all)"),
+        ("epochs trained", _epochs_trained(last, bool(train.init_from))),
         (
             "selected",
             f"epoch {best['epoch']} (best validation ML FDE; test data never used), in "
