@@ -303,6 +303,8 @@ def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
+    if args.out and Path(args.out).is_dir():  # refuse before the work, not after it
+        raise GrouptronError(f"{args.out} is a folder; give a file name for the output")
     protocols = PROTOCOLS if args.protocol == "both" else (args.protocol,)
     modes = _eval_modes(args.mode)
     settings = ReportSettings(
@@ -331,6 +333,8 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_predict(args: argparse.Namespace) -> int:
+    if Path(args.out).is_dir():  # refuse before the work, not after it
+        raise GrouptronError(f"{args.out} is a folder; give a file name for the output")
     checkpoint = load_checkpoint(args.checkpoint)
     experiment = checkpoint.config
     model = build_model(experiment)

@@ -88,6 +88,9 @@ def test_predict_refuses_short_tracks_and_missing_files(
     assert "nothing to forecast" in capsys.readouterr().err
     assert main([*common, "--tracks", str(tmp_path / "missing.txt")]) == 2
     assert capsys.readouterr().err.count("\n") == 1
+    folder_out = ["predict", "--checkpoint", checkpoint, "--tracks", str(tracks), "--out"]
+    assert main([*folder_out, str(tmp_path)]) == 2
+    assert "is a folder" in capsys.readouterr().err
     assert not (tmp_path / "o.csv").exists()
 
 
