@@ -2,13 +2,17 @@
 
 Usage:
     python benchmarks/seed_study.py [--split univ] [--seeds 0,1,2] [--epochs 10]
-                                    [--out runs/seeds] [--data-dir DIR]
+                                    [--warm-start checkpoints] [--out runs/seeds]
+                                    [--data-dir DIR]
 
 Trains (or resumes, or reuses) ``OUT/<model>-<split>-s<seed>`` with
 ``grouptron train --split SPLIT --model MODEL --seed SEED --epochs EPOCHS`` (central
-derivatives, default recipe), then scores every run's ``best.safetensors`` on the split's test set
-(most likely) and, for univ, on UNIV-40/45/50. Prints per-seed FDE/ADE and mean +- standard
-deviation per model, and the Grouptron - Trajectron++ FDE difference per seed.
+derivatives, default recipe; with ``--warm-start DIR`` each run continues
+``DIR/<model>-<split>-central/last.safetensors`` for EPOCHS more epochs, so the seeds differ in
+the shuffling and augmentation of those epochs), then scores every run's ``best.safetensors``
+on the split's test set (most likely) and, for univ, on UNIV-40/45/50. Prints per-seed
+FDE/ADE, mean +- standard deviation per model, and the Grouptron - Trajectron++ FDE difference
+per seed.
 """
 
 from __future__ import annotations
@@ -31,12 +35,16 @@ from grouptron.training.checkpoint import load_checkpoint
 MODELS = ("trajectron++", "grouptron")
 
 
-def train_run(model: str, split: str, seed: int, epochs: int, out: Path) -> None:
+def train_run(
+    model: str, split: str, seed: int, epochs: int, out: Path, warm_start: str | None
+) -> None:
     """Train (or resume to ``epochs``) one run with the command-line tool."""
     argv = [sys.executable, "-m", "grouptron.cli", "train", "--split", split, "--model", model,
             "--seed", str(seed), "--epochs", str(epochs), "--out", str(out), "--quiet"]  # fmt: skip
     if (out / "last.safetensors").exists():
         argv.append("--resume")
+    elif warm_start:
+        argv += ["--init-from", f"{warm_start}/{model}-{split}-central/last.safetensors"]
     subprocess.run(argv, check=True)
 
 
@@ -61,6 +69,7 @@ def main() -> None:
     parser.add_argument("--split", default="univ")
     parser.add_argument("--seeds", default="0,1,2")
     parser.add_argument("--epochs", type=int, default=10)
+    parser.add_argument("--warm-start", help="continue the central runs in this folder")
     parser.add_argument("--out", default="runs/seeds")
     parser.add_argument("--data-dir")
     args = parser.parse_args()
@@ -72,12 +81,17 @@ def main() -> None:
         for model in MODELS:
             run = Path(args.out) / f"{model}-{args.split}-s{seed}"
             if not (run / "done").exists():
-                train_run(model, args.split, seed, args.epochs, run)
+                train_run(model, args.split, seed, args.epochs, run, args.warm_start)
                 (run / "done").write_text("trained\n")
             results[model, seed] = score_run(run / "best.safetensors", data_dir)
     subsets = list(results[MODELS[0], seeds[0]])
     names = [s or args.split for s in subsets]
-    print(f"{args.split}, {args.epochs} epochs, seeds {seeds}: most likely FDE/ADE (m)")
+    how = (
+        f"{args.epochs} more epochs from {args.warm_start}"
+        if args.warm_start
+        else (f"{args.epochs} epochs from scratch")
+    )
+    print(f"{args.split}, {how}, seeds {seeds}: most likely FDE/ADE on test (m)")
     print(f"{'model':<14} {'seed':>5} " + " ".join(f"{n:>13}" for n in names))
     for model in MODELS:
         for seed in seeds:
