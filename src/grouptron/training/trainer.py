@@ -35,11 +35,13 @@ from grouptron.training.checkpoint import Checkpoint, load_checkpoint, save_chec
 from grouptron.training.losses import elbo_loss
 from grouptron.training.metrics_log import MetricsWriter
 from grouptron.training.model_card import describe_device, write_model_card
+from grouptron.viz.training import plot_training_curves
 
 log = logging.getLogger(__name__)
 
 LAST = "last.safetensors"
 CONFIG = "config.json"
+CURVES = "curves.png"
 BEST = "best.safetensors"
 
 
@@ -300,4 +302,6 @@ def train(
         if progress:
             shown = {k: round(v, 4) for k, v in record.items() if isinstance(v, float)}
             tqdm.write(f"epoch {state.epoch}: {shown}")
+    if state.history:
+        plot_training_curves(writer.records(), out_dir.name, out_dir / CURVES)
     return state
