@@ -49,6 +49,7 @@ from grouptron.groups.clustering import LINKAGES
 from grouptron.groups.distances import DISTANCE_KINDS
 from grouptron.groups.labels import read_group_labels, read_id_map
 from grouptron.groups.scene import groups_per_step, position_grid, score_against_labels
+from grouptron.inference.predictor import Predictor
 from grouptron.inference.tracks import FORECAST_MODES, forecast_scene
 from grouptron.io import (
     write_array_csv_atomically,
@@ -58,6 +59,7 @@ from grouptron.io import (
 from grouptron.model.factory import MODEL_NAMES, build_model, load_weights, uses_groups
 from grouptron.training.checkpoint import load_checkpoint
 from grouptron.training.trainer import LAST, train
+from grouptron.viz.forecasts import Panel, plot_forecasts, tracks_around
 from grouptron.viz.groups import plot_step_groups
 
 log = logging.getLogger("grouptron")
@@ -353,6 +355,39 @@ def cmd_predict(args: argparse.Namespace) -> int:
         f"wrote {len(rows)} rows for {len(forecast.frame)} (pedestrian, frame) pairs "
         f"({experiment.model_name}, {data.derivatives} derivatives, {args.mode}) to {args.out}"
     )
+    return 0
+
+
+# --- plot -------------------------------------------------------------------------------------
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    if Path(args.out).is_dir():
+        raise GrouptronError(f"{args.out} is a folder; give a file name for the output")
+    predictors = [Predictor.from_checkpoint(c) for c in (args.checkpoint, args.compare) if c]
+    data = predictors[0].config.data
+    table = read_tracks(args.tracks, data.frames_per_step, args.on_gap)
+    rows = np.column_stack([table.frame, table.ped_id, table.pos_m]).astype(np.float64)
+    panels = []
+    for predictor in predictors:
+        forecast = predictor.predict(rows, args.frame, args.samples, args.seed, live=False)
+        if not len(forecast):
+            raise GrouptronError(
+                f"{args.tracks}: nobody at frame {args.frame} has {data.history_steps} observed "
+                "steps; pick another --frame"
+            )
+        history, truth = tracks_around(
+            rows,
+            forecast.ids,
+            args.frame,
+            data.frames_per_step,
+            data.history_steps - 1,
+            data.horizon_steps,
+        )
+        name = f"{predictor.config.model_name} ({predictor.config.data.derivatives})"
+        panels.append(Panel(name, forecast, history, truth))
+    plot_forecasts(panels, args.frame, Path(args.out))
+    print(f"wrote {args.out}: {len(panels[0].forecast)} pedestrians at frame {args.frame}")
     return 0
 
 
@@ -718,6 +753,34 @@ def build_parser() -> argparse.ArgumentParser:
     predict.add_argument("--threads", type=_positive_int, default=2, help="CPU threads")
     predict.add_argument("--quiet", action="store_true", help="no progress bar")
     predict.set_defaults(handler=cmd_predict)
+
+    plot = commands.add_parser(
+        "plot",
+        help="draw a checkpoint's forecasts at one frame of a track file",
+        description="Draw, at one frame, every pedestrian with 8 observed steps: the observed "
+        "path, the recorded future (dotted), the most likely forecast (dashed) and sampled "
+        "futures (thin), coloured by detected group; axes in metres. --compare adds a second "
+        "model's panel beside the first.",
+        formatter_class=_Formatter,
+        epilog="examples:\n"
+        "  grouptron plot --checkpoint checkpoints/grouptron-univ-central/best.safetensors \\\n"
+        "      --tracks students003.txt --frame 3000 --out forecast.png\n"
+        "  grouptron plot --checkpoint A --compare B --tracks FILE --frame F --out ab.png",
+    )
+    plot.add_argument("--checkpoint", required=True, help="a .safetensors checkpoint")
+    plot.add_argument("--compare", help="a second checkpoint drawn beside the first")
+    plot.add_argument("--tracks", required=True, help="a 'frame id x y' track file")
+    plot.add_argument("--frame", type=int, required=True, help="the frame to forecast from")
+    plot.add_argument("--out", required=True, help="PNG file to write")
+    plot.add_argument("--samples", type=_non_negative_int, default=20, help="sampled futures")
+    plot.add_argument("--seed", type=int, default=0, help="seed of the samples")
+    plot.add_argument(
+        "--on-gap",
+        choices=("split", "error"),
+        default="split",
+        help="split tracks with gaps (with a warning) or refuse them",
+    )
+    plot.set_defaults(handler=cmd_plot)
 
     train_cmd = commands.add_parser(
         "train",

@@ -120,3 +120,21 @@ def test_shipped_checkpoint_csv_reproduces_the_evaluator_on_eth(
     assert complete.sum() == scores["samples"] == 364
     assert error[complete].mean() == pytest.approx(scores["ade"], abs=1e-4)
     assert error[complete, -1].mean() == pytest.approx(scores["fde"], abs=1e-4)
+
+
+def test_plot_draws_one_panel_per_model_and_refuses_an_empty_frame(
+    tiny_checkpoints: Path, synthetic_data_dir: Path, tmp_path: Path
+) -> None:
+    tracks = next((synthetic_data_dir / "eth/test").glob("*.txt"))
+    frames = np.loadtxt(tracks)[:, 0]
+    a = str(tiny_checkpoints / "trajectron++-eth-central/best.safetensors")
+    b = str(tiny_checkpoints / "grouptron-eth-backward/best.safetensors")
+    out = tmp_path / "plot.png"
+    argv = ["plot", "--checkpoint", a, "--tracks", str(tracks), "--samples", "3"]
+    assert (
+        main([*argv, "--compare", b, "--frame", str(int(frames.max()) - 50), "--out", str(out)])
+        == 0
+    )
+    assert out.read_bytes()[:4] == b"\x89PNG"
+    assert main([*argv, "--frame", str(int(frames.min())), "--out", str(tmp_path / "x.png")]) == 2
+    assert not (tmp_path / "x.png").exists()

@@ -161,9 +161,12 @@ class Predictor:
         t: int | None = None,
         num_samples: int = 0,
         seed: int = 0,
+        live: bool = True,
     ) -> Forecast:
         """Forecast every agent observed at frame ``t`` (default: the last frame) with
-        ``history_steps`` consecutive steps up to it; rows after ``t`` are ignored.
+        ``history_steps`` consecutive steps up to it; rows after ``t`` are ignored unless
+        ``live`` is False (a recording: then the derivatives use the rows the checkpoint's
+        protocol reads, as the evaluator does; ``central`` reads one step ahead).
 
         Args:
             tracks: (R, 4) rows ``frame, id, x, y`` (an array, a list of rows, or a table with
@@ -177,16 +180,25 @@ class Predictor:
         if len(values) == 0:
             raise GrouptronError("tracks are empty: no frame, id, x, y rows")
         frame = int(values[:, 0].max()) if t is None else int(t)
-        return self._forecast(values[values[:, 0] <= frame], frame, num_samples, seed)
+        rows = values[values[:, 0] <= frame] if live else values
+        return self._forecast(rows, frame, num_samples, seed, warn_off_protocol=live)
 
     def stream(self) -> StreamSession:
         """A session that is fed one frame at a time and keeps the history it needs."""
         return StreamSession(self)
 
-    def _forecast(self, values: np.ndarray, frame: int, num_samples: int, seed: int) -> Forecast:
+    def _forecast(
+        self,
+        values: np.ndarray,
+        frame: int,
+        num_samples: int,
+        seed: int,
+        warn_off_protocol: bool = True,
+    ) -> Forecast:
         if num_samples < 0:
             raise GrouptronError(f"num_samples must be >= 0, not {num_samples}")
-        self._warn_if_central()
+        if warn_off_protocol:
+            self._warn_if_central()
         data = self.config.data
         if len(values) == 0 or not (values[:, 0] == frame).any():
             return self._empty(frame, num_samples)

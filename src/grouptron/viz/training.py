@@ -32,7 +32,8 @@ def plot_training_curves(records: list[dict[str, Any]], title: str, out: Path) -
                 val_ax.plot(epochs, values, style, label=label)
         val_ax.set(xlabel="epoch", ylabel="metres", title="validation")
         val_ax.grid(alpha=0.3)
-        val_ax.legend()
+        if val_ax.get_lines():
+            val_ax.legend()
         fig.suptitle(title)
         fig.tight_layout()
         fig.savefig(out)
