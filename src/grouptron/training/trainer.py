@@ -90,19 +90,15 @@ def setup(
         raise GrouptronError(
             f"{last} was trained with a different configuration; resume with the same options"
         )
-    load_weights(model, {k: v.to(device) for k, v in checkpoint.model_state.items()}, str(last))
-    if checkpoint.optimizer_state is None or checkpoint.extra is None:
-        raise GrouptronError(f"{last} holds weights only and cannot be resumed")
+    extra = _restore(state, checkpoint, last, device, "cannot be resumed")
     try:
-        optimizer.load_state_dict(checkpoint.optimizer_state)
-        scheduler.load_state_dict(checkpoint.extra["scheduler"])
-        state.rng.bit_generator.state = checkpoint.extra["numpy_rng"]
+        state.rng.bit_generator.state = extra["numpy_rng"]
         if checkpoint.torch_rng_state is not None:
             torch.set_rng_state(checkpoint.torch_rng_state)
     except (KeyError, ValueError, TypeError, RuntimeError) as exc:
         raise GrouptronError(f"{last} cannot be resumed: damaged training state ({exc})") from None
-    state.epoch, state.iteration = checkpoint.epoch, checkpoint.iteration
-    state.best_val_fde = checkpoint.extra.get("best_val_fde", math.inf)
+    state.epoch = checkpoint.epoch
+    state.best_val_fde = extra.get("best_val_fde", math.inf)
     return state
 
 
@@ -123,19 +119,25 @@ def _warm_start(
             f"{source} holds a {checkpoint.config.model_name} model with other settings; "
             f"--init-from needs a {config.model_name} checkpoint of the same architecture"
         )
+    _restore(state, checkpoint, source, device, "cannot start a run (--init-from)")
+
+
+def _restore(
+    state: TrainState, checkpoint: Checkpoint, source: Path, device: torch.device, use: str
+) -> dict[str, Any]:
+    """Weights, optimiser, scheduler and step count of a full training checkpoint; returns the
+    checkpoint's extra state (RNG, best score) for a resume."""
     if checkpoint.optimizer_state is None or checkpoint.extra is None:
-        raise GrouptronError(f"{source} holds weights only; --init-from needs last.safetensors")
-    load_weights(
-        state.model, {k: v.to(device) for k, v in checkpoint.model_state.items()}, str(source)
-    )
+        raise GrouptronError(f"{source} holds weights only and {use}; it needs last.safetensors")
+    weights = {k: v.to(device) for k, v in checkpoint.model_state.items()}
+    load_weights(state.model, weights, str(source))
     try:
         state.optimizer.load_state_dict(checkpoint.optimizer_state)
         state.scheduler.load_state_dict(checkpoint.extra["scheduler"])
     except (KeyError, ValueError, TypeError, RuntimeError) as exc:
-        raise GrouptronError(
-            f"{source} cannot start a run: damaged training state ({exc})"
-        ) from None
+        raise GrouptronError(f"{source} {use}: damaged training state ({exc})") from None
     state.iteration = checkpoint.iteration
+    return checkpoint.extra
 
 
 def train_epoch(
