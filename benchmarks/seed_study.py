@@ -29,8 +29,8 @@ from grouptron.data.locate import resolve_data_dir
 from grouptron.evaluation.evaluate import score_samples
 from grouptron.evaluation.report import subset_masks
 from grouptron.evaluation.test_sets import load_test_set
-from grouptron.model.factory import build_model, load_weights, uses_groups
-from grouptron.training.checkpoint import load_checkpoint
+from grouptron.model.factory import uses_groups
+from grouptron.training.checkpoint import load_trained_model
 
 MODELS = ("trajectron++", "grouptron")
 
@@ -50,10 +50,7 @@ def train_run(
 
 def score_run(path: Path, data_dir: Path) -> dict[str | None, tuple[float, float]]:
     """(FDE, ADE) of the most likely prediction on the test set and its UNIV-N subsets."""
-    checkpoint = load_checkpoint(path)
-    config = checkpoint.config
-    model = build_model(config)
-    load_weights(model, checkpoint.model_state, str(path))
+    model, config = load_trained_model(path)
     groups_config = config.groups if uses_groups(config) else None
     samples, groups = load_test_set(data_dir, config.split, config.data, None, groups_config)
     (scores,) = score_samples(model, config, samples, ("ml",), groups=groups)

@@ -107,16 +107,13 @@ def eval_speed(data_dir: Path | None, checkpoint: str | None) -> dict[str, float
     from grouptron.data.dataset import load_part
     from grouptron.data.locate import resolve_data_dir
     from grouptron.evaluation.evaluate import evaluate_model
-    from grouptron.model.factory import build_model, load_weights
-    from grouptron.training.checkpoint import load_checkpoint
+    from grouptron.model.factory import build_model
+    from grouptron.training.checkpoint import load_trained_model
 
     config = ExperimentConfig()
     model = build_model(config)
     if checkpoint:
-        loaded = load_checkpoint(checkpoint)
-        config = loaded.config
-        model = build_model(config)
-        load_weights(model, loaded.model_state, checkpoint)
+        model, config = load_trained_model(checkpoint)
     root = resolve_data_dir(data_dir)
     tests = {s: load_part(root, s, "test", config.data).samples for s in SPLITS}
     start = time.perf_counter()

@@ -56,8 +56,8 @@ from grouptron.io import (
     write_csv_atomically,
     write_text_atomically,
 )
-from grouptron.model.factory import MODEL_NAMES, build_model, load_weights, uses_groups
-from grouptron.training.checkpoint import load_checkpoint
+from grouptron.model.factory import MODEL_NAMES, uses_groups
+from grouptron.training.checkpoint import load_checkpoint, load_trained_model
 from grouptron.training.trainer import LAST, train
 from grouptron.viz.forecasts import Panel, plot_forecasts, tracks_around
 from grouptron.viz.groups import plot_step_groups
@@ -225,10 +225,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     data_dir = resolve_data_dir(args.data_dir)
     model = None
     if args.checkpoint:
-        checkpoint = load_checkpoint(args.checkpoint)
-        experiment = checkpoint.config
-        model = build_model(experiment)
-        load_weights(model, checkpoint.model_state, args.checkpoint)
+        model, experiment = load_trained_model(args.checkpoint)
         torch.set_num_threads(experiment.train.threads)
         config = experiment.data
         if args.derivatives and args.derivatives != config.derivatives:
@@ -337,10 +334,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 def cmd_predict(args: argparse.Namespace) -> int:
     if Path(args.out).is_dir():  # refuse before the work, not after it
         raise GrouptronError(f"{args.out} is a folder; give a file name for the output")
-    checkpoint = load_checkpoint(args.checkpoint)
-    experiment = checkpoint.config
-    model = build_model(experiment)
-    load_weights(model, checkpoint.model_state, args.checkpoint)
+    model, experiment = load_trained_model(args.checkpoint)
     torch.set_num_threads(args.threads)
     frames_per_step = args.frames_per_step or experiment.data.frames_per_step
     data = dataclasses.replace(experiment.data, frames_per_step=frames_per_step)

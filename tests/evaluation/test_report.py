@@ -23,21 +23,15 @@ from grouptron.evaluation.report import (
 )
 from grouptron.evaluation.report_tables import report_markdown
 from grouptron.evaluation.results import EvaluationResult
-from grouptron.model.factory import build_model, load_weights
-from grouptron.training.checkpoint import load_checkpoint
-
-
-def _model(path: Path):
-    checkpoint = load_checkpoint(path)
-    model = build_model(checkpoint.config)
-    load_weights(model, checkpoint.model_state, str(path))
-    return model, checkpoint.config
+from grouptron.training.checkpoint import load_trained_model
 
 
 def test_subset_means_of_per_sample_scores_equal_evaluating_the_subset(
     tiny_checkpoints: Path, synthetic_data_dir: Path
 ) -> None:
-    model, config = _model(tiny_checkpoints / "trajectron++-eth-central/best.safetensors")
+    model, config = load_trained_model(
+        tiny_checkpoints / "trajectron++-eth-central/best.safetensors"
+    )
     samples = load_part(synthetic_data_dir, "eth", "test", config.data).samples
     keep = np.arange(len(samples)) % 3 == 0
     (per_sample,) = score_samples(model, config, samples, ("ml",), batch_size=7)

@@ -14,8 +14,7 @@ from grouptron.data.dataset import load_groups, load_part, load_scenes
 from grouptron.data.locate import split_files
 from grouptron.evaluation.evaluate import evaluate_model
 from grouptron.inference.tracks import forecast_scene
-from grouptron.model.factory import build_model, load_weights
-from grouptron.training.checkpoint import load_checkpoint
+from grouptron.training.checkpoint import load_trained_model
 from tests.conftest import REPO, write_tracks
 
 
@@ -24,10 +23,7 @@ def test_ml_forecast_reproduces_the_evaluator(
     tiny_checkpoints: Path, synthetic_data_dir: Path, model_name: str
 ) -> None:
     path = tiny_checkpoints / f"{model_name}-eth-central/best.safetensors"
-    checkpoint = load_checkpoint(path)
-    config = checkpoint.config
-    model = build_model(config)
-    load_weights(model, checkpoint.model_state, str(path))
+    model, config = load_trained_model(path)
     (scene,) = load_scenes(split_files(synthetic_data_dir, "eth", "test"), config.data)
     forecast = forecast_scene(model, config, scene)
     # Forecasts are made wherever 8 steps are observed, also without a known future.

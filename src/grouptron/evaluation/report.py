@@ -30,8 +30,8 @@ from grouptron.evaluation.results import EvaluationResult, mean_over_splits, sco
 from grouptron.evaluation.test_sets import load_test_set
 from grouptron.geometry import DERIVATIVE_SCHEMES, DerivativeScheme
 from grouptron.groups.assign import SampleGroups
-from grouptron.model.factory import MODEL_NAMES, build_model, load_weights, uses_groups
-from grouptron.training.checkpoint import load_checkpoint
+from grouptron.model.factory import MODEL_NAMES, uses_groups
+from grouptron.training.checkpoint import load_trained_model
 
 log = logging.getLogger(__name__)
 
@@ -153,16 +153,13 @@ def evaluate_checkpoint(
     progress: bool = False,
 ) -> list[EvaluationResult]:
     """All rows of one checkpoint: each mode on its test set and, for univ, on UNIV-N."""
-    checkpoint = load_checkpoint(entry.path)
-    experiment = checkpoint.config
+    model, experiment = load_trained_model(entry.path)
     stored = (experiment.model_name, experiment.split, experiment.data.derivatives)
     if stored != (entry.model, entry.split, entry.protocol):
         raise GrouptronError(
             f"{entry.path}: its folder says {entry.model} on {entry.split} ({entry.protocol}) "
             f"but it holds {stored[0]} on {stored[1]} ({stored[2]})"
         )
-    model = build_model(experiment)
-    load_weights(model, checkpoint.model_state, str(entry.path))
     group_config = experiment.groups if uses_groups(experiment) else None
     samples, groups = load_test_set(
         data_dir, entry.split, experiment.data, None, group_config, settings.use_cache

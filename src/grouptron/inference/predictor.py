@@ -35,9 +35,9 @@ from grouptron.evaluation.predict import (
 from grouptron.groups.assign import assign_groups
 from grouptron.groups.scene import groups_at_step
 from grouptron.model.cvae import TrajectronCVAE
-from grouptron.model.factory import build_model, load_weights, uses_groups
+from grouptron.model.factory import uses_groups
 from grouptron.model.gaussians import covariance_matrices
-from grouptron.training.checkpoint import load_checkpoint
+from grouptron.training.checkpoint import load_trained_model
 
 log = logging.getLogger(__name__)
 
@@ -140,12 +140,10 @@ class Predictor:
     ) -> Predictor:
         """Load a ``.safetensors`` checkpoint (never a pickle) by path or shipped name."""
         path = resolve_checkpoint(name_or_path, checkpoints_dir)
-        checkpoint = load_checkpoint(path)
-        model = build_model(checkpoint.config)
-        load_weights(model, checkpoint.model_state, str(path))
+        model, config = load_trained_model(path)
         if threads is not None:
             torch.set_num_threads(threads)
-        return cls(model, checkpoint.config, str(path))
+        return cls(model, config, str(path))
 
     @property
     def history_steps(self) -> int:

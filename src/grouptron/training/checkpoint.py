@@ -20,6 +20,8 @@ from safetensors.torch import load_file, safe_open, save_file
 
 from grouptron.config import ExperimentConfig, config_from_dict, config_to_dict
 from grouptron.errors import GrouptronError
+from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.factory import build_model, load_weights
 
 FORMAT_VERSION = 1
 FORMAT_NAME = "grouptron-checkpoint"
@@ -166,3 +168,11 @@ def load_checkpoint(path: str | Path) -> Checkpoint:
         extra=extra,
         torch_rng_state=tensors.get("rng.torch"),
     )
+
+
+def load_trained_model(path: str | Path) -> tuple[TrajectronCVAE, ExperimentConfig]:
+    """The model stored in a checkpoint (weights loaded strictly, eval mode) and its config."""
+    checkpoint = load_checkpoint(path)
+    model = build_model(checkpoint.config)
+    load_weights(model, checkpoint.model_state, str(path))
+    return model.eval(), checkpoint.config
