@@ -52,6 +52,7 @@ from grouptron.groups.scene import groups_per_step, position_grid, score_against
 from grouptron.inference.predictor import Predictor
 from grouptron.inference.tracks import FORECAST_MODES, forecast_scene
 from grouptron.io import (
+    refuse_folder,
     write_array_csv_atomically,
     write_csv_atomically,
     write_text_atomically,
@@ -77,6 +78,16 @@ class _Parser(argparse.ArgumentParser):
         raise GrouptronError(message)
 
 
+def _add_gap_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--on-gap",
+        choices=("split", "error"),
+        default="split",
+        help="a track that misses steps in the middle: split it into two tracks (with a "
+        "warning) or stop with an error",
+    )
+
+
 def _add_data_options(parser: argparse.ArgumentParser, derivatives: bool = True) -> None:
     parser.add_argument(
         "--data-dir",
@@ -89,13 +100,7 @@ def _add_data_options(parser: argparse.ArgumentParser, derivatives: bool = True)
             help="velocity/acceleration scheme: 'central' (the papers' protocol, looks one step "
             "ahead; the default) or 'backward' (causal); a checkpoint brings its own",
         )
-    parser.add_argument(
-        "--on-gap",
-        choices=("split", "error"),
-        default="split",
-        help="a track that misses steps in the middle: split it into two tracks (with a "
-        "warning) or stop with an error",
-    )
+    _add_gap_option(parser)
     parser.add_argument(
         "--no-cache", action="store_true", help="rebuild samples instead of using the cache"
     )
@@ -302,8 +307,8 @@ def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    if args.out and Path(args.out).is_dir():  # refuse before the work, not after it
-        raise GrouptronError(f"{args.out} is a folder; give a file name for the output")
+    if args.out:
+        refuse_folder(Path(args.out))  # before the work, not after it
     protocols = PROTOCOLS if args.protocol == "both" else (args.protocol,)
     modes = _eval_modes(args.mode)
     settings = ReportSettings(
@@ -332,8 +337,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_predict(args: argparse.Namespace) -> int:
-    if Path(args.out).is_dir():  # refuse before the work, not after it
-        raise GrouptronError(f"{args.out} is a folder; give a file name for the output")
+    refuse_folder(Path(args.out))  # before the work, not after it
     model, experiment = load_trained_model(args.checkpoint)
     torch.set_num_threads(args.threads)
     frames_per_step = args.frames_per_step or experiment.data.frames_per_step
@@ -356,8 +360,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    if Path(args.out).is_dir():
-        raise GrouptronError(f"{args.out} is a folder; give a file name for the output")
+    refuse_folder(Path(args.out))  # before the work, not after it
     predictors = [Predictor.from_checkpoint(c) for c in (args.checkpoint, args.compare) if c]
     data = predictors[0].config.data
     table = read_tracks(args.tracks, data.frames_per_step, args.on_gap)
@@ -738,12 +741,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=_positive_int,
         help="frames between steps 0.4 s apart (default: the checkpoint's, 10 for ETH/UCY)",
     )
-    predict.add_argument(
-        "--on-gap",
-        choices=("split", "error"),
-        default="split",
-        help="split tracks with gaps (with a warning) or refuse them",
-    )
+    _add_gap_option(predict)
     predict.add_argument("--threads", type=_positive_int, default=2, help="CPU threads")
     predict.add_argument("--quiet", action="store_true", help="no progress bar")
     predict.set_defaults(handler=cmd_predict)
@@ -768,12 +766,7 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("--out", required=True, help="PNG file to write")
     plot.add_argument("--samples", type=_non_negative_int, default=20, help="sampled futures")
     plot.add_argument("--seed", type=int, default=0, help="seed of the samples")
-    plot.add_argument(
-        "--on-gap",
-        choices=("split", "error"),
-        default="split",
-        help="split tracks with gaps (with a warning) or refuse them",
-    )
+    _add_gap_option(plot)
     plot.set_defaults(handler=cmd_plot)
 
     train_cmd = commands.add_parser(
@@ -839,12 +832,7 @@ def build_parser() -> argparse.ArgumentParser:
             default=10,
             help="frames between annotated steps",
         )
-        parser.add_argument(
-            "--on-gap",
-            choices=("split", "error"),
-            default="split",
-            help="split tracks with gaps (with a warning) or refuse them",
-        )
+        _add_gap_option(parser)
 
     detect = group_commands.add_parser(
         "detect",

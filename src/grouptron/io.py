@@ -44,9 +44,14 @@ def write_text_atomically(path: Path, text: str) -> None:
     _write_atomically(path, lambda handle: handle.write(text))
 
 
-def _write_atomically(path: Path, write: Callable[[TextIO], object]) -> None:
+def refuse_folder(path: Path) -> None:
+    """Stop early when an output path names a folder (checked again when writing)."""
     if path.is_dir():
         raise GrouptronError(f"{path} is a folder; give a file name for the output")
+
+
+def _write_atomically(path: Path, write: Callable[[TextIO], object]) -> None:
+    refuse_folder(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
     try:
