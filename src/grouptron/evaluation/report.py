@@ -27,9 +27,8 @@ from grouptron.data.subsets import univ_n_mask
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import MODES, SampleScores, score_samples
 from grouptron.evaluation.results import EvaluationResult, mean_over_splits, score
-from grouptron.evaluation.test_sets import load_test_set
+from grouptron.evaluation.test_sets import load_test_set, subset_with_groups
 from grouptron.geometry import DERIVATIVE_SCHEMES, DerivativeScheme
-from grouptron.groups.assign import SampleGroups
 from grouptron.model.factory import MODEL_NAMES, uses_groups
 from grouptron.training.checkpoint import load_trained_model
 
@@ -177,20 +176,12 @@ def evaluate_checkpoint(
         rows += _rows(scores, masks, None, template)
     if "nll" in settings.modes:
         keep = nll_subsample(len(samples), settings.nll_max_samples, seed)
-        some, some_groups = _subset(samples, groups, keep)
+        some, some_groups = subset_with_groups(samples, groups, keep)
         (scores,) = score_samples(
             model, experiment, some, ("nll",), batch, seed, progress, some_groups
         )
         rows += _rows(scores, masks, keep, template)
     return rows
-
-
-def _subset(
-    samples: SampleSet, groups: SampleGroups | None, keep: np.ndarray
-) -> tuple[SampleSet, SampleGroups | None]:
-    if keep.all():
-        return samples, groups
-    return samples.subset(keep), groups.subset(keep, samples) if groups is not None else None
 
 
 def evaluate_constant_velocity(
@@ -234,8 +225,9 @@ def run_report(
 ) -> list[EvaluationResult]:
     """Rows for every checkpoint and constant velocity, plus the AVG rows."""
     rows: list[EvaluationResult] = []
-    for protocol in protocols:
-        rows += evaluate_constant_velocity(data_dir, protocol, settings.use_cache)
+    baseline = evaluate_constant_velocity(data_dir, protocols[0], settings.use_cache)
+    for protocol in protocols:  # the same numbers under both protocols: scored once
+        rows += [dataclasses.replace(r, protocol=protocol) for r in baseline]
     for entry in checkpoints:
         log.info("evaluating %s", entry.path)
         if progress:

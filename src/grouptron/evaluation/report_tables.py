@@ -182,21 +182,14 @@ def target_checks(rows: dict[Key, EvaluationResult], protocols: Sequence[str]) -
                     f"{verdict(excess <= TARGET_TOLERANCE)} (largest excess {100 * excess:+.1f}% "
                     f"on {where})"
                 )
-        mean = ml("grouptron", "central", MEAN_ROW)
-        if mean is not None:
-            fde_ref, ade_ref = TABLE_I["grouptron"][MEAN_ROW]
-            ok = mean.fde <= fde_ref and mean.ade <= ade_ref
-            checks.append(
-                f"Grouptron AVG at or below published {fde_ref:.2f}/{ade_ref:.2f}: "
-                f"{verdict(ok)} ({_pair(mean.fde, mean.ade)})"
-            )
-        for column in TABLE_II_COLUMNS[1:]:
+        published = {MEAN_ROW: TABLE_I["grouptron"][MEAN_ROW], **TABLE_II["grouptron"]}
+        for column in (MEAN_ROW, *TABLE_II_COLUMNS[1:]):
             r = ml("grouptron", "central", column)
             if r is not None:
-                fde_ref, ade_ref = TABLE_II["grouptron"][column]
+                fde_ref, ade_ref = published[column]
                 ok = r.fde <= fde_ref and r.ade <= ade_ref
                 checks.append(
-                    f"Grouptron {column.upper()} at or below published "
+                    f"Grouptron {_name(column)} at or below published "
                     f"{fde_ref:.2f}/{ade_ref:.2f}: {verdict(ok)} ({_pair(r.fde, r.ade)})"
                 )
     for protocol in protocols:

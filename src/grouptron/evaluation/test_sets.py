@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from grouptron.config import DataConfig, GroupConfig
 from grouptron.data.dataset import load_groups, load_part
 from grouptron.data.samples import SampleSet
@@ -37,6 +39,14 @@ def load_test_set(
         keep = univ_n_mask(samples, min_present)
         if not keep.any():
             raise GrouptronError(f"no {split} test sample has {min_present} pedestrians or more")
-        groups = groups.subset(keep, samples) if groups is not None else None
-        samples = samples.subset(keep)
+        samples, groups = subset_with_groups(samples, groups, keep)
     return samples, groups
+
+
+def subset_with_groups(
+    samples: SampleSet, groups: SampleGroups | None, keep: np.ndarray
+) -> tuple[SampleSet, SampleGroups | None]:
+    """The samples where the (S,) mask ``keep`` is true, with their groups (if any)."""
+    if keep.all():
+        return samples, groups
+    return samples.subset(keep), groups.subset(keep, samples) if groups is not None else None
