@@ -32,10 +32,9 @@ from grouptron.evaluation.predict import (
     most_likely_positions,
     predict_samples,
 )
-from grouptron.groups.assign import assign_groups
 from grouptron.groups.scene import groups_at_step
+from grouptron.inference.tracks import groups_for_model
 from grouptron.model.cvae import TrajectronCVAE
-from grouptron.model.factory import uses_groups
 from grouptron.model.gaussians import covariance_matrices
 from grouptron.training.checkpoint import load_trained_model
 
@@ -227,11 +226,7 @@ class Predictor:
         seed: int,
     ) -> Forecast:
         data, H, dt = self.config.data, self.config.data.horizon_steps, self.config.data.dt_s
-        groups = (
-            assign_groups(samples, self.config.groups, data.position_scale_m)
-            if uses_groups(self.config)
-            else None
-        )
+        groups = groups_for_model(samples, self.config)
         ((_, batch),) = batches(samples, self.config, len(samples), groups)
         encoding, velocity = decode_every_latent(self.model, batch, H)
         most_likely = most_likely_positions(encoding, velocity, H, dt).double().numpy()

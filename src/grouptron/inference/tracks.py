@@ -18,7 +18,7 @@ from grouptron.data.scene import Scene
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import batches
 from grouptron.evaluation.predict import predict_most_likely, predict_samples
-from grouptron.groups.assign import assign_groups
+from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import uses_groups
 
@@ -58,6 +58,13 @@ class TrackForecast:
         return header, np.stack([np.asarray(c, dtype=np.float64) for c in columns], 1), formats
 
 
+def groups_for_model(samples: SampleSet, config: ExperimentConfig) -> SampleGroups | None:
+    """The samples' groups when the model reads them (Grouptron), else None."""
+    if not uses_groups(config):
+        return None
+    return assign_groups(samples, config.groups, config.data.position_scale_m)
+
+
 @torch.inference_mode()
 def forecast_scene(
     model: TrajectronCVAE,
@@ -83,11 +90,7 @@ def forecast_scene(
             f"{scene.name}: no pedestrian has {data.history_steps} consecutive observed steps, "
             "so there is nothing to forecast"
         )
-    groups = (
-        assign_groups(samples, config.groups, data.position_scale_m)
-        if uses_groups(config)
-        else None
-    )
+    groups = groups_for_model(samples, config)
     model.eval()
     generator = torch.Generator().manual_seed(seed)
     K = 1 if mode == "ml" else num_samples
