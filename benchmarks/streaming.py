@@ -3,6 +3,7 @@
 Usage:
     python benchmarks/streaming.py [--checkpoint NAME_OR_PATH] [--people 10,50,100,200]
                                    [--frames 60] [--threads 2]
+                                   [--most-likely mixture-mode|argmax-latent]
 
 A synthetic scene of N pedestrians walking in pairs and alone through a square sized for about
 one person per 4 m^2 is streamed frame by frame; the first 9 frames (before anyone has 8 steps)
@@ -45,10 +46,23 @@ def main() -> None:
     parser.add_argument("--people", default="10,50,100,200")
     parser.add_argument("--frames", type=int, default=60)
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument(
+        "--most-likely",
+        choices=("mixture-mode", "argmax-latent"),
+        default="mixture-mode",
+        help="the Predictor's most-likely definition (argmax-latent also skips the mixture)",
+    )
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
-    predictor = Predictor.from_checkpoint(args.checkpoint)
-    print(f"{predictor.source}: {predictor.config.model_name}, {args.threads} threads")
+    predictor = Predictor.from_checkpoint(
+        args.checkpoint,
+        most_likely=args.most_likely,
+        mixture=args.most_likely == "mixture-mode",
+    )
+    print(
+        f"{predictor.source}: {predictor.config.model_name}, {args.threads} threads, "
+        f"most likely = {args.most_likely}, mixture = {predictor.mixture}"
+    )
     print(f"{'people':>7} {'median ms':>10} {'p90 ms':>8} {'forecasts':>10}")
     for people in (int(n) for n in args.people.split(",")):
         session = predictor.stream()

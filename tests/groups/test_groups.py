@@ -16,9 +16,9 @@ from grouptron.errors import DataFormatError
 from grouptron.groups.assign import assign_groups
 from grouptron.groups.clustering import (
     agglomerative_groups,
+    agglomerative_groups_batched,
     canonical_labels,
     cluster_count,
-    cut_merge_tree,
 )
 from grouptron.groups.distances import directed_hausdorff, pairwise_distances
 from grouptron.groups.labels import (
@@ -81,17 +81,20 @@ def test_two_walking_pairs_are_two_groups() -> None:
         np.testing.assert_array_equal(agglomerative_groups(distances, method), [0, 1, 0, 1])
 
 
-def test_cutting_the_merge_tree_equals_scipy_cut_tree_without_ties() -> None:
+@pytest.mark.parametrize("method", ["single", "average", "complete"])
+def test_batched_clustering_equals_scipy_without_ties(method: str) -> None:
     rng = np.random.default_rng(1)
-    for _ in range(50):
-        n = int(rng.integers(3, 25))
-        points = rng.normal(size=(n, 2))
-        condensed = squareform(np.linalg.norm(points[:, None] - points[None], axis=-1))
-        for method in ("single", "average", "complete"):
-            tree = linkage(condensed, method)
-            expected = canonical_labels(cut_tree(tree, n_clusters=(n + 1) // 2)[:, 0])
-            got = canonical_labels(cut_merge_tree(tree, n, (n + 1) // 2))
-            np.testing.assert_array_equal(got, expected)
+    for n in (2, 3, 4, 7, 12, 24):
+        points = rng.normal(size=(40, n, 2))
+        distances = np.linalg.norm(points[:, :, None] - points[:, None], axis=-1)  # (40, n, n)
+        got = agglomerative_groups_batched(distances, method)
+        for labels, matrix in zip(got, distances, strict=True):
+            count = (n + 1) // 2
+            tree = linkage(squareform(matrix, checks=False), method)
+            expected = canonical_labels(cut_tree(tree, n_clusters=count)[:, 0])
+            np.testing.assert_array_equal(labels, expected)
+        np.testing.assert_array_equal(got[:1], [agglomerative_groups(distances[0], method)])
+    np.testing.assert_array_equal(agglomerative_groups(np.zeros((1, 1)), method), [0])
 
 
 def test_clustering_is_deterministic_with_ties() -> None:

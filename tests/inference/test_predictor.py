@@ -49,6 +49,24 @@ def test_predict_matches_the_track_file_forecast(
     assert ((forecast.group >= 0) & (forecast.group < N)).all()
 
 
+def test_argmax_latent_fast_path_follows_the_most_probable_latent(
+    causal: Predictor, recording: np.ndarray
+) -> None:
+    frame = int(np.median(recording[:, 0]))
+    full = causal.predict(recording, t=frame)
+    fast = Predictor(causal.model, causal.config, most_likely="argmax-latent", mixture=False)
+    quick = fast.predict(recording, t=frame)
+    assert quick.mixture_means is None and quick.mixture_log_weights is None
+    best = full.mixture_log_weights.argmax(axis=1)
+    expected = full.mixture_means[np.arange(len(best)), best]  # (N, H, 2)
+    np.testing.assert_allclose(quick.most_likely, expected, atol=1e-4)
+    np.testing.assert_array_equal(quick.group, full.group)
+    # The two definitions of "most likely" differ for a trained multimodal model.
+    assert not np.allclose(quick.most_likely, full.most_likely, atol=1e-4)
+    with pytest.raises(GrouptronError, match="most_likely must be one of"):
+        Predictor(causal.model, causal.config, most_likely="mean")
+
+
 def test_streaming_equals_predicting_from_all_rows(
     causal: Predictor, recording: np.ndarray
 ) -> None:

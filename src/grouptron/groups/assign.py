@@ -1,7 +1,7 @@
 """Groups of every sample: the ego and its neighbours at t, clustered on their histories.
 
-Distances are computed for many samples at once (samples with the same node count are
-stacked); SciPy's clustering then runs once per sample with three or more nodes.
+Samples with the same node count are stacked: their distances are computed and their nodes
+clustered in one vectorised pass.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 
 from grouptron.config import GroupConfig
 from grouptron.data.samples import SampleSet, edge_rows
-from grouptron.groups.clustering import agglomerative_groups
+from grouptron.groups.clustering import agglomerative_groups_batched
 from grouptron.groups.distances import pairwise_distances
 
 MAX_DISTANCE_ELEMENTS = 4_000_000
@@ -79,9 +79,9 @@ def assign_groups(samples: SampleSet, config: GroupConfig, position_scale_m: flo
             index = same[start : start + block]
             traj, mask = node_trajectories(samples, index, int(num_nodes), position_scale_m)
             distances = pairwise_distances(traj, mask, config.distance, config.quantile)
-            for s, matrix in zip(index, distances, strict=True):  # SciPy, once per sample
-                labels = agglomerative_groups(matrix, config.linkage)
-                node_labels[node_start[s] : node_start[s] + num_nodes] = labels
+            labels = agglomerative_groups_batched(distances, config.linkage)  # (S, N)
+            rows = node_start[index][:, None] + np.arange(num_nodes)  # (S, N)
+            node_labels[rows] = labels
     is_ego = np.zeros(len(node_labels), dtype=bool)
     is_ego[node_start] = True
     return SampleGroups(

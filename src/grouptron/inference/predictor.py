@@ -16,7 +16,7 @@ import os
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import torch
@@ -30,10 +30,12 @@ from grouptron.evaluation.evaluate import batches
 from grouptron.evaluation.predict import (
     decode_every_latent,
     most_likely_positions,
+    predict_argmax_latent,
     predict_samples,
 )
 from grouptron.groups.scene import groups_at_step
 from grouptron.inference.tracks import groups_for_model
+from grouptron.model.batch import Batch
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.gaussians import covariance_matrices
 from grouptron.training.checkpoint import load_trained_model
@@ -43,6 +45,8 @@ log = logging.getLogger(__name__)
 CHECKPOINTS_ENV = "GROUPTRON_CHECKPOINTS"
 WEIGHTS_FILE = "best.safetensors"
 TRACK_COLUMNS = ("frame", "id", "x", "y")
+MostLikely = Literal["mixture-mode", "argmax-latent"]
+MOST_LIKELY_CHOICES = ("mixture-mode", "argmax-latent")
 
 
 @dataclass(frozen=True)
@@ -54,7 +58,8 @@ class Forecast:
         ids: (N,) agent ids, ascending.
         most_likely: (N, H, 2) most likely positions at steps 1..H after ``frame``.
         samples: (N, K, H, 2) sampled futures, or None when none were asked for.
-        mixture_log_weights: (N, Z) log p(z|x) of the Z latent values.
+        mixture_log_weights: (N, Z) log p(z|x) of the Z latent values (None when the
+            predictor was made with ``mixture=False``; likewise the next two).
         mixture_means: (N, Z, H, 2) position means of each latent value's Gaussians.
         mixture_covariances: (N, Z, H, 2, 2) their covariances (m^2).
         group: (N,) scene-wide group of every agent at ``frame`` (agglomerative clustering of
@@ -65,9 +70,9 @@ class Forecast:
     ids: np.ndarray
     most_likely: np.ndarray
     samples: np.ndarray | None
-    mixture_log_weights: np.ndarray
-    mixture_means: np.ndarray
-    mixture_covariances: np.ndarray
+    mixture_log_weights: np.ndarray | None
+    mixture_means: np.ndarray | None
+    mixture_covariances: np.ndarray | None
     group: np.ndarray
 
     def __len__(self) -> int:
@@ -122,12 +127,33 @@ def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | N
 
 
 class Predictor:
-    """A trained Trajectron++ or Grouptron model ready to forecast tracks."""
+    """A trained Trajectron++ or Grouptron model ready to forecast tracks.
 
-    def __init__(self, model: TrajectronCVAE, config: ExperimentConfig, source: str = "") -> None:
+    Args:
+        most_likely: ``"mixture-mode"`` (the benchmark's most likely trajectory: per step the
+            mode of the p(z|x)-weighted mixture over all Z latent values) or
+            ``"argmax-latent"`` (follow the means of the most probable latent value only; the
+            "ML-argmax" row of the evaluator, several times faster without the mixture).
+        mixture: also return the mixture parameters (decodes all Z latent values).
+    """
+
+    def __init__(
+        self,
+        model: TrajectronCVAE,
+        config: ExperimentConfig,
+        source: str = "",
+        most_likely: MostLikely = "mixture-mode",
+        mixture: bool = True,
+    ) -> None:
+        if most_likely not in MOST_LIKELY_CHOICES:
+            raise GrouptronError(
+                f"most_likely must be one of {', '.join(MOST_LIKELY_CHOICES)}, not {most_likely!r}"
+            )
         self.model = model.eval()
         self.config = config
         self.source = source
+        self.most_likely = most_likely
+        self.mixture = mixture
         self._warned_central = False
 
     @classmethod
@@ -136,13 +162,15 @@ class Predictor:
         name_or_path: str | Path,
         checkpoints_dir: str | Path | None = None,
         threads: int | None = None,
+        most_likely: MostLikely = "mixture-mode",
+        mixture: bool = True,
     ) -> Predictor:
         """Load a ``.safetensors`` checkpoint (never a pickle) by path or shipped name."""
         path = resolve_checkpoint(name_or_path, checkpoints_dir)
         model, config = load_trained_model(path)
         if threads is not None:
             torch.set_num_threads(threads)
-        return cls(model, config, str(path))
+        return cls(model, config, str(path), most_likely=most_likely, mixture=mixture)
 
     @property
     def history_steps(self) -> int:
@@ -228,10 +256,7 @@ class Predictor:
         data, H, dt = self.config.data, self.config.data.horizon_steps, self.config.data.dt_s
         groups = groups_for_model(samples, self.config)
         ((_, batch),) = batches(samples, self.config, len(samples), groups)
-        encoding, velocity = decode_every_latent(self.model, batch, H)
-        most_likely = most_likely_positions(encoding, velocity, H, dt).double().numpy()
-        mean = torch.cumsum(velocity.mean, dim=2) * dt  # (N, Z, H, 2) positions
-        cov = torch.cumsum(velocity.cov, dim=2) * dt**2  # (N, Z, H, 3)
+        most_likely, log_weights, mean, cov = self._most_likely_and_mixture(batch)
         drawn = None
         if num_samples:
             generator = torch.Generator().manual_seed(seed)
@@ -250,10 +275,36 @@ class Predictor:
             samples=None
             if drawn is None
             else (drawn.double().numpy() + origin[:, None, None])[order],
-            mixture_log_weights=torch.log_softmax(encoding.p_logits, -1).double().numpy()[order],
-            mixture_means=(mean.double().numpy() + origin[:, None, None])[order],
-            mixture_covariances=covariance_matrices(cov).double().numpy()[order],
+            mixture_log_weights=None if log_weights is None else log_weights[order],
+            mixture_means=None if mean is None else (mean + origin[:, None, None])[order],
+            mixture_covariances=None if cov is None else cov[order],
             group=group_of_track[samples.track][order],
+        )
+
+    def _most_likely_and_mixture(
+        self, batch: Batch
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+        """(N, H, 2) most likely offsets from now and, if asked for, the mixture: (N, Z) log
+        weights, (N, Z, H, 2) position offsets, (N, Z, H, 2, 2) covariances (float64)."""
+        H, dt = self.config.data.horizon_steps, self.config.data.dt_s
+        if not self.mixture and self.most_likely == "argmax-latent":
+            fast = predict_argmax_latent(self.model, batch, H, dt)  # decodes one latent value
+            return fast.double().numpy(), None, None, None
+        encoding, velocity = decode_every_latent(self.model, batch, H)
+        mean = torch.cumsum(velocity.mean, dim=2) * dt  # (N, Z, H, 2) positions
+        if self.most_likely == "mixture-mode":
+            most_likely = most_likely_positions(encoding, velocity, H, dt)
+        else:
+            best = encoding.p_logits.argmax(dim=-1)  # (N,)
+            most_likely = mean[torch.arange(len(best)), best]
+        if not self.mixture:
+            return most_likely.double().numpy(), None, None, None
+        cov = torch.cumsum(velocity.cov, dim=2) * dt**2  # (N, Z, H, 3)
+        return (
+            most_likely.double().numpy(),
+            torch.log_softmax(encoding.p_logits, -1).double().numpy(),
+            mean.double().numpy(),
+            covariance_matrices(cov).double().numpy(),
         )
 
     def _empty(self, frame: int, num_samples: int) -> Forecast:
@@ -263,9 +314,9 @@ class Predictor:
             ids=np.zeros(0),
             most_likely=np.zeros((0, H, 2)),
             samples=np.zeros((0, num_samples, H, 2)) if num_samples else None,
-            mixture_log_weights=np.zeros((0, Z)),
-            mixture_means=np.zeros((0, Z, H, 2)),
-            mixture_covariances=np.zeros((0, Z, H, 2, 2)),
+            mixture_log_weights=np.zeros((0, Z)) if self.mixture else None,
+            mixture_means=np.zeros((0, Z, H, 2)) if self.mixture else None,
+            mixture_covariances=np.zeros((0, Z, H, 2, 2)) if self.mixture else None,
             group=np.zeros(0, dtype=np.int64),
         )
 
