@@ -4,7 +4,7 @@ Usage:
     python benchmarks/groups.py [--data-dir DIR] [--iterations 15]
 
   clustering  cold group assignment of every univ sample (train + val + test): Hausdorff
-              distances vectorised per node count, SciPy's clustering per sample
+              distances and clustering vectorised per node count
   iteration   one training iteration (batch 256, all latent values, augmentation) of
               Trajectron++ and of Grouptron on univ, alternated, medians and their ratio
 """

@@ -71,19 +71,13 @@ class HoistedGRUDecoder(nn.Module):
         return from_x[:, None, :] + self._latent_rows(self.initial_h.weight[:, :Z], z_index)
 
     def step(self, gates_zx: torch.Tensor, action: torch.Tensor, h: torch.Tensor) -> torch.Tensor:
-        """One GRU step on rows: (R, 3h) constant gates, (R, A) previous action, (R, h) state.
-
-        The gate arithmetic is fused into a few whole-row operations (one sigmoid for both
-        reset and update gates, ``addcmul`` for the candidate, ``lerp`` for the blend): at
-        inference the step is bound by memory traffic, not by the matrix product.
-        """
-        hidden = h.shape[-1]
+        """One GRU step on rows: (R, 3h) constant gates, (R, A) previous action, (R, h) state."""
         w_a = self.cell.weight_ih[:, self.latent_modes + self.condition_dim :]  # (3h, A)
-        gates_in = torch.addmm(gates_zx, action, w_a.T)  # (R, 3h)
-        gates_h = torch.addmm(self.cell.bias_hh, h, self.cell.weight_hh.T)  # (R, 3h)
-        reset_update = torch.sigmoid(gates_in[:, : 2 * hidden] + gates_h[:, : 2 * hidden])
-        reset, update = reset_update[:, :hidden], reset_update[:, hidden:]
-        candidate = torch.tanh(
-            torch.addcmul(gates_in[:, 2 * hidden :], reset, gates_h[:, 2 * hidden :])
-        )
-        return torch.lerp(candidate, h, update)  # candidate + update * (h - candidate)
+        gates_in = torch.addmm(gates_zx, action, w_a.T)
+        gates_h = torch.addmm(self.cell.bias_hh, h, self.cell.weight_hh.T)
+        in_r, in_u, in_n = gates_in.chunk(3, dim=-1)
+        h_r, h_u, h_n = gates_h.chunk(3, dim=-1)
+        reset = torch.sigmoid(in_r + h_r)
+        update = torch.sigmoid(in_u + h_u)
+        candidate = torch.tanh(in_n + reset * h_n)
+        return candidate + update * (h - candidate)
