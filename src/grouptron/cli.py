@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from tqdm import tqdm
 
 from grouptron import __version__
 from grouptron.baselines.constant_velocity import constant_velocity
@@ -60,7 +61,7 @@ from grouptron.io import (
 from grouptron.model.factory import MODEL_NAMES, uses_groups
 from grouptron.training.checkpoint import load_checkpoint, load_trained_model
 from grouptron.training.trainer import LAST, train
-from grouptron.viz.forecasts import Panel, plot_forecasts, tracks_around
+from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tracks_around
 from grouptron.viz.groups import plot_step_groups
 
 log = logging.getLogger("grouptron")
@@ -360,32 +361,69 @@ def cmd_predict(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    refuse_folder(Path(args.out))  # before the work, not after it
+    out = Path(args.out)
+    refuse_folder(out)  # before the work, not after it
     predictors = [Predictor.from_checkpoint(c) for c in (args.checkpoint, args.compare) if c]
     data = predictors[0].config.data
     table = read_tracks(args.tracks, data.frames_per_step, args.on_gap)
     rows = np.column_stack([table.frame, table.ped_id, table.pos_m]).astype(np.float64)
+    if args.until is None:
+        plot_forecasts(_plot_panels(args, predictors, rows, args.frame), args.frame, out)
+        print(f"wrote {out}: forecasts at frame {args.frame}")
+        return 0
+    if args.until <= args.frame:
+        raise GrouptronError(f"--until {args.until} must come after --frame {args.frame}")
+    if out.suffix.lower() not in (".gif", ".mp4"):
+        raise GrouptronError(f"{out}: an animation (--until) is written as .gif or .mp4")
+    step = data.frames_per_step
+    wanted = range(args.frame, args.until + 1, step)
+    present = set(rows[:, 0].astype(np.int64).tolist())
+    drawn = [
+        (frame, _plot_panels(args, predictors, rows, frame, required=False))
+        for frame in tqdm(wanted, desc="forecasting", unit="frame", disable=args.quiet)
+        if frame in present
+    ]
+    drawn = [(frame, panels) for frame, panels in drawn if panels]
+    if not drawn:
+        raise GrouptronError(
+            f"{args.tracks}: nobody between frames {args.frame} and {args.until} has "
+            f"{data.history_steps} observed steps"
+        )
+    animate_forecasts(drawn, out)
+    print(f"wrote {out}: {len(drawn)} frames from {drawn[0][0]} to {drawn[-1][0]}")
+    return 0
+
+
+def _plot_panels(
+    args: argparse.Namespace,
+    predictors: list[Predictor],
+    rows: np.ndarray,
+    frame: int,
+    required: bool = True,
+) -> list[Panel]:
+    """One panel per model at ``frame`` (empty when nobody can be forecast and not required)."""
+    data = predictors[0].config.data
     panels = []
     for predictor in predictors:
-        forecast = predictor.predict(rows, args.frame, args.samples, args.seed, live=False)
+        forecast = predictor.predict(rows, frame, args.samples, args.seed, live=False)
         if not len(forecast):
+            if not required:
+                return []
             raise GrouptronError(
-                f"{args.tracks}: nobody at frame {args.frame} has {data.history_steps} observed "
+                f"{args.tracks}: nobody at frame {frame} has {data.history_steps} observed "
                 "steps; pick another --frame"
             )
         history, truth = tracks_around(
             rows,
             forecast.ids,
-            args.frame,
+            frame,
             data.frames_per_step,
             data.history_steps - 1,
             data.horizon_steps,
         )
         name = f"{predictor.config.model_name} ({predictor.config.data.derivatives})"
         panels.append(Panel(name, forecast, history, truth))
-    plot_forecasts(panels, args.frame, Path(args.out))
-    print(f"wrote {args.out}: {len(panels[0].forecast)} pedestrians at frame {args.frame}")
-    return 0
+    return panels
 
 
 # --- train ------------------------------------------------------------------------------------
@@ -757,15 +795,23 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="examples:\n"
         "  grouptron plot --checkpoint checkpoints/grouptron-univ-central/best.safetensors \\\n"
         "      --tracks students003.txt --frame 3000 --out forecast.png\n"
-        "  grouptron plot --checkpoint A --compare B --tracks FILE --frame F --out ab.png",
+        "  grouptron plot --checkpoint A --compare B --tracks FILE --frame F --out ab.png\n"
+        "  grouptron plot --checkpoint A --tracks FILE --frame 3000 --until 3400 --out a.gif",
     )
     plot.add_argument("--checkpoint", required=True, help="a .safetensors checkpoint")
     plot.add_argument("--compare", help="a second checkpoint drawn beside the first")
     plot.add_argument("--tracks", required=True, help="a 'frame id x y' track file")
     plot.add_argument("--frame", type=int, required=True, help="the frame to forecast from")
-    plot.add_argument("--out", required=True, help="PNG file to write")
+    plot.add_argument(
+        "--until",
+        type=int,
+        help="animate every step from --frame to this frame (the --out file is then a .gif, "
+        "or a .mp4 when ffmpeg is installed; 2.5 pictures per second = real time)",
+    )
+    plot.add_argument("--out", required=True, help="PNG file to write (.gif/.mp4 with --until)")
     plot.add_argument("--samples", type=_non_negative_int, default=20, help="sampled futures")
     plot.add_argument("--seed", type=int, default=0, help="seed of the samples")
+    plot.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_gap_option(plot)
     plot.set_defaults(handler=cmd_plot)
 

@@ -44,6 +44,25 @@ def write_text_atomically(path: Path, text: str) -> None:
     _write_atomically(path, lambda handle: handle.write(text))
 
 
+def save_atomically(path: Path, save: Callable[[Path], object]) -> None:
+    """Let ``save`` write a file (a picture, an animation) at a temporary path beside ``path``,
+    with the same suffix so format-by-suffix writers still work, and rename it into place."""
+    refuse_folder(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    descriptor, name = tempfile.mkstemp(
+        dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix
+    )
+    os.close(descriptor)
+    temporary = Path(name)
+    try:
+        save(temporary)
+        os.chmod(temporary, 0o644)
+        os.replace(temporary, path)
+    finally:
+        if temporary.exists():
+            temporary.unlink()
+
+
 def refuse_folder(path: Path) -> None:
     """Stop early when an output path names a folder (checked again when writing)."""
     if path.is_dir():

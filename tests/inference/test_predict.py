@@ -134,3 +134,26 @@ def test_plot_draws_one_panel_per_model_and_refuses_an_empty_frame(
     assert out.read_bytes()[:4] == b"\x89PNG"
     assert main([*argv, "--frame", str(int(frames.min())), "--out", str(tmp_path / "x.png")]) == 2
     assert not (tmp_path / "x.png").exists()
+
+
+def test_plot_animates_a_range_of_frames_as_a_gif(
+    tiny_checkpoints: Path, synthetic_data_dir: Path, tmp_path: Path
+) -> None:
+    from PIL import Image
+
+    tracks = next((synthetic_data_dir / "eth/test").glob("*.txt"))
+    frames = np.loadtxt(tracks)[:, 0]
+    first = int(np.median(frames))
+    a = str(tiny_checkpoints / "grouptron-eth-backward/best.safetensors")
+    argv = ["plot", "--checkpoint", a, "--tracks", str(tracks), "--samples", "2", "--quiet"]
+    out = tmp_path / "forecast.gif"
+    assert main([*argv, "--frame", str(first), "--until", str(first + 30), "--out", str(out)]) == 0
+    with Image.open(out) as movie:
+        assert movie.n_frames == 4  # frames first, +10, +20, +30
+    for bad_out, until in (("a.png", first + 30), ("b.gif", first - 10)):
+        code = main(
+            [*argv, "--frame", str(first), "--until", str(until), "--out", str(tmp_path / bad_out)]
+        )
+        assert code == 2
+        assert not (tmp_path / bad_out).exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["forecast.gif"]  # no temporary left

@@ -1,5 +1,5 @@
-"""Pictures of forecasts at one frame: histories, ground truth, most likely and sampled
-futures, pedestrians coloured by detected group; one panel per model."""
+"""Pictures of forecasts: histories, ground truth, most likely and sampled futures, pedestrians
+coloured by detected group; one panel per model; one frame (PNG) or a range (GIF/MP4)."""
 
 from __future__ import annotations
 
@@ -12,8 +12,11 @@ import matplotlib
 matplotlib.use("Agg")  # files only; works without a display
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib import animation
 
+from grouptron.errors import GrouptronError
 from grouptron.inference.predictor import Forecast
+from grouptron.io import save_atomically
 
 
 @dataclass(frozen=True)
@@ -49,42 +52,114 @@ def tracks_around(
     return grid[:, : before + 1], grid[:, before + 1 :]
 
 
+def _draw_panel(ax: plt.Axes, panel: Panel, frame: int) -> None:
+    """Histories, truth, most likely and sampled futures of one model, coloured by group."""
+    colours = plt.get_cmap("tab10")
+    forecast = panel.forecast
+    for k in range(len(forecast)):
+        colour = colours(int(forecast.group[k]) % 10)
+        origin = panel.history[k, -1]
+        if forecast.samples is not None:
+            for drawn in forecast.samples[k]:
+                path = np.vstack([origin, drawn])
+                ax.plot(path[:, 0], path[:, 1], "-", color=colour, lw=0.5, alpha=0.25)
+        hist = panel.history[k]
+        ax.plot(hist[:, 0], hist[:, 1], "-", color=colour, lw=2.2)
+        truth = np.vstack([origin, panel.truth[k]])
+        ax.plot(truth[:, 0], truth[:, 1], ":", color="black", lw=1.2)
+        ml = np.vstack([origin, forecast.most_likely[k]])
+        ax.plot(ml[:, 0], ml[:, 1], "--", color=colour, lw=1.8)
+        ax.plot(*origin, "o", color=colour, ms=6, mec="black", mew=0.6)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set(xlabel="x (m)", ylabel="y (m)", title=f"{panel.title}\nframe {frame}")
+    ax.grid(alpha=0.3)
+
+
+def _add_legend(ax: plt.Axes) -> None:
+    legend = [
+        plt.Line2D([0], [0], color="grey", lw=2.2, label="observed (3.2 s)"),
+        plt.Line2D([0], [0], color="black", ls=":", lw=1.2, label="ground truth"),
+        plt.Line2D([0], [0], color="grey", ls="--", lw=1.8, label="most likely (4.8 s)"),
+        plt.Line2D([0], [0], color="grey", lw=0.5, alpha=0.6, label="samples"),
+    ]
+    # Outside the axes: inside, it hides pedestrians in crowded frames.
+    ax.legend(
+        handles=legend,
+        loc="upper left",
+        bbox_to_anchor=(1.02, 1.0),
+        fontsize=8,
+        title="colour: detected group",
+    )
+
+
+def _figure(columns: int) -> tuple[plt.Figure, np.ndarray]:
+    fig, axes = plt.subplots(
+        1, columns, figsize=(7 * columns + 2, 6.5), dpi=120, sharex=True, sharey=True
+    )
+    return fig, np.atleast_1d(axes)
+
+
 def plot_forecasts(panels: Sequence[Panel], frame: int, out: Path) -> None:
     """Save a PNG with one panel per model (metres, equal aspect, shared axes)."""
-    colours = plt.get_cmap("tab10")
-    fig, axes = plt.subplots(
-        1, len(panels), figsize=(7 * len(panels), 6.5), dpi=120, sharex=True, sharey=True
-    )
-    axes = np.atleast_1d(axes)
+    fig, axes = _figure(len(panels))
     try:
         for ax, panel in zip(axes, panels, strict=True):
-            forecast = panel.forecast
-            for k in range(len(forecast)):
-                colour = colours(int(forecast.group[k]) % 10)
-                origin = panel.history[k, -1]
-                if forecast.samples is not None:
-                    for drawn in forecast.samples[k]:
-                        path = np.vstack([origin, drawn])
-                        ax.plot(path[:, 0], path[:, 1], "-", color=colour, lw=0.5, alpha=0.25)
-                hist = panel.history[k]
-                ax.plot(hist[:, 0], hist[:, 1], "-", color=colour, lw=2.2)
-                truth = np.vstack([origin, panel.truth[k]])
-                ax.plot(truth[:, 0], truth[:, 1], ":", color="black", lw=1.2)
-                ml = np.vstack([origin, forecast.most_likely[k]])
-                ax.plot(ml[:, 0], ml[:, 1], "--", color=colour, lw=1.8)
-                ax.plot(*origin, "o", color=colour, ms=6, mec="black", mew=0.6)
-            ax.set_aspect("equal", adjustable="box")
-            ax.set(xlabel="x (m)", ylabel="y (m)", title=f"{panel.title}\nframe {frame}")
-            ax.grid(alpha=0.3)
-        legend = [
-            plt.Line2D([0], [0], color="grey", lw=2.2, label="observed (3.2 s)"),
-            plt.Line2D([0], [0], color="black", ls=":", lw=1.2, label="ground truth"),
-            plt.Line2D([0], [0], color="grey", ls="--", lw=1.8, label="most likely (4.8 s)"),
-            plt.Line2D([0], [0], color="grey", lw=0.5, alpha=0.6, label="samples"),
-        ]
-        axes[-1].legend(handles=legend, loc="best", fontsize=8, title="colour: detected group")
+            _draw_panel(ax, panel, frame)
+        _add_legend(axes[-1])
         fig.tight_layout()
-        out.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(out)
+        save_atomically(out, fig.savefig)
+    finally:
+        plt.close(fig)
+
+
+def _bounds(frames: Sequence[tuple[int, Sequence[Panel]]], margin_m: float = 1.0) -> np.ndarray:
+    """(2, 2) [[x_min, x_max], [y_min, y_max]] over every drawn point of every frame."""
+    points = [
+        array.reshape(-1, 2)
+        for _, panels in frames
+        for panel in panels
+        for array in (panel.history, panel.truth, panel.forecast.most_likely)
+    ]
+    stacked = np.concatenate(points)
+    stacked = stacked[np.isfinite(stacked).all(axis=1)]
+    low, high = stacked.min(axis=0) - margin_m, stacked.max(axis=0) + margin_m
+    return np.stack([low, high], axis=1)
+
+
+def animate_forecasts(
+    frames: Sequence[tuple[int, Sequence[Panel]]], out: Path, steps_per_second: float = 2.5
+) -> None:
+    """Save an animated GIF (Pillow) or MP4 (needs ffmpeg) of forecasts frame after frame.
+
+    Args:
+        frames: (frame, panels) per picture, all with the same number of panels.
+        out: ``.gif`` or ``.mp4`` file.
+        steps_per_second: playback rate (2.5 = real time for 0.4 s steps).
+    """
+    suffix = out.suffix.lower()
+    if suffix == ".gif":
+        writer: animation.AbstractMovieWriter = animation.PillowWriter(fps=steps_per_second)
+    elif suffix == ".mp4":
+        if not animation.writers.is_available("ffmpeg"):
+            raise GrouptronError(f"{out}: writing MP4 needs ffmpeg on PATH; write a .gif instead")
+        writer = animation.FFMpegWriter(fps=steps_per_second)
+    else:
+        raise GrouptronError(f"{out}: an animation is written as .gif or .mp4, not {suffix!r}")
+    (x_lim, y_lim) = _bounds(frames)
+    fig, axes = _figure(len(frames[0][1]))
+
+    def draw(index: int) -> None:
+        frame, panels = frames[index]
+        for ax, panel in zip(axes, panels, strict=True):
+            ax.clear()
+            _draw_panel(ax, panel, frame)
+            ax.set(xlim=x_lim, ylim=y_lim)
+        _add_legend(axes[-1])
+
+    try:
+        draw(0)
+        fig.tight_layout()
+        movie = animation.FuncAnimation(fig, draw, frames=len(frames), repeat=False)
+        save_atomically(out, lambda path: movie.save(path, writer=writer))
     finally:
         plt.close(fig)
