@@ -59,6 +59,7 @@ from grouptron.io import (
     write_text_atomically,
 )
 from grouptron.model.factory import MODEL_NAMES, uses_groups
+from grouptron.training import distributed
 from grouptron.training.checkpoint import load_checkpoint, load_trained_model
 from grouptron.training.trainer import LAST, train
 from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tracks_around
@@ -489,26 +490,34 @@ def cmd_train(args: argparse.Namespace) -> int:
             )
             for name, part in (("train", train_part), ("val", val_part))
         )
-    print(
-        f"training {args.model} on {args.split} ({data.derivatives} derivatives): "
-        f"{len(train_part.samples)} training / {len(val_part.samples)} validation samples, "
-        f"{experiment.train.epochs} epochs -> {out}"
-    )
-    state = train(
-        experiment,
-        train_part.samples,
-        val_part.samples,
-        out,
-        resume=args.resume,
-        progress=not args.quiet,
-        train_groups=train_groups,
-        val_groups=val_groups,
-        device=args.device,
-    )
-    print(
-        f"done: {state.epoch} epochs, {state.iteration} steps; best validation ML FDE "
-        f"{state.best_val_fde:.3f} m; checkpoints in {out}"
-    )
+    cluster = distributed.start(torch.device(args.device))
+    if cluster.is_main:
+        processes = f", {cluster.world_size} processes" if cluster.distributed else ""
+        print(
+            f"training {args.model} on {args.split} ({data.derivatives} derivatives): "
+            f"{len(train_part.samples)} training / {len(val_part.samples)} validation samples, "
+            f"{experiment.train.epochs} epochs{processes} -> {out}"
+        )
+    try:
+        state = train(
+            experiment,
+            train_part.samples,
+            val_part.samples,
+            out,
+            resume=args.resume,
+            progress=not args.quiet,
+            train_groups=train_groups,
+            val_groups=val_groups,
+            device=args.device,
+            cluster=cluster,
+        )
+    finally:
+        distributed.stop(cluster)
+    if cluster.is_main:
+        print(
+            f"done: {state.epoch} epochs, {state.iteration} steps; best validation ML FDE "
+            f"{state.best_val_fde:.3f} m; checkpoints in {out}"
+        )
     return 0
 
 

@@ -12,6 +12,7 @@ from grouptron.config import DataConfig
 from grouptron.data.samples import SampleSet, edge_rows
 from grouptron.geometry import rotate_rows, rotation_matrix
 from grouptron.groups.assign import SampleGroups
+from grouptron.model.noise import TrainingNoise
 
 
 @dataclass(frozen=True)
@@ -92,6 +93,7 @@ class Batch:
         fut_rel_m: (B, H, 2) future positions relative to the current one, metres.
         fut_st: (B, H, 2) the same divided by the position scale (future encoder input).
         groups: the nodes and groups for Grouptron's encoders, or None.
+        noise: a training step's dropout masks and decoder draws, or None (the global RNG).
     """
 
     hist_st: torch.Tensor
@@ -101,6 +103,7 @@ class Batch:
     fut_rel_m: torch.Tensor
     fut_st: torch.Tensor
     groups: GroupBatch | None = None
+    noise: TrainingNoise | None = None
 
     def __len__(self) -> int:
         return self.hist_st.shape[0]

@@ -14,7 +14,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from grouptron.config import ModelConfig
-from grouptron.model import gaussians
+from grouptron.model import gaussians, noise
 from grouptron.model.batch import Batch
 from grouptron.model.layers import HoistedGRUDecoder, run_masked_lstm
 
@@ -100,22 +100,28 @@ class TrajectronCVAE(nn.Module):
 
     # --- encoders ---------------------------------------------------------------------------
 
-    def _rnn_dropout(self, h: torch.Tensor) -> torch.Tensor:
-        return F.dropout(h, p=1.0 - self.config.rnn_dropout_keep, training=self.training)
+    def _dropout(self, h: torch.Tensor, batch: Batch, site: str, keep: float) -> torch.Tensor:
+        uniforms = batch.noise.dropout[site] if batch.noise is not None else None
+        return noise.dropout(h, keep, self.training, uniforms)
 
     def encode_condition(self, batch: Batch) -> torch.Tensor:
         """(B, Dx) ``x = [edge encoding; history encoding]`` (Grouptron appends its own)."""
-        history = self._rnn_dropout(
-            run_masked_lstm(self.history_encoder, batch.hist_st, batch.hist_mask)
+        keep = self.config.rnn_dropout_keep
+        history = self._dropout(
+            run_masked_lstm(self.history_encoder, batch.hist_st, batch.hist_mask),
+            batch,
+            "history",
+            keep,
         )
         if self.edge_encoder is None:
             return history
         joint = torch.cat([batch.nbr_sum_st, batch.hist_st], dim=-1)  # (B, T, 12)
-        edge = self._rnn_dropout(run_masked_lstm(self.edge_encoder, joint, batch.hist_mask))
+        edge = run_masked_lstm(self.edge_encoder, joint, batch.hist_mask)
+        edge = self._dropout(edge, batch, "edge", keep)
         edge = edge * batch.edge_scale[:, None]
         # The reference combines edge types by attention and applies dropout again; with the
         # single pedestrian-pedestrian edge type the attention is the identity.
-        edge = self._rnn_dropout(edge)
+        edge = self._dropout(edge, batch, "edge_combined", keep)
         return torch.cat([edge, history], dim=-1)
 
     def encode_future(self, batch: Batch) -> torch.Tensor:
@@ -127,14 +133,14 @@ class TrajectronCVAE(nn.Module):
         c0 = torch.stack([c_fwd, torch.zeros_like(c_fwd)])
         _, (h_n, c_n) = self.future_encoder(batch.fut_st, (h0, c0))  # (2, B, hf) each
         state = torch.cat([h_n, c_n], dim=0).permute(1, 0, 2).reshape(len(batch), -1)
-        return self._rnn_dropout(state)
+        return self._dropout(state, batch, "future", self.config.rnn_dropout_keep)
 
     def encode(
         self, batch: Batch, x: torch.Tensor, with_future: bool, logit_clip: float | None
     ) -> Encoding:
         """Latent logits from the condition (and the future, for the posterior)."""
         hidden = F.relu(self.p_z_hidden(x))
-        hidden = F.dropout(hidden, p=1.0 - self.config.mlp_dropout_keep, training=self.training)
+        hidden = self._dropout(hidden, batch, "p_z", self.config.mlp_dropout_keep)
         p_logits = centre_logits(self.p_z_logits(hidden), logit_clip)
         q_logits = None
         if with_future:
@@ -152,6 +158,7 @@ class TrajectronCVAE(nn.Module):
         horizon: int,
         feedback: Feedback,
         generator: torch.Generator | None = None,
+        draws: torch.Tensor | None = None,
     ) -> VelocityGaussians:
         """Decode ``M`` latent values per sample into per-step velocity Gaussians.
 
@@ -162,6 +169,7 @@ class TrajectronCVAE(nn.Module):
             horizon: H steps.
             feedback: feed back a Gaussian ``"sample"`` (training, sampling) or its ``"mean"``.
             generator: RNG for the samples (None: the global one).
+            draws: (B, M, H, 2) standard normal draws for the samples instead of the RNG.
         """
         c = self.config
         B = x.shape[0]
@@ -170,14 +178,15 @@ class TrajectronCVAE(nn.Module):
         h = self.decoder.initial_state(x, z_index).reshape(B * M, -1)  # (B*M, h)
         action = self.initial_action(state_now_st)[:, None, :].expand(B, M, -1).reshape(B * M, -1)
         means, log_sigmas, corrs, fed = [], [], [], []
-        for _ in range(horizon):  # the recurrence; batched over B*M rows
+        for k in range(horizon):  # the recurrence; batched over B*M rows
             h = self.decoder.step(gates_zx, action, h)
             head = self.gaussian_head(h).float()  # (B*M, 5)
             mean = head[:, :2]
             log_sigma = head[:, 2:4].clamp(c.log_sigma_min, c.log_sigma_max)
             corr = torch.tanh(head[:, 4]).clamp(-c.corr_max, c.corr_max)
             if feedback == "sample":
-                action = gaussians.sample(mean, log_sigma, corr, generator)
+                eps = None if draws is None else draws[:, :, k].reshape(B * M, 2)
+                action = gaussians.sample(mean, log_sigma, corr, generator, eps)
             else:
                 action = mean
             means.append(mean)
@@ -208,6 +217,11 @@ class TrajectronCVAE(nn.Module):
         encoding = self.encode(batch, condition, with_future=True, logit_clip=logit_clip)
         with torch.autocast(condition.device.type, dtype=torch.bfloat16, enabled=bf16):
             velocity = self.decode(
-                condition, batch.state_now_st, None, batch.fut_st.shape[1], "sample"
+                condition,
+                batch.state_now_st,
+                None,
+                batch.fut_st.shape[1],
+                "sample",
+                draws=None if batch.noise is None else batch.noise.decoder,
             )
         return CVAEOutput(encoding=encoding, velocity=velocity)

@@ -41,9 +41,14 @@ def sample(
     log_sigma: torch.Tensor,
     corr: torch.Tensor,
     generator: torch.Generator | None = None,
+    eps: torch.Tensor | None = None,
 ) -> torch.Tensor:
-    """A reparameterised draw ``mean + L eps`` with ``L`` the Cholesky factor: (..., 2)."""
-    eps = torch.randn(mean.shape, generator=generator, dtype=mean.dtype, device=mean.device)
+    """A reparameterised draw ``mean + L eps`` with ``L`` the Cholesky factor: (..., 2); ``eps``
+    (standard normals shaped like ``mean``) is drawn from ``generator`` unless given."""
+    if eps is None:
+        eps = torch.randn(mean.shape, generator=generator, dtype=mean.dtype, device=mean.device)
+    else:
+        eps = eps.to(mean.dtype)
     sigma = log_sigma.exp()
     e_x, e_y = eps.unbind(-1)
     x = sigma[..., 0] * e_x

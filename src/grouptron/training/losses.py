@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import torch
@@ -54,24 +55,43 @@ def kl_categorical(q_logits: torch.Tensor, p_logits: torch.Tensor) -> torch.Tens
     return (log_q.exp() * (log_q - log_p)).sum(dim=-1)
 
 
-def mutual_information(p_logits: torch.Tensor) -> torch.Tensor:
+BatchMean = Callable[[torch.Tensor], torch.Tensor]
+"""(B, ...) per-sample values -> (...) their mean over the batch (global when distributed)."""
+
+
+def _mean_over_batch(values: torch.Tensor) -> torch.Tensor:
+    return values.mean(dim=0)
+
+
+def mutual_information(
+    p_logits: torch.Tensor, batch_mean: BatchMean = _mean_over_batch
+) -> torch.Tensor:
     """I(x; z) under p(z|x) over the batch: entropy of the mean minus the mean entropy."""
     log_p = F.log_softmax(p_logits, dim=-1)
     probs = log_p.exp()
-    mean_probs = probs.mean(dim=0)
+    mean_probs = batch_mean(probs)
     entropy_of_mean = -(mean_probs * torch.log(mean_probs.clamp_min(1e-30))).sum()
-    mean_entropy = -(probs * log_p).sum(dim=-1).mean()
+    mean_entropy = batch_mean(-(probs * log_p).sum(dim=-1))
     return entropy_of_mean - mean_entropy
 
 
 def elbo_loss(
-    output: CVAEOutput, batch: Batch, config: LossConfig, kl_weight: float, dt_s: float
+    output: CVAEOutput,
+    batch: Batch,
+    config: LossConfig,
+    kl_weight: float,
+    dt_s: float,
+    batch_mean: BatchMean = _mean_over_batch,
 ) -> LossTerms:
-    """``-(E[log p(y|x,z)] - w_kl * max(KL, free bits) + w_mi * I)`` averaged over the batch."""
+    """``-(E[log p(y|x,z)] - w_kl * max(KL, free bits) + w_mi * I)`` averaged over the batch
+    (``batch_mean`` averages over the global batch when it is split across processes)."""
     encoding = output.encoding
     assert encoding.q_logits is not None
-    log_likelihood = position_log_likelihood(output, batch, dt_s, config.log_likelihood_max).mean()
-    kl = kl_categorical(encoding.q_logits, encoding.p_logits).mean().clamp(min=config.kl_free_bits)
-    mutual_info = mutual_information(encoding.p_logits)
+    log_likelihood = batch_mean(
+        position_log_likelihood(output, batch, dt_s, config.log_likelihood_max)
+    )
+    kl = batch_mean(kl_categorical(encoding.q_logits, encoding.p_logits))
+    kl = kl.clamp(min=config.kl_free_bits)
+    mutual_info = mutual_information(encoding.p_logits, batch_mean)
     elbo = log_likelihood - kl_weight * kl + config.mutual_info_weight * mutual_info
     return LossTerms(loss=-elbo, log_likelihood=log_likelihood, kl=kl, mutual_info=mutual_info)

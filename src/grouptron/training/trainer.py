@@ -8,6 +8,7 @@ and ``train`` ties them together and writes checkpoints and metrics.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 import time
@@ -17,6 +18,7 @@ from typing import Any
 
 import numpy as np
 import torch
+from torch.nn.parallel import DistributedDataParallel
 from tqdm import tqdm
 
 from grouptron.baselines.constant_velocity import constant_velocity
@@ -30,8 +32,10 @@ from grouptron.groups.assign import SampleGroups
 from grouptron.model.batch import make_batch
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import build_model, load_weights, uses_groups
+from grouptron.model.noise import draw_training_noise
 from grouptron.training import schedules
 from grouptron.training.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
+from grouptron.training.distributed import SINGLE, Cluster, global_mean
 from grouptron.training.losses import elbo_loss
 from grouptron.training.metrics_log import MetricsWriter
 from grouptron.training.model_card import describe_device, write_model_card
@@ -147,8 +151,15 @@ def train_epoch(
     progress: bool,
     max_iterations: int | None = None,
     groups: SampleGroups | None = None,
+    cluster: Cluster = SINGLE,
+    network: torch.nn.Module | None = None,
 ) -> dict[str, float]:
-    """One pass over the shuffled training samples; returns mean loss terms and speed."""
+    """One pass over the shuffled training samples; returns mean loss terms and speed.
+
+    With several processes (``cluster``), each runs its share of every global batch through
+    ``network`` (the model wrapped in DDP); the order, angles and noise are the same everywhere.
+    """
+    network = state.model if network is None else network
     state.model.train()
     device = next(state.model.parameters()).device
     order = state.rng.permutation(len(samples))
@@ -156,7 +167,12 @@ def train_epoch(
     starts = range(0, len(order), size)
     totals: dict[str, float] = {}
     seen, started = 0, time.perf_counter()
-    bar = tqdm(starts, desc=f"epoch {state.epoch + 1}", unit="it", disable=not progress)
+    bar = tqdm(
+        starts,
+        desc=f"epoch {state.epoch + 1}",
+        unit="it",
+        disable=not (progress and cluster.is_main),
+    )
     for start in bar:  # closed below, also when stopped early
         if max_iterations is not None and state.iteration >= max_iterations:
             break
@@ -166,8 +182,13 @@ def train_epoch(
             if config.train.rotation_augmentation
             else None
         )
-        batch = make_batch(samples, index, config.data, angles, groups).to(device)
-        output = state.model(
+        noise = draw_training_noise(len(index), config.model, config.data.horizon_steps)
+        mine = cluster.shard(len(index))  # this process's rows of the global batch
+        batch = make_batch(
+            samples, index[mine], config.data, None if angles is None else angles[mine], groups
+        )
+        batch = dataclasses.replace(batch, noise=noise.rows(mine)).to(device)
+        output = network(
             batch,
             logit_clip=schedules.logit_clip(config.loss, state.iteration),
             bf16=config.train.bf16,
@@ -178,9 +199,11 @@ def train_epoch(
             config.loss,
             schedules.kl_weight(config.loss, state.iteration),
             config.data.dt_s,
+            batch_mean=functools.partial(global_mean, cluster=cluster, global_count=len(index)),
         )
         state.optimizer.zero_grad(set_to_none=True)
-        terms.loss.backward()
+        # DDP averages the processes' gradients; each holds its rows' share of the whole loss.
+        (terms.loss * cluster.world_size).backward()
         torch.nn.utils.clip_grad_value_(state.model.parameters(), config.train.grad_clip_value)
         state.optimizer.step()
         state.scheduler.step()
@@ -253,6 +276,7 @@ def train(
     train_groups: SampleGroups | None = None,
     val_groups: SampleGroups | None = None,
     device: torch.device | str = "cpu",
+    cluster: Cluster = SINGLE,
 ) -> TrainState:
     """Train for ``config.train.epochs`` epochs.
 
@@ -263,17 +287,34 @@ def train(
     ``best.safetensors`` (weights, when the validation ML FDE improved) and a metrics record.
     Grouptron needs ``train_groups`` and ``val_groups`` (the samples' groups). On a CUDA
     ``device`` a resumed run continues correctly but not bit for bit (the CUDA RNG is not saved).
+
+    With a multi-process ``cluster`` (torchrun), every process trains its share of each global
+    batch of ``batch_size`` samples under DDP; only the main process validates and writes files,
+    the others wait for it at the end of every epoch.
     """
     if len(train_samples) == 0:
         raise GrouptronError("no training samples")
     if uses_groups(config) and (train_groups is None or val_groups is None):
         raise GrouptronError(f"{config.model_name} needs the samples' groups")
+    last_batch = len(train_samples) % config.train.batch_size
+    if 0 < last_batch < cluster.world_size:
+        raise GrouptronError(
+            f"the last batch of each epoch holds {last_batch} samples, fewer than the "
+            f"{cluster.world_size} processes; choose another --batch-size"
+        )
     out_dir.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(config.train.threads)
     state = setup(config, out_dir, resume, torch.device(device))
-    save_config(config, out_dir / CONFIG)  # the same JSON as in the checkpoints, for reading
+    network: torch.nn.Module = state.model
+    if cluster.distributed:
+        device_ids = [torch.device(device).index] if torch.device(device).type == "cuda" else None
+        network = DistributedDataParallel(state.model, device_ids=device_ids)
+    writes = cluster.is_main
+    progress = progress and writes
+    if writes:
+        save_config(config, out_dir / CONFIG)  # the same JSON as in the checkpoints
     writer = MetricsWriter(out_dir)
-    if resume:
+    if resume and writes:
         writer.truncate_after(state.epoch)
     while state.epoch < config.train.epochs:
         if max_iterations is not None and state.iteration >= max_iterations:
@@ -281,7 +322,16 @@ def train(
         record: dict[str, Any] = {"epoch": state.epoch + 1}
         epoch_started = time.perf_counter()
         record.update(
-            train_epoch(state, config, train_samples, progress, max_iterations, train_groups)
+            train_epoch(
+                state,
+                config,
+                train_samples,
+                progress,
+                max_iterations,
+                train_groups,
+                cluster,
+                network,
+            )
         )
         per_epoch = math.ceil(len(train_samples) / config.train.batch_size)
         if max_iterations is not None and state.iteration % per_epoch:
@@ -289,10 +339,15 @@ def train(
         state.epoch += 1
         record["iteration"] = state.iteration
         record["learning_rate"] = state.scheduler.get_last_lr()[0]
+        if not writes:  # the main process validates and saves; wait for it
+            cluster.barrier()
+            continue
         if len(val_samples):
             record.update(validate(state, config, val_samples, val_groups))
         record["epoch_seconds"] = time.perf_counter() - epoch_started
         record["device"] = describe_device(torch.device(device), config.train.threads)
+        if cluster.distributed:
+            record["processes"] = cluster.world_size
         state.history.append(record)
         writer.write(record)
         val_fde = record.get("val_ml_fde", math.nan)
@@ -304,6 +359,7 @@ def train(
         if progress:
             shown = {k: round(v, 4) for k, v in record.items() if isinstance(v, float)}
             tqdm.write(f"epoch {state.epoch}: {shown}")
-    if state.history:
+        cluster.barrier()
+    if state.history and writes:
         plot_training_curves(writer.records(), out_dir.name, out_dir / CURVES)
     return state
