@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -137,12 +138,15 @@ def animate_forecasts(
         steps_per_second: playback rate (2.5 = real time for 0.4 s steps).
     """
     suffix = out.suffix.lower()
+    # The stubs say int, but both writers use fps as a number (GIF: 1000 / fps ms a picture),
+    # and real time for 0.4 s steps is 2.5.
+    fps: Any = steps_per_second
     if suffix == ".gif":
-        writer: animation.AbstractMovieWriter = animation.PillowWriter(fps=steps_per_second)
+        writer: animation.AbstractMovieWriter = animation.PillowWriter(fps=fps)
     elif suffix == ".mp4":
         if not animation.writers.is_available("ffmpeg"):
             raise GrouptronError(f"{out}: writing MP4 needs ffmpeg on PATH; write a .gif instead")
-        writer = animation.FFMpegWriter(fps=steps_per_second)
+        writer = animation.FFMpegWriter(fps=fps)
     else:
         raise GrouptronError(f"{out}: an animation is written as .gif or .mp4, not {suffix!r}")
     (x_lim, y_lim) = _bounds(frames)
