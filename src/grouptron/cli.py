@@ -50,7 +50,7 @@ from grouptron.groups.clustering import LINKAGES
 from grouptron.groups.distances import DISTANCE_KINDS
 from grouptron.groups.labels import read_group_labels, read_id_map
 from grouptron.groups.scene import groups_per_step, position_grid, score_against_labels
-from grouptron.inference.predictor import Predictor
+from grouptron.inference.predictor import Predictor, resolve_checkpoint
 from grouptron.inference.tracks import FORECAST_MODES, forecast_scene
 from grouptron.io import (
     refuse_folder,
@@ -340,12 +340,14 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 def cmd_predict(args: argparse.Namespace) -> int:
     refuse_folder(Path(args.out))  # before the work, not after it
-    model, experiment = load_trained_model(args.checkpoint)
+    model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
     torch.set_num_threads(args.threads)
     frames_per_step = args.frames_per_step or experiment.data.frames_per_step
     data = dataclasses.replace(experiment.data, frames_per_step=frames_per_step)
     experiment = dataclasses.replace(experiment, data=data)
-    scene = build_scene(read_tracks(args.tracks, frames_per_step, args.on_gap), data)
+    scene = build_scene(
+        read_tracks(args.tracks, frames_per_step, args.on_gap), data, name=str(args.tracks)
+    )
     forecast = forecast_scene(
         model, experiment, scene, args.mode, args.samples, args.seed, progress=not args.quiet
     )
@@ -532,7 +534,7 @@ def _group_configs(args: argparse.Namespace) -> list[GroupConfig]:
 
 def _track_scene(args: argparse.Namespace) -> Scene:
     table = read_tracks(args.tracks, args.frames_per_step, args.on_gap)
-    return build_scene(table, DataConfig(frames_per_step=args.frames_per_step))
+    return build_scene(table, DataConfig(frames_per_step=args.frames_per_step), str(args.tracks))
 
 
 def cmd_groups_evaluate(args: argparse.Namespace) -> int:
@@ -578,6 +580,11 @@ def cmd_groups_detect(args: argparse.Namespace) -> int:
     scene = _track_scene(args)
     config = GroupConfig(linkage=args.linkage, distance=args.distance)
     found = list(groups_per_step(scene, config))
+    if not found:
+        raise GrouptronError(
+            f"{args.tracks}: no pedestrian is tracked over 2 or more steps, so there is "
+            "nobody to group"
+        )
     rows = [
         (scene.first_frame + f.step * scene.frames_per_step, int(scene.ped_id[track]), int(label))
         for f in found
@@ -775,7 +782,11 @@ def build_parser() -> argparse.ArgumentParser:
         "      --tracks biwi_eth.txt --out forecast.csv\n"
         "  grouptron predict --checkpoint CKPT --tracks tracks.txt --out s.csv --mode samples",
     )
-    predict.add_argument("--checkpoint", required=True, help="a .safetensors checkpoint")
+    predict.add_argument(
+        "--checkpoint",
+        required=True,
+        help="a .safetensors checkpoint or a shipped name (grouptron-univ-backward)",
+    )
     predict.add_argument("--tracks", required=True, help="a 'frame id x y' track file")
     predict.add_argument("--out", required=True, help="CSV file to write")
     predict.add_argument("--mode", choices=FORECAST_MODES, default="ml")
@@ -807,7 +818,11 @@ def build_parser() -> argparse.ArgumentParser:
         "  grouptron plot --checkpoint A --compare B --tracks FILE --frame F --out ab.png\n"
         "  grouptron plot --checkpoint A --tracks FILE --frame 3000 --until 3400 --out a.gif",
     )
-    plot.add_argument("--checkpoint", required=True, help="a .safetensors checkpoint")
+    plot.add_argument(
+        "--checkpoint",
+        required=True,
+        help="a .safetensors checkpoint or a shipped name (grouptron-univ-backward)",
+    )
     plot.add_argument("--compare", help="a second checkpoint drawn beside the first")
     plot.add_argument("--tracks", required=True, help="a 'frame id x y' track file")
     plot.add_argument("--frame", type=int, required=True, help="the frame to forecast from")

@@ -25,6 +25,13 @@ def test_reads_tabs_and_spaces_sorted_by_track(tmp_path: Path) -> None:
     np.testing.assert_array_equal(table.frame, [0, 10, 10, 20])
 
 
+def test_a_header_line_is_skipped(tmp_path: Path) -> None:
+    plain = write_tracks(tmp_path / "plain.txt", [(0, 1, 0.5, 0.0), (10, 1, 1.0, 0.0)])
+    header = tmp_path / "header.txt"
+    header.write_text("\nframe\tid\tx\ty\n" + plain.read_text())
+    np.testing.assert_array_equal(read_tracks(header).pos_m, read_tracks(plain).pos_m)
+
+
 def test_steps_count_from_first_frame(tmp_path: Path) -> None:
     table = read_tracks(write_tracks(tmp_path / "a.txt", [(780, 1, 0, 0), (790, 1, 1, 0)]))
     assert table.first_frame == 780
@@ -43,7 +50,10 @@ def test_steps_count_from_first_frame(tmp_path: Path) -> None:
         ("0 1.5 0.0 0.0\n", 1, "id must be an integer"),
         ("0 1 0.0 0.0\n10 1 1.0 0.0\n0 1 2.0 0.0\n", 3, "duplicate row for pedestrian 1"),
         ("0 1 0.0 0.0\n15 1 1.0 0.0\n", 2, "not on the 10-frame grid"),
-        ("frame id x y\n0 1 0.0 0.0\n", 1, "frame is not a number"),
+        ("0 1 0.0 0.0\nframe id x y\n", 2, "frame is not a number"),  # a header only first
+        ("frame id 1 2\n", 1, "frame is not a number"),
+        ("0 1 2e8 0.0\n", 1, "x = 2e+08 m is out of range"),
+        ("0 1 0.0 0.0\n10 1 0.0 -1e300\n", 2, "y = -1e+300 m is out of range"),
     ],
 )
 def test_bad_rows_name_file_and_line(

@@ -11,6 +11,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from grouptron.data.scene import Scene
+from grouptron.errors import GrouptronError
+
+MAX_NEIGHBOURS = 200
+"""More pedestrians than this within the perception radius of one is not a crowd (a crush is
+~6 per m^2, ~170 in 3 m) but a unit error; it would also make clustering explode."""
 
 
 @dataclass(frozen=True)
@@ -66,6 +71,7 @@ def perception_edges(scene: Scene, radius_m: float, ramp_weights: tuple[float, .
     pos = scene.state_scene[:, :2]
     within = np.linalg.norm(pos[row_a] - pos[row_b], axis=-1) <= radius_m
     row_a, row_b = row_a[within], row_b[within]
+    _check_density(scene, row_a, radius_m)
     src, dst, step = scene.track[row_a], scene.track[row_b], scene.step[row_a]
 
     num_tracks, num_steps = scene.num_tracks, scene.num_steps
@@ -88,3 +94,18 @@ def perception_edges(scene: Scene, radius_m: float, ramp_weights: tuple[float, .
         step=step[by_src_step],
         weight=weight[by_src_step],
     )
+
+
+def _check_density(scene: Scene, row_a: np.ndarray, radius_m: float) -> None:
+    """Refuse a pedestrian with more than MAX_NEIGHBOURS others within ``radius_m``."""
+    if not len(row_a):
+        return
+    counts = np.bincount(row_a, minlength=len(scene.step))
+    worst = int(counts.argmax())
+    if counts[worst] > MAX_NEIGHBOURS:
+        frame = scene.first_frame + int(scene.step[worst]) * scene.frames_per_step
+        raise GrouptronError(
+            f"{scene.name}: pedestrian {scene.ped_id[scene.track[worst]]} has {counts[worst]} "
+            f"others within {radius_m:g} m at frame {frame} (at most {MAX_NEIGHBOURS}); are the "
+            "positions in metres?"
+        )

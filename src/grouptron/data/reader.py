@@ -21,6 +21,9 @@ from grouptron.errors import DataFormatError
 log = logging.getLogger(__name__)
 
 COLUMNS = ("frame", "id", "x", "y")
+MAX_ABS_COORDINATE_M = 1e8
+"""Larger coordinates are refused: projected (e.g. UTM) coordinates stay below 2e7 m, and far
+larger ones overflow squared distances or lose every centimetre to float rounding."""
 GapPolicy = Literal["split", "error"]
 
 
@@ -65,6 +68,8 @@ def _data_lines(path: Path, text: str) -> tuple[list[int], list[list[str]]]:
         tokens = line.split()
         if not tokens:
             continue
+        if not rows and _is_header(tokens):
+            continue  # a header line such as "frame id x y" (names, no numbers)
         if len(tokens) != len(COLUMNS):
             raise DataFormatError(
                 path,
@@ -74,6 +79,19 @@ def _data_lines(path: Path, text: str) -> tuple[list[int], list[list[str]]]:
         numbers.append(number)
         rows.append(tokens)
     return numbers, rows
+
+
+def _is_header(tokens: list[str]) -> bool:
+    """A line of four column names: no token is a number."""
+    if len(tokens) != len(COLUMNS):
+        return False
+    for token in tokens:
+        try:
+            float(token)
+        except ValueError:
+            continue
+        return False
+    return all(token.isidentifier() for token in tokens)
 
 
 def _find_bad_value(path: Path, numbers: list[int], rows: list[list[str]]) -> DataFormatError:
@@ -174,6 +192,16 @@ def table_from_values(
         raise DataFormatError(source, "no 'frame id x y' rows")
     path = source
     _check_integers(path, values, lines)
+    too_far = np.flatnonzero(np.abs(values[:, 2:4]).max(axis=1) > MAX_ABS_COORDINATE_M)
+    if too_far.size:
+        row = int(too_far[0])
+        column = 2 + int(np.abs(values[row, 2:4]).argmax())
+        raise DataFormatError(
+            path,
+            f"{COLUMNS[column]} = {values[row, column]:.3g} m is out of range "
+            f"(|x|, |y| <= {MAX_ABS_COORDINATE_M:.0e} m; positions are in metres)",
+            int(lines[row]),
+        )
     frame = values[:, 0].astype(np.int64)
     ped_id = values[:, 1].astype(np.int64)
     pos_m = values[:, 2:4].copy()

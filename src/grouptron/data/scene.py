@@ -8,7 +8,14 @@ import numpy as np
 
 from grouptron.config import DataConfig
 from grouptron.data.reader import TrackTable
+from grouptron.errors import GrouptronError
 from grouptron.geometry import track_states
+
+MAX_GRID_CELLS = 50_000_000
+"""Bound on tracks x steps: per-step grids of the scene are dense (about 1 GB at the bound)."""
+MAX_CO_PRESENT_PAIRS = 20_000_000
+"""Bound on the sum over steps of (pedestrians at the step)^2, the pairs whose distances are
+computed (about 2 GB of temporaries at the bound; ~4,500 people in a single step)."""
 
 
 @dataclass(frozen=True)
@@ -75,9 +82,11 @@ def build_scene(table: TrackTable, config: DataConfig, name: str | None = None) 
     state = track_states(pos_scene, track, config.dt_s, config.derivatives)
 
     num_tracks = int(keep_track.sum())
+    name = name if name is not None else table.path.stem
+    _check_size(name, table, num_tracks, step)
     first_row = np.searchsorted(track, np.arange(num_tracks))
     return Scene(
-        name=name if name is not None else table.path.stem,
+        name=name,
         first_frame=table.first_frame,
         frames_per_step=table.frames_per_step,
         centre_world_m=centre,
@@ -89,3 +98,23 @@ def build_scene(table: TrackTable, config: DataConfig, name: str | None = None) 
         step=step,
         state_scene=state,
     )
+
+
+def _check_size(name: str, table: TrackTable, num_tracks: int, step: np.ndarray) -> None:
+    """Refuse recordings whose dense grids or pair lists would not fit in memory."""
+    num_steps = int(table.step.max()) + 1
+    if num_tracks * num_steps > MAX_GRID_CELLS:
+        last = table.first_frame + (num_steps - 1) * table.frames_per_step
+        raise GrouptronError(
+            f"{name}: {num_tracks} tracks over {num_steps} steps (frames {table.first_frame} to "
+            f"{last}) is too large to process at once; split the recording into separate "
+            "files (e.g. at its long pauses)"
+        )
+    per_step = np.bincount(step, minlength=num_steps) if len(step) else np.zeros(1, np.int64)
+    if int((per_step.astype(np.int64) ** 2).sum()) > MAX_CO_PRESENT_PAIRS:
+        busiest = int(per_step.argmax())
+        raise GrouptronError(
+            f"{name}: {int(per_step[busiest])} pedestrians at once at frame "
+            f"{table.first_frame + busiest * table.frames_per_step}; too many pairs to compare "
+            f"(at most {MAX_CO_PRESENT_PAIRS:,} pedestrian pairs over all steps)"
+        )
