@@ -149,8 +149,13 @@ class TrainConfig:
     """Warm start: a full training checkpoint (``last.safetensors``) of the same model whose
     weights, optimiser state and step count start this run; its schedules continue from there.
     Empty: start from the seed."""
+    max_nonfinite_steps: int = 10
+    """Optimiser steps whose loss or gradients are NaN/inf are skipped (the weights are left as
+    they were) and counted; after this many in a run, training stops with an error."""
 
     def __post_init__(self) -> None:
+        if self.max_nonfinite_steps < 0:
+            raise GrouptronError("train.max_nonfinite_steps must be >= 0")
         if self.epochs < 1 or self.batch_size < 1 or self.eval_batch_size < 1:
             raise GrouptronError("train.epochs, batch_size and eval_batch_size must be >= 1")
         if self.threads < 1:

@@ -24,6 +24,8 @@ from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import build_model, load_weights
 
 FORMAT_VERSION = 1
+TEMPORARY_CHECKPOINTS = ".*.safetensors.*.tmp"
+"""Glob of the temporary files :func:`save_checkpoint` renames into place."""
 FORMAT_NAME = "grouptron-checkpoint"
 
 
@@ -99,9 +101,16 @@ def save_checkpoint(path: str | Path, checkpoint: Checkpoint) -> None:
     )
     os.close(descriptor)
     try:
-        save_file(tensors, temporary, metadata=metadata)
-        with open(temporary, "rb") as handle:
-            os.fsync(handle.fileno())
+        try:
+            save_file(tensors, temporary, metadata=metadata)
+            with open(temporary, "rb") as handle:
+                os.fsync(handle.fileno())
+        except OSError as exc:  # e.g. a full disk: the previous file has not been touched
+            kept = "is kept as it was" if path.exists() else "was not written"
+            raise GrouptronError(
+                f"{path}: could not write the checkpoint ({exc.strerror or exc}); {path.name} "
+                f"{kept}"
+            ) from None
         os.chmod(temporary, 0o644)  # mkstemp creates 0600; a checkpoint is an ordinary file
         os.replace(temporary, path)
     finally:

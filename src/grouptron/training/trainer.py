@@ -34,7 +34,12 @@ from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import build_model, load_weights, uses_groups
 from grouptron.model.noise import draw_training_noise
 from grouptron.training import schedules
-from grouptron.training.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
+from grouptron.training.checkpoint import (
+    TEMPORARY_CHECKPOINTS,
+    Checkpoint,
+    load_checkpoint,
+    save_checkpoint,
+)
 from grouptron.training.distributed import SINGLE, Cluster, global_mean
 from grouptron.training.losses import elbo_loss
 from grouptron.training.metrics_log import MetricsWriter
@@ -60,6 +65,8 @@ class TrainState:
     epoch: int = 0
     iteration: int = 0
     best_val_fde: float = math.inf
+    nonfinite_steps: int = 0
+    """Steps skipped because the loss or a gradient was NaN/inf (over the whole run)."""
     history: list[dict[str, Any]] = field(default_factory=list)
 
 
@@ -103,6 +110,7 @@ def setup(
         raise GrouptronError(f"{last} cannot be resumed: damaged training state ({exc})") from None
     state.epoch = checkpoint.epoch
     state.best_val_fde = extra.get("best_val_fde", math.inf)
+    state.nonfinite_steps = int(extra.get("nonfinite_steps", 0))
     return state
 
 
@@ -153,8 +161,9 @@ def train_epoch(
     groups: SampleGroups | None = None,
     cluster: Cluster = SINGLE,
     network: torch.nn.Module | None = None,
-) -> dict[str, float]:
-    """One pass over the shuffled training samples; returns mean loss terms and speed.
+) -> tuple[dict[str, float], bool]:
+    """One pass over the shuffled training samples; returns mean loss terms and speed, and
+    whether the pass was finished (False when stopped at ``max_iterations``).
 
     With several processes (``cluster``), each runs its share of every global batch through
     ``network`` (the model wrapped in DDP); the order, angles and noise are the same everywhere.
@@ -173,8 +182,11 @@ def train_epoch(
         unit="it",
         disable=not (progress and cluster.is_main),
     )
+    finished = True
+    skipped_before = state.nonfinite_steps
     for start in bar:  # closed below, also when stopped early
         if max_iterations is not None and state.iteration >= max_iterations:
+            finished = False
             break
         index = order[start : start + size]
         angles = (
@@ -202,8 +214,17 @@ def train_epoch(
             batch_mean=functools.partial(global_mean, cluster=cluster, global_count=len(index)),
         )
         state.optimizer.zero_grad(set_to_none=True)
+        # The loss is the whole global batch's on every process, so all of them agree on
+        # skipping; the gradients are checked after DDP has averaged them, for the same reason.
+        if not torch.isfinite(terms.loss.detach()):
+            _skip_nonfinite_step(state, config, "loss")
+            continue
         # DDP averages the processes' gradients; each holds its rows' share of the whole loss.
         (terms.loss * cluster.world_size).backward()
+        if not _gradients_are_finite(state.model):
+            state.optimizer.zero_grad(set_to_none=True)
+            _skip_nonfinite_step(state, config, "gradients")
+            continue
         torch.nn.utils.clip_grad_value_(state.model.parameters(), config.train.grad_clip_value)
         state.optimizer.step()
         state.scheduler.step()
@@ -218,7 +239,29 @@ def train_epoch(
     means = {f"train_{k}": v / max(seen, 1) for k, v in totals.items()}
     means["train_seconds"] = elapsed
     means["train_samples_per_s"] = seen / elapsed if elapsed > 0 else 0.0
-    return means
+    means["nonfinite_steps"] = state.nonfinite_steps - skipped_before
+    return means, finished
+
+
+def _gradients_are_finite(model: torch.nn.Module) -> bool:
+    grads = [p.grad for p in model.parameters() if p.grad is not None]
+    return bool(torch.isfinite(torch.nn.utils.get_total_norm(grads)))
+
+
+def _skip_nonfinite_step(state: TrainState, config: ExperimentConfig, what: str) -> None:
+    """Count a skipped step (weights untouched); stop the run past the configured limit."""
+    state.nonfinite_steps += 1
+    log.warning(
+        "step %d skipped: non-finite %s (%d so far)", state.iteration, what, state.nonfinite_steps
+    )
+    limit = config.train.max_nonfinite_steps
+    if state.nonfinite_steps > limit:
+        raise GrouptronError(
+            f"training stopped: {state.nonfinite_steps} steps with non-finite loss or "
+            f"gradients (the last in epoch {state.epoch + 1}, {what}), more than "
+            f"train.max_nonfinite_steps = {limit}; the last checkpoint of a finished epoch is "
+            "intact (try a lower learning rate or look for bad training data)"
+        )
 
 
 def validate(
@@ -259,6 +302,7 @@ def _checkpoint(state: TrainState, config: ExperimentConfig, weights_only: bool)
             "scheduler": state.scheduler.state_dict(),
             "numpy_rng": state.rng.bit_generator.state,
             "best_val_fde": state.best_val_fde,
+            "nonfinite_steps": state.nonfinite_steps,
             "last_metrics": state.history[-1] if state.history else None,
         },
         torch_rng_state=None if weights_only else torch.get_rng_state(),
@@ -312,6 +356,8 @@ def train(
     writes = cluster.is_main
     progress = progress and writes
     if writes:
+        for stale in out_dir.glob(TEMPORARY_CHECKPOINTS):  # left behind by a killed process
+            stale.unlink()
         save_config(config, out_dir / CONFIG)  # the same JSON as in the checkpoints
     writer = MetricsWriter(out_dir)
     if resume and writes:
@@ -321,20 +367,18 @@ def train(
             break
         record: dict[str, Any] = {"epoch": state.epoch + 1}
         epoch_started = time.perf_counter()
-        record.update(
-            train_epoch(
-                state,
-                config,
-                train_samples,
-                progress,
-                max_iterations,
-                train_groups,
-                cluster,
-                network,
-            )
+        means, finished = train_epoch(
+            state,
+            config,
+            train_samples,
+            progress,
+            max_iterations,
+            train_groups,
+            cluster,
+            network,
         )
-        per_epoch = math.ceil(len(train_samples) / config.train.batch_size)
-        if max_iterations is not None and state.iteration % per_epoch:
+        record.update(means)
+        if not finished:
             break  # stopped mid-epoch, as if killed: nothing of this epoch is saved
         state.epoch += 1
         record["iteration"] = state.iteration
