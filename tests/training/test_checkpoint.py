@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 import torch
+from safetensors import safe_open
 
 from grouptron.config import ExperimentConfig
 from grouptron.errors import GrouptronError
@@ -103,3 +104,71 @@ def test_refuses_bad_metadata_and_configs(tmp_path: Path) -> None:
         save_file({"model.w": torch.zeros(1)}, str(path), metadata={**base, **changes})
         with pytest.raises(GrouptronError, match=fragment):
             load_checkpoint(path)
+
+
+class _Payload:
+    """A pickle that creates a file when unpickled: what a malicious checkpoint would do."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self) -> tuple[object, tuple[str]]:
+        return (Path.touch, (str(self.marker),))  # type: ignore[return-value]
+
+
+def _bad_checkpoints(folder: Path) -> dict[str, tuple[Path, str]]:
+    """Damaged variants of a valid checkpoint, with the words their refusal must contain."""
+    from safetensors.torch import load_file, save_file
+
+    good = folder / "good.safetensors"
+    save_checkpoint(good, Checkpoint(CONFIG, build_model(CONFIG).state_dict()))
+    tensors = load_file(str(good))
+    with safe_open(str(good), framework="pt") as handle:
+        metadata = handle.metadata()
+    cases: dict[str, tuple[dict[str, torch.Tensor], dict[str, str]] | bytes] = {}
+    name = next(k for k in tensors if k.startswith("model.") and k.endswith("weight"))
+    cases["extra"] = ({**tensors, "model.smuggled": torch.zeros(3)}, metadata)
+    cases["missing"] = ({k: v for k, v in tensors.items() if k != name}, metadata)
+    wider = dict(tensors)
+    wider[name] = torch.zeros(tensors[name].shape[0] + 1, *tensors[name].shape[1:])
+    cases["shape"] = (wider, metadata)
+    poisoned = dict(tensors)
+    poisoned[name] = tensors[name].clone()
+    poisoned[name].view(-1)[0] = torch.nan
+    cases["nan"] = (poisoned, metadata)
+    cases["truncated"] = good.read_bytes()[:-100]
+    cases["pickle"] = pickle.dumps(_Payload(folder / "pwned"))
+    expected = {
+        "extra": "unexpected tensors smuggled",
+        "missing": f"missing tensors {name[6:]}",
+        "shape": "shapes do not match",
+        "nan": "not finite",
+        "truncated": "truncated",
+        "pickle": "never unpickles",
+    }
+    out: dict[str, tuple[Path, str]] = {}
+    for case, content in cases.items():
+        path = folder / f"{case}.safetensors"
+        if isinstance(content, bytes):
+            path.write_bytes(content)
+        else:
+            save_file(content[0], str(path), metadata=content[1])
+        out[case] = (path, expected[case])
+    return out
+
+
+def test_every_damaged_checkpoint_is_refused_in_one_line(tmp_path: Path) -> None:
+    from grouptron.cli import main
+    from grouptron.training.checkpoint import load_trained_model
+    from tests.conftest import synthetic_recording
+
+    tracks = synthetic_recording(tmp_path / "tracks.txt", seed=1)
+    for case, (path, fragment) in _bad_checkpoints(tmp_path).items():
+        with pytest.raises(GrouptronError, match=fragment) as info:
+            load_trained_model(path)
+        assert "\n" not in str(info.value) and str(path) in str(info.value), case
+        out = tmp_path / f"{case}.csv"
+        argv = ["predict", "--checkpoint", str(path), "--tracks", str(tracks), "--out", str(out)]
+        assert main([*argv, "--quiet"]) == 2, case
+        assert not out.exists(), case
+    assert not (tmp_path / "pwned").exists()  # the pickle's payload never ran

@@ -45,6 +45,11 @@ def load_weights(model: torch.nn.Module, state: dict[str, torch.Tensor], source:
         problems.append(f"unexpected tensors {', '.join(unexpected[:4])}")
     if wrong_shape:
         problems.append(f"tensor shapes do not match the config: {'; '.join(wrong_shape[:3])}")
+    not_finite = sorted(
+        k for k, v in state.items() if v.is_floating_point() and not torch.isfinite(v).all()
+    )
+    if not_finite:
+        problems.append(f"tensors with values that are not finite: {', '.join(not_finite[:4])}")
     if problems:
         raise GrouptronError(f"{source}: weights do not fit the model ({'; '.join(problems)})")
     model.load_state_dict(state)

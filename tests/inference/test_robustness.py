@@ -1,0 +1,64 @@
+"""Forecasts stay finite and correct at the edges: standing still, 10 m/s, people on top of
+each other, geo-referenced coordinates (shipped checkpoints, so real weights)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grouptron import Predictor
+from tests.test_bad_input import _walk
+
+MODELS = ["grouptron-univ-backward", "trajectron++-univ-backward"]
+
+
+@pytest.fixture(scope="module", params=MODELS)
+def predictor(request: pytest.FixtureRequest) -> Predictor:
+    return Predictor.from_checkpoint(request.param)
+
+
+def _scene(kind: str) -> np.ndarray:
+    """(R, 4) rows of 6 people over 12 steps."""
+    if kind == "standing still":
+        return _walk(6, 12, seed=3, speed=0.0, offset=0.0)
+    if kind == "10 m/s":
+        return _walk(6, 12, seed=3, speed=10.0, offset=0.0)
+    if kind == "coincident":  # everyone at the same point at every step, walking together
+        rows = _walk(6, 12, seed=3, speed=1.3, offset=0.0)
+        leader = rows[rows[:, 1] == 0]
+        rows[:, 2:] = np.tile(leader[:, 2:], (6, 1))
+        return rows
+    raise ValueError(kind)
+
+
+def _assert_finite(forecast: object) -> None:
+    for name in ("most_likely", "samples", "mixture_means", "mixture_covariances"):
+        value = getattr(forecast, name)
+        assert value is not None and np.isfinite(value).all(), name
+
+
+@pytest.mark.parametrize("kind", ["standing still", "10 m/s", "coincident"])
+def test_forecasts_are_finite_at_the_edges(predictor: Predictor, kind: str) -> None:
+    rows = _scene(kind)
+    forecast = predictor.predict(rows, num_samples=5)
+    assert len(forecast) == 6
+    _assert_finite(forecast)
+    if kind == "standing still":  # a model that learned anything keeps still people near
+        assert np.abs(forecast.most_likely[:, -1] - rows[rows[:, 0] == 110][:, 2:]).max() < 2.0
+    if kind == "coincident":  # identical people, identical forecasts; C(6) = 3 groups by rule
+        np.testing.assert_allclose(forecast.most_likely, forecast.most_likely[:1].repeat(6, 0))
+        assert len(np.unique(forecast.group)) == 3
+
+
+@pytest.mark.parametrize("offset", [1e5, -3e6])
+def test_geo_referenced_coordinates_shift_the_forecast_exactly(
+    predictor: Predictor, offset: float
+) -> None:
+    rows = _walk(6, 12, seed=5, speed=1.3, offset=0.0)
+    shifted = rows.copy()
+    shifted[:, 2:] += offset
+    near, far = predictor.predict(rows, num_samples=3), predictor.predict(shifted, num_samples=3)
+    _assert_finite(far)
+    np.testing.assert_allclose(far.most_likely - offset, near.most_likely, atol=1e-3)
+    np.testing.assert_allclose(far.samples - offset, near.samples, atol=1e-3)
+    np.testing.assert_array_equal(far.group, near.group)
