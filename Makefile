@@ -44,6 +44,7 @@ bench: install
 	$(BIN)/python benchmarks/preprocessing.py
 	$(BIN)/python benchmarks/training.py
 	$(BIN)/python benchmarks/groups.py
+	$(BIN)/python benchmarks/streaming.py --frames 40
 
 clean:
 	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache

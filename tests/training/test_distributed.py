@@ -12,7 +12,6 @@ import pytest
 import torch
 from safetensors.torch import load_file
 
-from grouptron.cli import main
 from grouptron.config import ExperimentConfig, TrainConfig, save_config
 from grouptron.data.dataset import load_part
 from grouptron.errors import GrouptronError
@@ -54,26 +53,56 @@ def test_a_last_batch_smaller_than_the_process_count_is_refused(
         train(config, samples, samples, tmp_path / "run", cluster=Cluster(0, 2))
 
 
+# `grouptron train` whose loss is NaN on its third step (the same step on every process).
+POISONED_TRAIN = """
+import sys
+import dataclasses
+import torch
+from grouptron.cli import main
+from grouptron.training import trainer
+
+real, calls = trainer.elbo_loss, [0]
+
+def poisoned(*args, **kwargs):
+    terms = real(*args, **kwargs)
+    calls[0] += 1
+    return dataclasses.replace(terms, loss=terms.loss * torch.nan) if calls[0] == 3 else terms
+
+trainer.elbo_loss = poisoned
+sys.exit(main(sys.argv[1:]))
+"""
+
+
 @pytest.mark.slow
-def test_two_processes_end_at_the_weights_of_one(synthetic_data_dir: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize("poisoned", [False, True])
+def test_two_processes_end_at_the_weights_of_one(
+    synthetic_data_dir: Path, tmp_path: Path, poisoned: bool
+) -> None:
     config_file = tmp_path / "config.json"
     save_config(_config(batch_size=64), config_file)  # 7 steps, the last one uneven (27 rows)
     common = ["train", "--config", str(config_file), "--split", "eth", "--model", "grouptron"]
     common += ["--data-dir", str(synthetic_data_dir), "--quiet", "--threads", "1"]
     launcher = [sys.executable, "-m", "torch.distributed.run", "--nnodes", "1"]
     launcher += ["--nproc-per-node", "2", "--master-addr", "127.0.0.1"]
-    launcher += ["--master-port", str(_free_port()), "-m", "grouptron"]
-    two = subprocess.run(
-        [*launcher, *common, "--out", str(tmp_path / "two")],
-        capture_output=True,
-        text=True,
-        cwd=REPO,
-        timeout=300,
-    )
-    assert two.returncode == 0, two.stderr[-3000:]
-    assert two.stdout.count("done: 1 epochs, 7 steps") == 1  # only the main process reports
-    assert main([*common, "--out", str(tmp_path / "one")]) == 0
-    both = [load_file(tmp_path / run / "last.safetensors") for run in ("two", "one")]
+    launcher += ["--master-port", str(_free_port())]
+    if poisoned:  # a skipped step must be skipped by both processes, as by one
+        script = tmp_path / "poisoned_train.py"
+        script.write_text(POISONED_TRAIN)
+        launcher, single = [*launcher, str(script)], [sys.executable, str(script)]
+    else:
+        launcher, single = [*launcher, "-m", "grouptron"], [sys.executable, "-m", "grouptron"]
+    for command, out in ((launcher, "two"), (single, "one")):
+        run = subprocess.run(
+            [*command, *common, "--out", str(tmp_path / out)],
+            capture_output=True,
+            text=True,
+            cwd=REPO,
+            timeout=300,
+        )
+        assert run.returncode == 0, run.stderr[-3000:]
+        steps = 6 if poisoned else 7
+        assert run.stdout.count(f"done: 1 epochs, {steps} steps") == 1  # only the main reports
+    both = [load_file(tmp_path / folder / "last.safetensors") for folder in ("two", "one")]
     weights = [name for name in both[1] if name.startswith("model.")]
     assert weights and sorted(both[0]) == sorted(both[1])
     for name in weights:

@@ -214,16 +214,15 @@ def train_epoch(
             batch_mean=functools.partial(global_mean, cluster=cluster, global_count=len(index)),
         )
         state.optimizer.zero_grad(set_to_none=True)
-        # The loss is the whole global batch's on every process, so all of them agree on
-        # skipping; the gradients are checked after DDP has averaged them, for the same reason.
-        if not torch.isfinite(terms.loss.detach()):
-            _skip_nonfinite_step(state, config, "loss")
-            continue
         # DDP averages the processes' gradients; each holds its rows' share of the whole loss.
+        # Backward runs even for a non-finite loss so that DDP's gradient exchange completes
+        # on every process; the loss is the whole global batch's everywhere and the gradients
+        # are checked after averaging, so all processes agree on skipping the step.
         (terms.loss * cluster.world_size).backward()
-        if not _gradients_are_finite(state.model):
+        if not torch.isfinite(terms.loss.detach()) or not _gradients_are_finite(state.model):
             state.optimizer.zero_grad(set_to_none=True)
-            _skip_nonfinite_step(state, config, "gradients")
+            what = "loss" if not torch.isfinite(terms.loss.detach()) else "gradients"
+            _skip_nonfinite_step(state, config, what)
             continue
         torch.nn.utils.clip_grad_value_(state.model.parameters(), config.train.grad_clip_value)
         state.optimizer.step()
