@@ -184,3 +184,26 @@ def test_subset_and_concatenate_keep_neighbours(tmp_path: Path) -> None:
     np.testing.assert_array_equal(both.nbr_track[tail], sub.nbr_track)
     round_trip = SampleSet.from_arrays(both.to_arrays())
     np.testing.assert_array_equal(round_trip.nbr_offsets, both.nbr_offsets)
+
+
+def test_samples_of_one_step_equal_that_step_of_all_samples(tmp_path: Path) -> None:
+    from tests.conftest import synthetic_recording
+
+    config = DataConfig()
+    table = read_tracks(synthetic_recording(tmp_path / "crowd.txt", seed=7, pedestrians=12))
+    scene = build_scene(table, config)
+    everything = scene_samples(scene, config, config.history_steps, require_future=False)
+    compared = 0
+    for step in range(scene.num_steps):
+        alone = scene_samples(
+            scene, config, config.history_steps, require_future=False, only_step=step
+        )
+        expected = everything.subset(everything.step == step)
+        for name in SampleSet.__dataclass_fields__:
+            got, want = getattr(alone, name), getattr(expected, name)
+            if np.issubdtype(np.asarray(want).dtype, np.floating):  # prefix sums: rounding
+                np.testing.assert_allclose(got, want, rtol=0, atol=1e-6, err_msg=name)
+            else:
+                np.testing.assert_array_equal(got, want, name)
+        compared += len(alone)
+    assert compared == len(everything) > 50

@@ -44,13 +44,14 @@ def ranges_to_indices(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
     return np.repeat(starts - offsets, counts) + np.arange(total)
 
 
-def co_present_pairs(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
-    """All ordered pairs of distinct rows that share a step.
+def co_present_pairs(scene: Scene, rows: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """All ordered pairs of distinct rows that share a step (among ``rows``; default all).
 
     Returns:
         Two (P,) arrays of row indices into the scene's rows.
     """
-    by_step = np.argsort(scene.step, kind="stable")  # rows grouped by step
+    rows = np.arange(len(scene.step)) if rows is None else rows
+    by_step = rows[np.argsort(scene.step[rows], kind="stable")]  # rows grouped by step
     steps_sorted = scene.step[by_step]
     block_start = np.searchsorted(steps_sorted, np.arange(scene.num_steps))
     block_size = np.bincount(steps_sorted, minlength=scene.num_steps)
@@ -61,13 +62,18 @@ def co_present_pairs(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     return by_step[first[distinct]], by_step[second[distinct]]
 
 
-def perception_edges(scene: Scene, radius_m: float, ramp_weights: tuple[float, ...]) -> Edges:
+def perception_edges(
+    scene: Scene, radius_m: float, ramp_weights: tuple[float, ...], from_step: int = 0
+) -> Edges:
     """Edges between pedestrians present at the same step within ``radius_m`` of each other.
 
     The weight ramps a new edge in: ``min(1, w_0 e_t + w_1 e_{t-1} + ...)`` with ``e_s`` = 1
     where the pair was within range at step ``s``; an edge leaves at once when out of range.
+    Only steps from ``from_step`` on are looked at: the weights are exact from
+    ``from_step + len(ramp_weights) - 1`` on (live forecasting needs only the last step).
     """
-    row_a, row_b = co_present_pairs(scene)
+    rows = np.flatnonzero(scene.step >= from_step) if from_step > 0 else None
+    row_a, row_b = co_present_pairs(scene, rows)
     pos = scene.state_scene[:, :2]
     within = np.linalg.norm(pos[row_a] - pos[row_b], axis=-1) <= radius_m
     row_a, row_b = row_a[within], row_b[within]

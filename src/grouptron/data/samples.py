@@ -127,6 +127,7 @@ def scene_samples(
     min_history: int,
     scene_index: int = 0,
     require_future: bool = True,
+    only_step: int | None = None,
 ) -> SampleSet:
     """All samples of a scene whose ego has ``min_history`` observed points up to ``t`` and a
     full future of ``config.horizon_steps``.
@@ -138,6 +139,8 @@ def scene_samples(
         scene_index: stored in ``SampleSet.scene_index``.
         require_future: False keeps samples whose future is cut short (forecasting new
             tracks); their missing future positions are NaN.
+        only_step: keep only the samples at this step (live forecasting); the neighbours are
+            then found only over the steps their edge weights need.
     """
     T, H = config.history_steps, config.horizon_steps
     scale = np.asarray(config.state_scale)
@@ -149,6 +152,8 @@ def scene_samples(
     is_sample = scene.step - first >= min_history - 1
     if require_future:
         is_sample &= last - scene.step >= H
+    if only_step is not None:
+        is_sample &= scene.step == only_step
     track, step = scene.track[is_sample], scene.step[is_sample]
     ego_now = scene.state_scene[is_sample]  # (S, 6)
 
@@ -165,7 +170,9 @@ def scene_samples(
     fut_rel[~present_grid[track[:, None], fut_cols]] = np.nan
 
     # Neighbours at t: the ego's outgoing edges at its step, already sorted by (src, step).
-    edges = perception_edges(scene, config.perception_radius_m, config.edge_ramp_weights)
+    ramp = config.edge_ramp_weights
+    from_step = 0 if only_step is None else max(0, only_step - (len(ramp) - 1))
+    edges = perception_edges(scene, config.perception_radius_m, ramp, from_step)
     edge_key = edges.src.astype(np.int64) * scene.num_steps + edges.step
     sample_key = track.astype(np.int64) * scene.num_steps + step
     lo = np.searchsorted(edge_key, sample_key, side="left")

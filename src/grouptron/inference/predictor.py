@@ -237,8 +237,9 @@ class Predictor:
         )
         scene = build_scene(table, data, name="tracks")
         step = (frame - scene.first_frame) // scene.frames_per_step
-        samples = scene_samples(scene, data, data.history_steps, require_future=False)
-        samples = samples.subset(samples.step == step)
+        samples = scene_samples(
+            scene, data, data.history_steps, require_future=False, only_step=step
+        )
         if not len(samples):
             return self._empty(frame, num_samples)
         return self._run(scene, samples, frame, step, num_samples, seed)
