@@ -45,7 +45,7 @@ def write_text_atomically(path: Path, text: str) -> None:
 
 
 def save_atomically(path: Path, save: Callable[[Path], object]) -> None:
-    """Let ``save`` write a file (a picture, an animation) at a temporary path beside ``path``,
+    """Let ``save`` write a file (a table, a picture, an animation) at a temporary path beside ``path``,
     with the same suffix so format-by-suffix writers still work, and rename it into place."""
     refuse_folder(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -70,14 +70,8 @@ def refuse_folder(path: Path) -> None:
 
 
 def _write_atomically(path: Path, write: Callable[[TextIO], object]) -> None:
-    refuse_folder(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(descriptor, "w", newline="") as handle:
+    def save(temporary: Path) -> None:
+        with temporary.open("w", newline="") as handle:
             write(handle)
-        os.chmod(temporary, 0o644)
-        os.replace(temporary, path)
-    finally:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
+
+    save_atomically(path, save)

@@ -11,6 +11,8 @@ import matplotlib
 matplotlib.use("Agg")  # files only; works without a display
 import matplotlib.pyplot as plt
 
+from grouptron.io import save_atomically
+
 
 def plot_training_curves(records: list[dict[str, Any]], title: str, out: Path) -> None:
     """Save a PNG with the training loss (left) and validation ML ADE/FDE next to constant
@@ -36,6 +38,6 @@ def plot_training_curves(records: list[dict[str, Any]], title: str, out: Path) -
             val_ax.legend()
         fig.suptitle(title)
         fig.tight_layout()
-        fig.savefig(out)
+        save_atomically(out, fig.savefig)
     finally:
         plt.close(fig)
