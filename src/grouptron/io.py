@@ -45,8 +45,8 @@ def write_text_atomically(path: Path, text: str) -> None:
 
 
 def save_atomically(path: Path, save: Callable[[Path], object]) -> None:
-    """Let ``save`` write a file (a table, a picture, an animation) at a temporary path beside ``path``,
-    with the same suffix so format-by-suffix writers still work, and rename it into place."""
+    """Let ``save`` write a file (a table, a picture, an animation) at a temporary path beside
+    ``path``, with the same suffix so format-by-suffix writers still work; rename it into place."""
     refuse_folder(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     descriptor, name = tempfile.mkstemp(
