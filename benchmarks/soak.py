@@ -25,9 +25,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-import torch
-
-from grouptron import Predictor
+from streaming import add_predictor_options, load_predictor  # benchmarks/ is on sys.path
 
 DT_S = 0.4
 
@@ -87,22 +85,13 @@ def percentiles(times_ms: np.ndarray) -> dict[str, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    add_predictor_options(parser, most_likely="argmax-latent")
     parser.add_argument("--steps", type=int, default=100_000)
     parser.add_argument("--people", type=int, default=100)
-    parser.add_argument("--checkpoint", default="grouptron-univ-backward")
-    parser.add_argument(
-        "--most-likely", choices=("argmax-latent", "mixture-mode"), default="argmax-latent"
-    )
-    parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--report-every", type=int, default=10_000)
     parser.add_argument("--out", help="JSON file for the block and total figures")
     args = parser.parse_args()
-    torch.set_num_threads(args.threads)
-    predictor = Predictor.from_checkpoint(
-        args.checkpoint,
-        most_likely=args.most_likely,
-        mixture=args.most_likely == "mixture-mode",
-    )
+    predictor = load_predictor(args)
     print(
         f"{predictor.source}: {args.people} people, {args.steps} steps, "
         f"most likely = {args.most_likely}, {args.threads} threads",

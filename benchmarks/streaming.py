@@ -40,25 +40,34 @@ def synthetic_frames(
     return out
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def add_predictor_options(parser: argparse.ArgumentParser, most_likely: str) -> None:
+    """The options that pick and configure the predictor (shared with ``soak.py``)."""
     parser.add_argument("--checkpoint", default="grouptron-univ-backward")
-    parser.add_argument("--people", default="10,50,100,200")
-    parser.add_argument("--frames", type=int, default=60)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument(
         "--most-likely",
         choices=("mixture-mode", "argmax-latent"),
-        default="mixture-mode",
+        default=most_likely,
         help="the Predictor's most-likely definition (argmax-latent also skips the mixture)",
     )
-    args = parser.parse_args()
+
+
+def load_predictor(args: argparse.Namespace) -> Predictor:
     torch.set_num_threads(args.threads)
-    predictor = Predictor.from_checkpoint(
+    return Predictor.from_checkpoint(
         args.checkpoint,
         most_likely=args.most_likely,
         mixture=args.most_likely == "mixture-mode",
     )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    add_predictor_options(parser, most_likely="mixture-mode")
+    parser.add_argument("--people", default="10,50,100,200")
+    parser.add_argument("--frames", type=int, default=60)
+    args = parser.parse_args()
+    predictor = load_predictor(args)
     print(
         f"{predictor.source}: {predictor.config.model_name}, {args.threads} threads, "
         f"most likely = {args.most_likely}, mixture = {predictor.mixture}"
