@@ -176,12 +176,7 @@ def train_epoch(
     starts = range(0, len(order), size)
     totals: dict[str, float] = {}
     seen, started = 0, time.perf_counter()
-    bar = tqdm(
-        starts,
-        desc=f"epoch {state.epoch + 1}",
-        unit="it",
-        disable=not (progress and cluster.is_main),
-    )
+    bar = tqdm(starts, desc=f"epoch {state.epoch + 1}", unit="it", disable=not progress)
     finished = True
     skipped_before = state.nonfinite_steps
     for start in bar:  # closed below, also when stopped early
@@ -219,10 +214,10 @@ def train_epoch(
         # on every process; the loss is the whole global batch's everywhere and the gradients
         # are checked after averaging, so all processes agree on skipping the step.
         (terms.loss * cluster.world_size).backward()
-        if not torch.isfinite(terms.loss.detach()) or not _gradients_are_finite(state.model):
+        broken = _nonfinite_part(terms.loss, state.model)
+        if broken is not None:
             state.optimizer.zero_grad(set_to_none=True)
-            what = "loss" if not torch.isfinite(terms.loss.detach()) else "gradients"
-            _skip_nonfinite_step(state, config, what)
+            _skip_nonfinite_step(state, config, broken)
             continue
         torch.nn.utils.clip_grad_value_(state.model.parameters(), config.train.grad_clip_value)
         state.optimizer.step()
@@ -242,9 +237,12 @@ def train_epoch(
     return means, finished
 
 
-def _gradients_are_finite(model: torch.nn.Module) -> bool:
+def _nonfinite_part(loss: torch.Tensor, model: torch.nn.Module) -> str | None:
+    """``"loss"`` or ``"gradients"`` when that is NaN/inf after backward, else None."""
+    if not torch.isfinite(loss.detach()):
+        return "loss"
     grads = [p.grad for p in model.parameters() if p.grad is not None]
-    return bool(torch.isfinite(torch.nn.utils.get_total_norm(grads)))
+    return None if torch.isfinite(torch.nn.utils.get_total_norm(grads)) else "gradients"
 
 
 def _skip_nonfinite_step(state: TrainState, config: ExperimentConfig, what: str) -> None:
@@ -353,7 +351,7 @@ def train(
         device_ids = [torch.device(device).index] if torch.device(device).type == "cuda" else None
         network = DistributedDataParallel(state.model, device_ids=device_ids)
     writes = cluster.is_main
-    progress = progress and writes
+    progress = progress and writes  # one progress bar, the main process's
     if writes:
         for stale in out_dir.glob(TEMPORARY_CHECKPOINTS):  # left behind by a killed process
             stale.unlink()
