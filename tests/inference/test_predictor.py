@@ -136,3 +136,17 @@ def test_inputs_are_checked(causal: Predictor, recording: np.ndarray, tmp_path: 
             session.update(frame, ids, xy)
     # Nobody with 8 steps yet: an empty forecast, not an error.
     assert len(session.update(110, [1], [[0.1, 0.1]])) == 0
+
+
+def test_a_recording_forecast_with_central_derivatives_matches_the_track_file_forecast(
+    tiny_checkpoints: Path, recording: np.ndarray, synthetic_data_dir: Path
+) -> None:
+    central = Predictor.from_checkpoint("grouptron-eth-central", checkpoints_dir=tiny_checkpoints)
+    (scene,) = load_scenes(split_files(synthetic_data_dir, "eth", "test"), central.config.data)
+    whole = forecast_scene(central.model, central.config, scene)
+    for frame in np.unique(whole.frame)[::7]:  # forecasts read a window around the frame
+        forecast = central.predict(recording, t=int(frame), live=False)
+        at_frame = whole.frame == frame
+        order = np.argsort(whole.ped_id[at_frame])
+        expected = whole.positions[at_frame][order][:, 0]
+        np.testing.assert_allclose(forecast.most_likely, expected, atol=1e-5)

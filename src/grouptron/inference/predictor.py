@@ -180,6 +180,12 @@ class Predictor:
     def frames_per_step(self) -> int:
         return self.config.data.frames_per_step
 
+    @property
+    def window_frames(self) -> int:
+        """Frames before ``t`` a forecast reads: ``history_steps`` steps plus the two before
+        them, so velocities and accelerations at the oldest step equal the whole track's."""
+        return (self.history_steps + 1) * self.frames_per_step
+
     def predict(
         self,
         tracks: Any,
@@ -191,7 +197,7 @@ class Predictor:
         """Forecast every agent observed at frame ``t`` (default: the last frame) with
         ``history_steps`` consecutive steps up to it; rows after ``t`` are ignored unless
         ``live`` is False (a recording: then the derivatives use the rows the checkpoint's
-        protocol reads, as the evaluator does; ``central`` reads one step ahead).
+        protocol reads, as the evaluator does; ``central`` reads two steps ahead).
 
         Args:
             tracks: (R, 4) rows ``frame, id, x, y`` (an array, a list of rows, or a table with
@@ -205,8 +211,11 @@ class Predictor:
         if len(values) == 0:
             raise GrouptronError("tracks are empty: no frame, id, x, y rows")
         frame = int(values[:, 0].max()) if t is None else int(t)
-        rows = values[values[:, 0] <= frame] if live else values
-        return self._forecast(rows, frame, num_samples, seed, warn_off_protocol=live)
+        # Only the rows a forecast at ``frame`` reads, so that a long recording is not turned
+        # into a scene for every frame asked about (central derivatives read two steps ahead).
+        ahead = 0 if live else 2 * self.frames_per_step
+        near = (values[:, 0] >= frame - self.window_frames) & (values[:, 0] <= frame + ahead)
+        return self._forecast(values[near], frame, num_samples, seed, warn_off_protocol=live)
 
     def stream(self) -> StreamSession:
         """A session that is fed one frame at a time and keeps the history it needs."""
@@ -336,9 +345,8 @@ class Predictor:
 class StreamSession:
     """Feeds a :class:`Predictor` one frame at a time.
 
-    Keeps, per agent, the last ``history_steps + 2`` steps (two more than the encoder reads, so
-    velocities and accelerations at the oldest step equal those of the whole track); agents
-    appear and vanish freely and a missed detection splits the agent's track.
+    Keeps the last ``Predictor.window_frames`` of rows (the history and the two steps before
+    it); agents appear and vanish freely and a missed detection splits the agent's track.
     """
 
     def __init__(self, predictor: Predictor) -> None:
@@ -348,7 +356,7 @@ class StreamSession:
 
     @property
     def window_frames(self) -> int:
-        return (self.predictor.history_steps + 1) * self.predictor.frames_per_step
+        return self.predictor.window_frames
 
     def update(
         self, frame: int, ids: Any, xy: Any, num_samples: int = 0, seed: int = 0
