@@ -31,8 +31,8 @@ demo: install
 	$(BIN)/grouptron report --mode ml
 
 lint: install
-	$(BIN)/ruff check src tests benchmarks
-	$(BIN)/ruff format --check src tests benchmarks
+	$(BIN)/ruff check src tests benchmarks campaign
+	$(BIN)/ruff format --check src tests benchmarks campaign
 
 typecheck: install
 	$(BIN)/mypy

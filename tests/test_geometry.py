@@ -24,12 +24,16 @@ def test_central_matches_hand_values_and_np_gradient() -> None:
 
 def test_backward_matches_hand_values() -> None:
     states = track_states(POS, TRACK, DT, "backward")
-    np.testing.assert_allclose(states[:4, 2], [2, 2, 6, 10])  # v[0] = v[1]
-    np.testing.assert_allclose(states[:4, 4], [0, 0, 8, 8])  # a[0] = a[1] = 0
-    np.testing.assert_allclose(states[4:, 2:4], [[2, 4], [2, 4]])
+    np.testing.assert_allclose(states[:4, 2], [0, 2, 6, 10])  # v[0] unknown: 0, never v[1]
+    np.testing.assert_allclose(states[:4, 4], [0, 0, 8, 8])  # a needs two earlier points
+    np.testing.assert_allclose(states[4:, 2:4], [[0, 0], [2, 4]])
+    np.testing.assert_allclose(states[4:, 4:], 0)
 
 
 def test_backward_is_causal() -> None:
+    for cut in range(1, 4):  # a track cut after row `cut` has the same states up to it
+        short = track_states(POS[: cut + 1], TRACK[: cut + 1], DT, "backward")
+        np.testing.assert_array_equal(short, track_states(POS, TRACK, DT, "backward")[: cut + 1])
     changed = POS.copy()
     changed[3] = [100, -7]  # only the last point of track 0 changes
     before = track_states(POS, TRACK, DT, "backward")

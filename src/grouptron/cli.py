@@ -61,6 +61,7 @@ from grouptron.io import (
 from grouptron.model.factory import MODEL_NAMES, uses_groups
 from grouptron.training import distributed
 from grouptron.training.checkpoint import load_checkpoint, load_trained_model
+from grouptron.training.precision import PRECISIONS, precision_name, resolve_precision
 from grouptron.training.trainer import LAST, train
 from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tracks_around
 from grouptron.viz.groups import plot_step_groups
@@ -455,6 +456,9 @@ def cmd_train(args: argparse.Namespace) -> int:
         }.items()
         if value is not None
     }
+    if args.precision is not None or not args.config:
+        precision = args.precision or "auto"
+        train_overrides["bf16"] = resolve_precision(precision, torch.device(args.device))
     experiment = dataclasses.replace(
         experiment,
         split=args.split,
@@ -472,6 +476,14 @@ def cmd_train(args: argparse.Namespace) -> int:
                 f"{args.model} on {args.split}"
             )
         length = {k: v for k, v in train_overrides.items() if k in ("epochs", "threads")}
+        if args.precision is not None:  # an explicit choice may change it
+            length["bf16"] = resolve_precision(args.precision, torch.device(args.device))
+            if length["bf16"] != stored.train.bf16:
+                print(
+                    f"note: {out} ran in {precision_name(stored.train.bf16)} so far; the "
+                    f"remaining epochs run in {args.precision} (each epoch's precision is in "
+                    "metrics.csv and on the model card)"
+                )
         experiment = dataclasses.replace(stored, train=dataclasses.replace(stored.train, **length))
         data = experiment.data
     data_dir = resolve_data_dir(args.data_dir)
@@ -873,6 +885,14 @@ def build_parser() -> argparse.ArgumentParser:
     train_cmd.add_argument("--batch-size", type=int)
     train_cmd.add_argument("--lr", type=float, help="initial learning rate")
     train_cmd.add_argument("--threads", type=int, help="CPU threads (default 2)")
+    train_cmd.add_argument(
+        "--precision",
+        choices=PRECISIONS,
+        help="arithmetic of the decoder: bf16 autocast or fp32; auto (the default) picks bf16 "
+        "where the hardware has it natively (CUDA, or a CPU with AVX-512 BF16 or AMX) and fp32 "
+        "elsewhere, where bf16 is emulated and slow. Without this option a --config file's "
+        "train.bf16 holds, and --resume keeps the run's precision",
+    )
     train_cmd.add_argument("--quiet", action="store_true", help="no progress bars")
     train_cmd.add_argument(
         "--device", type=_device, default="cpu", help="torch device, e.g. cpu or cuda"

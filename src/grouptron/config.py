@@ -29,6 +29,10 @@ class DataConfig:
     position_scale_m: float = 3.0
     velocity_scale_mps: float = 2.0
     acceleration_scale_mps2: float = 1.0
+    future_scale_m: float = 1.0
+    """Divisor of the future positions (relative to the current one) that the future encoder
+    q(z|x,y) reads: 1 m as in the reference. Runs trained before this field existed used the
+    position scale (3 m); their stored configs are read with that value."""
     on_gap: Literal["split", "error"] = "split"
 
     def __post_init__(self) -> None:
@@ -144,7 +148,12 @@ class TrainConfig:
     threads: int = 2
     eval_batch_size: int = 256
     bf16: bool = False
-    """Run the decoder recurrence in bfloat16 autocast (CPU); fp32 otherwise."""
+    """Run the decoder recurrence in bfloat16 autocast; fp32 otherwise. ``grouptron train
+    --precision auto`` sets it where the hardware computes bf16 natively."""
+    val_subset: int = 1024
+    """Validation samples scored after every epoch (a fixed seeded subset, the same for every
+    seed); the best epochs on it are re-scored on the whole validation part at the end of the
+    schedule, which picks ``best.safetensors``. 0 scores the whole part every epoch."""
     init_from: str = ""
     """Warm start: a full training checkpoint (``last.safetensors``) of the same model whose
     weights, optimiser state and step count start this run; its schedules continue from there.
@@ -154,6 +163,8 @@ class TrainConfig:
     they were) and counted; after this many in a run, training stops with an error."""
 
     def __post_init__(self) -> None:
+        if self.val_subset < 0:
+            raise GrouptronError("train.val_subset must be >= 0 (0: the whole validation part)")
         if self.max_nonfinite_steps < 0:
             raise GrouptronError("train.max_nonfinite_steps must be >= 0")
         if self.epochs < 1 or self.batch_size < 1 or self.eval_batch_size < 1:
@@ -182,6 +193,22 @@ class ExperimentConfig:
 
 
 ConfigT = TypeVar("ConfigT")
+
+STORED_DEFAULTS: dict[str, dict[str, Any]] = {"data": {"future_scale_m": 3.0}}
+"""Values of settings added after a run was stored, as that run used them: a stored
+experiment without the key was trained with this value, not with today's default."""
+
+
+def experiment_from_stored(values: dict[str, Any]) -> ExperimentConfig:
+    """An experiment read back from a checkpoint or run folder, older formats included."""
+    if not isinstance(values, dict):
+        raise GrouptronError(f"ExperimentConfig must be a table of settings, not {values!r:.40}")
+    upgraded = dict(values)
+    for section, defaults in STORED_DEFAULTS.items():
+        stored = upgraded.get(section, {})
+        if isinstance(stored, dict):
+            upgraded[section] = {**defaults, **stored}
+    return config_from_dict(ExperimentConfig, upgraded)
 
 
 def config_to_dict(config: Any) -> dict[str, Any]:

@@ -21,8 +21,9 @@ def track_derivative(
     Rows must be sorted by (track, step) with consecutive steps inside a track.
 
     ``central`` follows ``np.gradient``: ``(v[t+1] - v[t-1]) / 2dt`` inside a track, one-sided
-    first differences at both ends (it uses t+1, so it is not causal). ``backward`` is causal:
-    ``(v[t] - v[t-1]) / dt``, with the first row copying the second (``v[0] = v[1]``).
+    first differences at both ends (it uses t+1, so it is not causal). ``backward`` is strictly
+    causal: ``(v[t] - v[t-1]) / dt``, and 0 at a track's first row, where no earlier value
+    exists (copying the second row, as the reference does, would read the next position).
     A single-row track gets zeros.
 
     Args:
@@ -49,15 +50,24 @@ def track_derivative(
         interior = (nxt - prev) / (2.0 * dt_s)
         edge = np.where(has_next, forward_diff, np.where(has_prev, backward_diff, 0.0))
         return np.where(has_prev & has_next, interior, edge)
-    return np.where(has_prev, backward_diff, np.where(has_next, forward_diff, 0.0))
+    return np.where(has_prev, backward_diff, 0.0)
 
 
 def track_states(
     pos_m: np.ndarray, track: np.ndarray, dt_s: float, scheme: DerivativeScheme
 ) -> np.ndarray:
-    """Position, velocity and acceleration of every row: (R, 2) positions -> (R, 6) states."""
+    """Position, velocity and acceleration of every row: (R, 2) positions -> (R, 6) states.
+
+    Under ``backward`` a row's acceleration needs two earlier rows of its track (its velocity
+    and the previous one are both known); it is 0 on a track's first two rows, so every state
+    at step t depends only on positions at or before t.
+    """
     vel = track_derivative(pos_m, track, dt_s, scheme)
     acc = track_derivative(vel, track, dt_s, scheme)
+    if scheme == "backward":
+        has_two_before = np.zeros(len(track), dtype=bool)
+        has_two_before[2:] = track[2:] == track[:-2]  # rows sorted, steps consecutive
+        acc = np.where(has_two_before[:, None], acc, 0.0)
     return np.concatenate([pos_m, vel, acc], axis=-1)
 
 

@@ -63,8 +63,9 @@ def test_features_match_a_naive_per_sample_computation(eth_ucy_dir: Path, scheme
             vel = np.gradient(xy, 0.4, axis=0)
             acc = np.gradient(vel, 0.4, axis=0)
         else:
-            vel = np.diff(xy, axis=0, prepend=xy[:1] - (xy[1:2] - xy[:1])) / 0.4
-            acc = np.diff(vel, axis=0, prepend=vel[:1] - (vel[1:2] - vel[:1])) / 0.4
+            vel = np.diff(xy, axis=0, prepend=xy[:1]) / 0.4  # 0 at the first point
+            acc = np.diff(vel, axis=0, prepend=vel[:1]) / 0.4
+            acc[:2] = 0.0  # needs two earlier points
         states = np.concatenate([xy, vel, acc], axis=1)
         tracks[ped] = dict(zip(step_of[rows][order].tolist(), states, strict=True))
     scale = np.array(config.state_scale)

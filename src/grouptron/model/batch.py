@@ -91,7 +91,7 @@ class Batch:
         nbr_sum_st: (B, T, 6) summed standardised neighbour states.
         edge_scale: (B,) ``min(1, sum of edge weights)``, the edge encoding's scale.
         fut_rel_m: (B, H, 2) future positions relative to the current one, metres.
-        fut_st: (B, H, 2) the same divided by the position scale (future encoder input).
+        fut_st: (B, H, 2) the same divided by the future scale (future encoder input).
         groups: the nodes and groups for Grouptron's encoders, or None.
         noise: a training step's dropout masks and decoder draws, or None (the global RNG).
     """
@@ -133,7 +133,7 @@ def make_batch(
     Args:
         samples: the sample set.
         index: (B,) sample indices.
-        config: the data protocol (for the position scale).
+        config: the data protocol (for the future encoder's scale).
         rotation_rad: (B,) angles; rotating all (x, y) pairs equals rotating the scene.
         groups: the samples' groups, for Grouptron (None for Trajectron++).
     """
@@ -153,7 +153,7 @@ def make_batch(
         nbr_sum_st=torch.from_numpy(np.ascontiguousarray(nbr_sum_st)),
         edge_scale=torch.from_numpy(np.minimum(samples.edge_weight_sum[index], 1.0)),
         fut_rel_m=fut,
-        fut_st=fut / config.position_scale_m,
+        fut_st=fut / config.future_scale_m,
         groups=(
             make_group_batch(samples, groups, index, hist_st, rotation)
             if groups is not None

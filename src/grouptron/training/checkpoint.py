@@ -18,7 +18,7 @@ import torch
 from safetensors import SafetensorError
 from safetensors.torch import load_file, safe_open, save_file
 
-from grouptron.config import ExperimentConfig, config_from_dict, config_to_dict
+from grouptron.config import ExperimentConfig, config_to_dict, experiment_from_stored
 from grouptron.errors import GrouptronError
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import build_model, load_weights
@@ -158,7 +158,7 @@ def load_checkpoint(path: str | Path) -> Checkpoint:
         version = int(metadata.get("format_version", "0"))
         if version > FORMAT_VERSION:
             raise _refuse(path, f"format version {version} is newer than this grouptron reads")
-        config = config_from_dict(ExperimentConfig, json.loads(metadata["config"]))
+        config = experiment_from_stored(json.loads(metadata["config"]))
         optimizer_meta = json.loads(metadata.get("optimizer", "null"))
         extra = json.loads(metadata.get("extra", "null"))
         epoch, iteration = int(metadata.get("epoch", 0)), int(metadata.get("iteration", 0))

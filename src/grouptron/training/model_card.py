@@ -52,11 +52,75 @@ def _epochs_trained(last: dict[str, Any], warm_started: bool) -> str:
     return f"{last.get('epoch', 0)} ({steps})"
 
 
-def render_model_card(name: str, config: ExperimentConfig, records: list[dict[str, Any]]) -> str:
-    """The card of a run from its configuration and per-epoch metric records."""
+def _precision_ranges(records: list[dict[str, Any]]) -> str:
+    """E.g. ``"fp32 (epochs 1-36), bf16 (epochs 37-100)"``; epochs logged before the
+    precision was recorded ran in fp32 (bf16 was opt-in then and off in every shipped run)."""
+    ranges: list[list[Any]] = []
+    for record in records:
+        name = record.get("precision", "fp32")
+        if ranges and ranges[-1][0] == name:
+            ranges[-1][2] = record["epoch"]
+        else:
+            ranges.append([name, record["epoch"], record["epoch"]])
+    if len(ranges) == 1:
+        return f"{ranges[0][0]} (all epochs)"
+    return ", ".join(
+        f"{n} (epochs {a}-{b})" if a != b else f"{n} (epoch {a})" for n, a, b in ranges
+    )
+
+
+def _selection_rows(
+    scored: list[dict[str, Any]], selection: dict[str, Any] | None
+) -> list[tuple[str, str]]:
+    """How ``best.safetensors`` was chosen: on the whole validation part at the end of the
+    schedule, or (while training) the best epoch on the per-epoch validation subset."""
+    if selection is not None:
+        candidates = ", ".join(
+            f"{c['epoch']}: {c['full_val_ml_fde']:.3f}" for c in selection["candidates"]
+        )
+        return [
+            (
+                "selected",
+                f"epoch {selection['selected_epoch']}: best ML FDE on all "
+                f"{selection['validation_samples']} validation samples among the epochs best on "
+                f"the per-epoch subset (epoch: FDE m = {candidates}); test data never used; "
+                "in `best.safetensors`",
+            ),
+            (
+                "validation ML ADE / FDE",
+                f"{selection['full_val_ml_ade']:.3f} / {selection['full_val_ml_fde']:.3f} m "
+                f"(constant velocity on the same samples: {selection['full_val_cv_ade']:.3f} / "
+                f"{selection['full_val_cv_fde']:.3f} m)",
+            ),
+        ]
+    best = min(scored, key=lambda r: r["val_ml_fde"]) if scored else None
+    if best is None:
+        return [("selected", "no validation yet"), ("validation ML ADE / FDE", "-")]
+    on = f"{best['val_samples']} validation samples" if "val_samples" in best else "validation"
+    return [
+        (
+            "selected",
+            f"epoch {best['epoch']} (best ML FDE on {on} so far; test data never used), in "
+            "`best.safetensors`",
+        ),
+        (
+            "validation ML ADE / FDE",
+            f"{best['val_ml_ade']:.3f} / {best['val_ml_fde']:.3f} m (constant velocity on the "
+            f"same samples: {best['val_cv_ade']:.3f} / {best['val_cv_fde']:.3f} m)",
+        ),
+    ]
+
+
+def render_model_card(
+    name: str,
+    config: ExperimentConfig,
+    records: list[dict[str, Any]],
+    selection: dict[str, Any] | None = None,
+) -> str:
+    """The card of a run from its configuration, per-epoch metric records and final
+    selection (None until the schedule has finished)."""
     train = config.train
     scored = [r for r in records if not math.isnan(r.get("val_ml_fde", math.nan))]
-    best = min(scored, key=lambda r: r["val_ml_fde"]) if scored else None
     last = records[-1] if records else {}
     timed = [r["epoch_seconds"] for r in records if "epoch_seconds" in r]
     untimed = [r.get("train_seconds", 0.0) for r in records if "epoch_seconds" not in r]
@@ -88,19 +152,11 @@ def render_model_card(name: str, config: ExperimentConfig, records: list[dict[st
         ("protocol", PROTOCOL_NOTES.get(config.data.derivatives, config.data.derivatives)),
         ("recipe", recipe),
         ("epochs trained", _epochs_trained(last, bool(train.init_from))),
+        *_selection_rows(scored, selection),
+        ("precision", _precision_ranges(records) if records else "-"),
         (
-            "selected",
-            f"epoch {best['epoch']} (best validation ML FDE; test data never used), in "
-            "`best.safetensors`"
-            if best
-            else "no validation yet",
-        ),
-        (
-            "validation ML ADE / FDE",
-            f"{best['val_ml_ade']:.3f} / {best['val_ml_fde']:.3f} m (constant velocity on the "
-            f"same samples: {best['val_cv_ade']:.3f} / {best['val_cv_fde']:.3f} m)"
-            if best
-            else "-",
+            "future encoder input",
+            f"future positions relative to now / {config.data.future_scale_m:g} m",
         ),
         ("wall time", wall),
         ("machine", devices or "not recorded"),
@@ -117,6 +173,10 @@ def render_model_card(name: str, config: ExperimentConfig, records: list[dict[st
 
 
 def write_model_card(
-    out_dir: Path, config: ExperimentConfig, records: list[dict[str, Any]]
+    out_dir: Path,
+    config: ExperimentConfig,
+    records: list[dict[str, Any]],
+    selection: dict[str, Any] | None = None,
 ) -> None:
-    write_text_atomically(out_dir / CARD, render_model_card(out_dir.name, config, records))
+    card = render_model_card(out_dir.name, config, records, selection)
+    write_text_atomically(out_dir / CARD, card)

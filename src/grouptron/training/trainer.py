@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import json
 import logging
 import math
 import time
@@ -29,6 +30,7 @@ from grouptron.errors import GrouptronError
 from grouptron.evaluation import metrics
 from grouptron.evaluation.evaluate import evaluate_model
 from grouptron.groups.assign import SampleGroups
+from grouptron.io import write_text_atomically
 from grouptron.model.batch import make_batch
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import build_model, load_weights, uses_groups
@@ -44,6 +46,7 @@ from grouptron.training.distributed import SINGLE, Cluster, global_mean
 from grouptron.training.losses import elbo_loss
 from grouptron.training.metrics_log import MetricsWriter
 from grouptron.training.model_card import describe_device, write_model_card
+from grouptron.training.precision import precision_name
 from grouptron.viz.training import plot_training_curves
 
 log = logging.getLogger(__name__)
@@ -68,11 +71,16 @@ class TrainState:
     nonfinite_steps: int = 0
     """Steps skipped because the loss or a gradient was NaN/inf (over the whole run)."""
     history: list[dict[str, Any]] = field(default_factory=list)
+    candidates: list[tuple[int, float]] = field(default_factory=list)
+    """(epoch, validation-subset ML FDE) of the kept candidate epochs."""
 
 
 def _without_length(config: ExperimentConfig) -> ExperimentConfig:
-    """The config without the settings a resumed run may change (epochs, threads)."""
-    return dataclasses.replace(config, train=dataclasses.replace(config.train, epochs=1, threads=1))
+    """The config without the settings a resumed run may change (epochs, threads, precision;
+    every epoch's precision is in its metrics record)."""
+    return dataclasses.replace(
+        config, train=dataclasses.replace(config.train, epochs=1, threads=1, bf16=False)
+    )
 
 
 def setup(
@@ -111,6 +119,9 @@ def setup(
     state.epoch = checkpoint.epoch
     state.best_val_fde = extra.get("best_val_fde", math.inf)
     state.nonfinite_steps = int(extra.get("nonfinite_steps", 0))
+    state.candidates = [(int(e), float(f)) for e, f in extra.get("candidates", [])]
+    if "candidates" not in extra:
+        state.best_val_fde = math.inf  # scored on the whole part; later epochs on the subset
     return state
 
 
@@ -261,22 +272,41 @@ def _skip_nonfinite_step(state: TrainState, config: ExperimentConfig, what: str)
         )
 
 
+VALIDATION_SUBSET_SEED = 0
+"""The validation subset is drawn with this seed, not the run's, so that runs of every seed
+are compared on the same samples."""
+CANDIDATES = "candidates"
+KEPT_CANDIDATES = 3
+"""Epochs kept (weights only) by their subset score, re-scored on the whole validation part at
+the end of the schedule."""
+SELECTION = "selection.json"
+
+
+def validation_subset(num_samples: int, size: int) -> np.ndarray:
+    """(S,) sorted indices of the fixed, seeded validation subset (all when ``size`` is 0 or at
+    least ``num_samples``)."""
+    if size == 0 or size >= num_samples:
+        return np.arange(num_samples)
+    rng = np.random.default_rng(VALIDATION_SUBSET_SEED)
+    return np.sort(rng.choice(num_samples, size=size, replace=False))
+
+
 def validate(
-    state: TrainState,
+    model: TrajectronCVAE,
     config: ExperimentConfig,
     samples: SampleSet,
     groups: SampleGroups | None = None,
 ) -> dict[str, float]:
-    """Most-likely ADE/FDE on the validation set (no augmentation, no dropout), next to the
+    """Most-likely ADE/FDE on validation samples (no augmentation, no dropout), next to the
     constant-velocity baseline's on the same samples for scale."""
     scores = evaluate_model(
-        state.model,
+        model,
         config,
         samples,
         ("ml",),
         batch_size=config.train.eval_batch_size,
         groups=groups,
-        device=next(state.model.parameters()).device,
+        device=next(model.parameters()).device,
     )
     truth = samples.fut_rel_m.astype(np.float64)
     baseline = constant_velocity(samples.hist_rel_m.astype(np.float64), config.data.horizon_steps)
@@ -286,6 +316,89 @@ def validate(
         "val_cv_ade": float(metrics.ade(baseline, truth).mean()),
         "val_cv_fde": float(metrics.fde(baseline, truth).mean()),
     }
+
+
+@dataclass(frozen=True)
+class Validation:
+    """The validation part and the subset of it scored after every epoch."""
+
+    samples: SampleSet
+    groups: SampleGroups | None
+    subset: SampleSet
+    subset_groups: SampleGroups | None
+
+    @classmethod
+    def of(cls, samples: SampleSet, groups: SampleGroups | None, size: int) -> Validation:
+        keep = np.zeros(len(samples), dtype=bool)
+        keep[validation_subset(len(samples), size)] = True
+        subset_groups = groups.subset(keep, samples) if groups is not None else None
+        return cls(samples, groups, samples.subset(keep), subset_groups)
+
+    @property
+    def is_subset(self) -> bool:
+        return len(self.subset) < len(self.samples)
+
+
+def _keep_candidate(
+    state: TrainState, config: ExperimentConfig, out_dir: Path, score: float
+) -> None:
+    """Keep this epoch's weights when its subset score is among the best few so far."""
+    folder = out_dir / CANDIDATES
+    ranked = sorted([*state.candidates, (state.epoch, score)], key=lambda c: c[1])
+    kept, dropped = ranked[:KEPT_CANDIDATES], ranked[KEPT_CANDIDATES:]
+    if (state.epoch, score) in kept:
+        folder.mkdir(exist_ok=True)
+        save_checkpoint(
+            folder / f"epoch-{state.epoch:03d}.safetensors",
+            _checkpoint(state, config, weights_only=True),
+        )
+    for epoch, _ in dropped:
+        (folder / f"epoch-{epoch:03d}.safetensors").unlink(missing_ok=True)
+    state.candidates = kept
+
+
+def _adopt_legacy_best(
+    state: TrainState, config: ExperimentConfig, out_dir: Path, validation: Validation
+) -> None:
+    """A run resumed from before candidate keeping: its best weights become a candidate,
+    scored on the subset like every later epoch."""
+    best = out_dir / BEST
+    if state.candidates or not best.exists():
+        return
+    checkpoint = load_checkpoint(best)
+    model = build_model(config).to(next(state.model.parameters()).device)
+    load_weights(model, checkpoint.model_state, str(best))
+    score = validate(model.eval(), config, validation.subset, validation.subset_groups)
+    folder = out_dir / CANDIDATES
+    folder.mkdir(exist_ok=True)
+    save_checkpoint(folder / f"epoch-{checkpoint.epoch:03d}.safetensors", checkpoint)
+    state.candidates = [(checkpoint.epoch, score["val_ml_fde"])]
+
+
+def select_final(
+    config: ExperimentConfig, out_dir: Path, validation: Validation, device: torch.device
+) -> dict[str, Any]:
+    """Score every kept candidate on the whole validation part; the best becomes
+    ``best.safetensors``. Returns the selection record (also written to ``selection.json``)."""
+    scored = []
+    for path in sorted((out_dir / CANDIDATES).glob("epoch-*.safetensors")):
+        checkpoint = load_checkpoint(path)
+        model = build_model(config).to(device)
+        load_weights(model, checkpoint.model_state, str(path))
+        scores = validate(model.eval(), config, validation.samples, validation.groups)
+        scored.append((scores["val_ml_fde"], checkpoint.epoch, path, scores))
+    if not scored:
+        raise GrouptronError(f"{out_dir}: no candidate epochs to select from")
+    _, epoch, path, scores = min(scored, key=lambda c: (c[0], c[1]))
+    save_checkpoint(out_dir / BEST, load_checkpoint(path))
+    record = {
+        "selected_epoch": epoch,
+        "validation_samples": len(validation.samples),
+        **{f"full_{k}": v for k, v in scores.items()},
+        "candidates": [{"epoch": e, "full_val_ml_fde": f} for f, e, _, _ in sorted(scored)],
+    }
+    write_text_atomically(out_dir / SELECTION, json.dumps(record, indent=2) + "\n")
+    return record
 
 
 def _checkpoint(state: TrainState, config: ExperimentConfig, weights_only: bool) -> Checkpoint:
@@ -301,6 +414,7 @@ def _checkpoint(state: TrainState, config: ExperimentConfig, weights_only: bool)
             "best_val_fde": state.best_val_fde,
             "nonfinite_steps": state.nonfinite_steps,
             "last_metrics": state.history[-1] if state.history else None,
+            "candidates": [list(c) for c in state.candidates],
         },
         torch_rng_state=None if weights_only else torch.get_rng_state(),
     )
@@ -357,8 +471,11 @@ def train(
             stale.unlink()
         save_config(config, out_dir / CONFIG)  # the same JSON as in the checkpoints
     writer = MetricsWriter(out_dir)
+    validation = Validation.of(val_samples, val_groups, config.train.val_subset)
     if resume and writes:
         writer.truncate_after(state.epoch)
+        if len(val_samples):
+            _adopt_legacy_best(state, config, out_dir, validation)
     while state.epoch < config.train.epochs:
         if max_iterations is not None and state.iteration >= max_iterations:
             break
@@ -383,8 +500,12 @@ def train(
         if not writes:  # the main process validates and saves; wait for it
             cluster.barrier()
             continue
+        record["precision"] = precision_name(config.train.bf16)
         if len(val_samples):
-            record.update(validate(state, config, val_samples, val_groups))
+            record.update(
+                validate(state.model, config, validation.subset, validation.subset_groups)
+            )
+            record["val_samples"] = len(validation.subset)
         record["epoch_seconds"] = time.perf_counter() - epoch_started
         record["device"] = describe_device(torch.device(device), config.train.threads)
         if cluster.distributed:
@@ -392,11 +513,16 @@ def train(
         state.history.append(record)
         writer.write(record)
         val_fde = record.get("val_ml_fde", math.nan)
-        if not math.isnan(val_fde) and val_fde < state.best_val_fde:
-            state.best_val_fde = val_fde
-            save_checkpoint(out_dir / BEST, _checkpoint(state, config, weights_only=True))
+        if not math.isnan(val_fde):
+            _keep_candidate(state, config, out_dir, val_fde)
+            if val_fde < state.best_val_fde:
+                state.best_val_fde = val_fde
+                save_checkpoint(out_dir / BEST, _checkpoint(state, config, weights_only=True))
+        selection = None
+        if state.epoch == config.train.epochs and state.candidates:
+            selection = select_final(config, out_dir, validation, torch.device(device))
         save_checkpoint(out_dir / LAST, _checkpoint(state, config, weights_only=False))
-        write_model_card(out_dir, config, writer.records())
+        write_model_card(out_dir, config, writer.records(), selection)
         if progress:
             shown = {k: round(v, 4) for k, v in record.items() if isinstance(v, float)}
             tqdm.write(f"epoch {state.epoch}: {shown}")

@@ -1,0 +1,157 @@
+"""The training campaign behind the shipped checkpoints: a queue of runs, resumable.
+
+Usage:
+    python campaign/run.py [--only NAME_PART] [--dry-run] [--out campaign/runs]
+
+Every run trains with ``grouptron train`` into ``OUT/<name>`` for 100 epochs (the reference
+recipe) and is skipped once finished (its ``selection.json`` exists). A run that was stopped
+resumes from its ``last.safetensors``, so the script can be killed at any time and started
+again, in another session or on another machine.
+
+Precision: every invocation asks for bf16 where this machine computes it natively and fp32
+elsewhere (``grouptron.training.precision``); a run that changes machines records each
+epoch's precision. The one exception is the fp32 half of the precision A/B, always fp32.
+
+Order: the precision A/B first (Trajectron++, univ, backward, seed 0 in fp32 and bf16, and
+seeds 1 and 2 in bf16 for the seed spread), then the rest of univ (3 seeds of both models,
+both protocols), then the other splits. ``central`` runs of seed 0 continue the shipped
+checkpoints (copied from ``checkpoints/``, same configuration, future encoder scale
+included); other seeds of ``central`` univ use the same configuration so that seeds differ in
+the seed alone. ``backward`` runs start from scratch on strictly causal inputs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import torch
+
+from grouptron.config import save_config
+from grouptron.training.checkpoint import load_checkpoint
+from grouptron.training.precision import native_bf16
+
+REPO = Path(__file__).resolve().parents[1]
+EPOCHS = 100
+SPLITS = ("univ", "eth", "hotel", "zara1", "zara2")
+MODELS = ("trajectron++", "grouptron")
+
+
+@dataclasses.dataclass(frozen=True)
+class Run:
+    model: str
+    split: str
+    protocol: str
+    seed: int = 0
+    fp32_only: bool = False
+
+    @property
+    def name(self) -> str:
+        name = f"{self.model}-{self.split}-{self.protocol}"
+        name += f"-s{self.seed}" if self.seed else ""
+        return name + ("-fp32" if self.fp32_only else "")
+
+    @property
+    def shipped_source(self) -> Path | None:
+        """The shipped run this one continues (seed-0 central runs)."""
+        if self.protocol == "central" and self.seed == 0 and not self.fp32_only:
+            return REPO / "checkpoints" / f"{self.model}-{self.split}-central"
+        return None
+
+
+def queue() -> list[Run]:
+    runs = [Run("trajectron++", "univ", "backward", 0, fp32_only=True)]
+    runs += [Run("trajectron++", "univ", "backward", seed) for seed in (0, 1, 2)]
+    runs += [Run("grouptron", "univ", "backward", seed) for seed in (0, 1, 2)]
+    runs += [Run(model, "univ", "central", seed) for seed in (0, 1, 2) for model in MODELS]
+    for split in SPLITS[1:]:
+        runs += [
+            Run(model, split, protocol) for protocol in ("backward", "central") for model in MODELS
+        ]
+    return runs
+
+
+def finished(folder: Path) -> bool:
+    return (folder / "selection.json").exists()
+
+
+def command(run: Run, folder: Path, precision: str) -> list[str]:
+    argv = [
+        sys.executable,
+        "-m",
+        "grouptron",
+        "train",
+        "--split",
+        run.split,
+        "--model",
+        run.model,
+        "--out",
+        str(folder),
+        "--epochs",
+        str(EPOCHS),
+        "--precision",
+        precision,
+        "--quiet",
+    ]
+    if (folder / "last.safetensors").exists():
+        return [*argv, "--resume"]
+    if run.shipped_source is not None:  # dry run: prepare() has not copied it
+        return [*argv, "--resume"]
+    if run.protocol == "central" and run.seed and run.split == "univ":
+        # Same configuration as the seed-0 run it is compared with, another seed.
+        stored = load_checkpoint(
+            REPO / "checkpoints" / f"{run.model}-univ-central" / "last.safetensors"
+        )
+        config = dataclasses.replace(
+            stored.config,
+            train=dataclasses.replace(stored.config.train, seed=run.seed, epochs=EPOCHS),
+        )
+        folder.mkdir(parents=True, exist_ok=True)
+        save_config(config, folder / "campaign-config.json")
+        return [*argv, "--config", str(folder / "campaign-config.json")]
+    return [*argv, "--derivatives", run.protocol, "--seed", str(run.seed)]
+
+
+def prepare(run: Run, folder: Path) -> None:
+    """Copy the shipped run a seed-0 ``central`` run continues."""
+    source = run.shipped_source
+    if source is None or (folder / "last.safetensors").exists():
+        return
+    folder.mkdir(parents=True, exist_ok=True)
+    for item in source.iterdir():
+        if item.is_file():
+            shutil.copy2(item, folder / item.name)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", type=Path, default=REPO / "campaign" / "runs")
+    parser.add_argument("--only", help="run only the runs whose name contains this")
+    parser.add_argument("--dry-run", action="store_true", help="print the commands only")
+    args = parser.parse_args()
+    native = "bf16" if native_bf16(torch.device("cpu")) else "fp32"
+    for run in queue():
+        if args.only and args.only not in run.name:
+            continue
+        folder = args.out / run.name
+        if finished(folder):
+            print(f"{run.name}: finished", flush=True)
+            continue
+        if not args.dry_run:
+            prepare(run, folder)
+        argv = command(run, folder, "fp32" if run.fp32_only else native)
+        print(" ".join(argv), flush=True)
+        if args.dry_run:
+            continue
+        subprocess.run(argv, check=True, cwd=REPO)
+        print(json.dumps({"finished": run.name}), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
