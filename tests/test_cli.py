@@ -161,7 +161,8 @@ def test_stats_json_shape(eth_ucy_dir: Path, capsys: pytest.CaptureFixture[str])
     stats = json.loads(capsys.readouterr().out)
     assert list(stats) == ["eth", "hotel", "univ", "zara1", "zara2"]
     assert stats["eth"]["test_samples"] == 364
-    assert set(stats["univ"]["univ_n"]) == {"40", "45", "50"}
+    assert stats["univ"]["univ_n"]["predicted"] == {"40": 3222, "45": 1596, "50": 572}
+    assert stats["univ"]["univ_n"]["present"] == {"40": 16599, "45": 13115, "50": 8268}
     assert stats["univ"]["test_max_pedestrians_per_step"] == 75
 
 

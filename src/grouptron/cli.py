@@ -32,7 +32,7 @@ from grouptron.data.download import fetch_dataset
 from grouptron.data.locate import resolve_data_dir
 from grouptron.data.reader import read_tracks
 from grouptron.data.scene import Scene, build_scene
-from grouptron.data.subsets import parse_univ_n, univ_n_mask
+from grouptron.data.subsets import UNIV_N_DEFINITIONS, UnivN, parse_univ_n, univ_n_mask
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import MODES, evaluate_model
 from grouptron.evaluation.report import PROTOCOLS, ReportSettings, find_checkpoints, run_report
@@ -187,7 +187,12 @@ def cmd_data_stats(args: argparse.Namespace) -> int:
         }
         if split == "univ":
             test = parts["test"].samples
-            entry["univ_n"] = {str(n): int(univ_n_mask(test, n).sum()) for n in univ_n}
+            entry["univ_n"] = {
+                definition: {
+                    str(n): int(univ_n_mask(test, UnivN(n, definition)).sum()) for n in univ_n
+                }
+                for definition in UNIV_N_DEFINITIONS
+            }
         stats[split] = entry
     if args.format == "json":
         print(json.dumps(stats, indent=2))
@@ -208,7 +213,12 @@ def cmd_data_stats(args: argparse.Namespace) -> int:
     if "univ" in stats:
         counts = stats["univ"]["univ_n"]
         assert isinstance(counts, dict)
-        print("UNIV-N test samples: " + ", ".join(f"N={n}: {c}" for n, c in counts.items()))
+        for definition, label in (
+            ("predicted", "at steps with >= N predicted agents (the paper's)"),
+            ("present", "at steps with >= N pedestrians present"),
+        ):
+            per_n = ", ".join(f"N={n}: {c}" for n, c in counts[definition].items())
+            print(f"UNIV-N test samples {label}: {per_n}")
     return 0
 
 
@@ -246,7 +256,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         config = DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
         split_arg = args.split or "all"
     splits = _splits(split_arg)
-    min_present = parse_univ_n(args.subset) if args.subset else None
+    subset = parse_univ_n(args.subset) if args.subset else None
     if args.subset and splits != ["univ"]:
         raise GrouptronError("--subset univ-N needs --split univ")
     modes = _eval_modes(args.mode)
@@ -254,7 +264,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     group_config = experiment.groups if model is not None and uses_groups(experiment) else None
     for split in splits:
         samples, groups = load_test_set(
-            data_dir, split, config, min_present, group_config, use_cache=not args.no_cache
+            data_dir, split, config, subset, group_config, use_cache=not args.no_cache
         )
         if model is None:
             pred = constant_velocity(samples.hist_rel_m.astype("float64"), config.horizon_steps)
@@ -323,11 +333,11 @@ def cmd_report(args: argparse.Namespace) -> int:
     data_dir = resolve_data_dir(args.data_dir)
     checkpoints = find_checkpoints(Path(args.checkpoints), protocols)
     torch.set_num_threads(args.threads)
-    results = run_report(data_dir, checkpoints, protocols, settings, progress=not args.quiet)
+    report = run_report(data_dir, checkpoints, protocols, settings, progress=not args.quiet)
     if args.format == "json":
-        text = results_json(results) + "\n"
+        text = report.to_json() + "\n"
     else:
-        text = report_markdown(results, protocols, _report_command(args, modes))
+        text = report_markdown(report, protocols, _report_command(args, modes))
     if args.out:
         write_text_atomically(Path(args.out), text)
         print(f"wrote {args.out}")
@@ -689,8 +699,9 @@ def build_parser() -> argparse.ArgumentParser:
         "stats",
         help="scenes, tracks and sample counts per split",
         description="Per split: scenes, tracks, training/validation/test samples, the most "
-        "pedestrians in one step of the test recording(s), and for univ the UNIV-N subsets "
-        "(test samples whose scene has at least N pedestrians at the current step).",
+        "pedestrians in one step of the test recording(s), and for univ the UNIV-N subsets in "
+        "both definitions: test samples at time steps with at least N predicted agents (test "
+        "samples; the paper's Table II) and with at least N pedestrians present.",
         formatter_class=_Formatter,
         epilog="examples:\n"
         "  grouptron data stats --split all\n"
@@ -731,7 +742,9 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"one of {', '.join(SPLITS)} or all (default: the checkpoint's split, or all)",
     )
     evaluate.add_argument(
-        "--subset", help="univ-N: only univ test samples with >= N pedestrians in the scene"
+        "--subset",
+        help="univ-N: only univ test samples at time steps with >= N predicted agents (the "
+        "paper's Table II); univ-N-present: at time steps with >= N pedestrians present",
     )
     evaluate.add_argument(
         "--mode", default="ml", help=f"comma-separated of {', '.join(MODES)}, or all"

@@ -12,7 +12,7 @@ from grouptron.data.constants import EXPECTED_TEST_SAMPLES, SPLITS
 from grouptron.data.dataset import build_part, load_part
 from grouptron.data.download import parse_checksums, shipped_checksums
 from grouptron.data.locate import split_files
-from grouptron.data.subsets import univ_n_mask
+from grouptron.data.subsets import UnivN, agents_predicted, time_step_ids, univ_n_mask
 
 pytestmark = pytest.mark.realdata
 
@@ -39,8 +39,21 @@ def test_univ_n_counts_match_a_direct_count_of_the_raw_rows(eth_ucy_dir: Path) -
         mine = samples.step[samples.scene_index == index]
         expected = np.array([present[int(t)] for t in mine])
         np.testing.assert_array_equal(samples.num_present[samples.scene_index == index], expected)
-    sizes = [int(univ_n_mask(samples, n).sum()) for n in (40, 45, 50)]
-    assert sizes[0] > sizes[1] > sizes[2] > 0
+    present = [int(univ_n_mask(samples, UnivN(n, "present")).sum()) for n in (40, 45, 50)]
+    assert present == [16599, 13115, 8268]
+
+
+def test_univ_n_paper_definition_counts_predicted_agents_per_time_step(
+    eth_ucy_dir: Path,
+) -> None:
+    """The paper's UNIV-N: time steps with >= N test samples; counts measured on the data."""
+    samples = load_part(eth_ucy_dir, "univ", "test", DataConfig()).samples
+    steps = time_step_ids(samples)
+    for n, expected_samples, expected_steps in ((40, 3222, 72), (45, 1596, 33), (50, 572, 11)):
+        keep = univ_n_mask(samples, UnivN(n))
+        assert int(keep.sum()) == expected_samples
+        assert len(np.unique(steps[keep])) == expected_steps
+        assert (agents_predicted(samples)[keep] >= n).all()
 
 
 @pytest.mark.parametrize("scheme", ["central", "backward"])

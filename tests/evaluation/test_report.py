@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import shutil
@@ -13,7 +14,7 @@ import pytest
 from grouptron.cli import main
 from grouptron.data.dataset import load_part
 from grouptron.errors import GrouptronError
-from grouptron.evaluation.evaluate import evaluate_model, score_samples
+from grouptron.evaluation.evaluate import SampleScores, evaluate_model, score_samples
 from grouptron.evaluation.report import (
     ReportCheckpoint,
     ReportSettings,
@@ -21,8 +22,10 @@ from grouptron.evaluation.report import (
     find_checkpoints,
     nll_subsample,
 )
+from grouptron.evaluation.report_stats import Report, build_report
 from grouptron.evaluation.report_tables import report_markdown
 from grouptron.evaluation.results import EvaluationResult
+from grouptron.evaluation.scored import ScoredRun
 from grouptron.training.checkpoint import load_trained_model
 
 
@@ -64,18 +67,62 @@ def test_checkpoint_rows_carry_protocol_path_and_nll_sample_count(
     assert by_mode["best-of-20"].fde < by_mode["ml"].fde
 
 
-def test_folder_name_must_match_the_checkpoint(
+def test_checkpoints_are_found_by_their_stored_configuration(
     tiny_checkpoints: Path, synthetic_data_dir: Path, tmp_path: Path
 ) -> None:
-    wrong = tmp_path / "grouptron-eth-backward"
-    shutil.copytree(tiny_checkpoints / "trajectron++-eth-central", wrong)
-    (found,) = find_checkpoints(tmp_path, ("central", "backward"))
-    with pytest.raises(GrouptronError, match=r"folder says grouptron on eth \(backward\)"):
-        evaluate_checkpoint(found, synthetic_data_dir, ReportSettings(modes=("ml",)))
+    misleading = tmp_path / "grouptron-eth-backward"  # the folder name says something else
+    shutil.copytree(tiny_checkpoints / "trajectron++-eth-central", misleading)
+    shutil.copytree(tiny_checkpoints / "grouptron-eth-central", tmp_path / "any-name")
+    found = find_checkpoints(tmp_path, ("central", "backward"))
+    assert [(c.model, c.split, c.protocol, c.path.parent.name) for c in found] == [
+        ("trajectron++", "eth", "central", "grouptron-eth-backward"),
+        ("grouptron", "eth", "central", "any-name"),
+    ]
+    with pytest.raises(GrouptronError, match="expected grouptron on eth"):
+        wrong = dataclasses.replace(found[0], model="grouptron")
+        evaluate_checkpoint(wrong, synthetic_data_dir, ReportSettings(modes=("ml",)))
     with pytest.raises(GrouptronError, match="no checkpoints"):
-        find_checkpoints(tmp_path, ("central",))
+        find_checkpoints(tmp_path, ("backward",))
     with pytest.raises(GrouptronError, match="does not exist"):
         find_checkpoints(tmp_path / "nowhere", ("central",))
+
+
+def _run(model: str, seed: int, fde: np.ndarray, steps: np.ndarray) -> ScoredRun:
+    nan = np.full(len(fde), np.nan)
+    entry = ReportCheckpoint(model, "eth", "backward", Path(f"{model}-{seed}"), seed)
+    scores = {"ml": SampleScores("ml", fde / 2, fde, nan)}
+    template = EvaluationResult("eth", model, None, 0, 0.0, 0.0, "ml", None, None, "backward")
+    rows = [dataclasses.replace(template, samples=len(fde), ade=fde.mean() / 2, fde=fde.mean())]
+    return ScoredRun(entry, steps, {None: None}, scores, None, rows)
+
+
+def test_report_statistics_on_hand_made_scores() -> None:
+    steps = np.repeat(np.arange(20), 5)
+    base = np.linspace(0.5, 1.5, 100)
+    runs = [
+        _run("constant-velocity", 0, base, steps),
+        _run("trajectron++", 0, base - 0.1, steps),  # 0.1 m better on every sample
+        _run("trajectron++", 1, base - 0.2, steps),
+        _run("grouptron", 0, base - 0.1, steps),
+        _run("grouptron", 1, base - 0.1, steps),
+    ]
+    report = build_report(runs, ("backward",))
+    tables = {(r.model, r.split): r for r in report.rows}
+    assert tables["trajectron++", "eth"].fde == pytest.approx(base.mean() - 0.1)  # seed 0
+    low, high = tables["constant-velocity", "eth"].fde_ci or (0.0, 0.0)
+    assert low < base.mean() < high
+    paired = {(p.model, p.baseline): p for p in report.paired}
+    versus_cv = paired["trajectron++", "constant-velocity"].fde
+    assert versus_cv.mean == pytest.approx(-0.1)
+    assert versus_cv.low == pytest.approx(-0.1) and versus_cv.high == pytest.approx(-0.1)
+    assert paired["grouptron", "trajectron++"].fde.mean == pytest.approx(0.0, abs=1e-12)
+    spreads = {s.model: s for s in report.seeds}
+    assert spreads["trajectron++"].seeds == (0, 1)
+    assert spreads["trajectron++"].fde == pytest.approx((base.mean() - 0.1, base.mean() - 0.2))
+    assert spreads["grouptron - trajectron++"].fde == pytest.approx((0.0, 0.1))
+    loaded = json.loads(report.to_json())
+    assert loaded["seeds"][0]["fde_sd"] == pytest.approx(0.1 / np.sqrt(2))
+    assert set(loaded) == {"results", "paired", "seeds"}
 
 
 def _row(model: str, split: str, fde: float, ade: float, subset: str | None = None):
@@ -89,7 +136,7 @@ def test_markdown_shows_published_ours_and_differences() -> None:
         _row("grouptron", "univ", 0.9, 0.4, "univ-40"),
         _row("trajectron++", "univ", 1.0, 0.4, "univ-40"),
     ]
-    text = report_markdown(rows, ("central",), "grouptron report --mode ml")
+    text = report_markdown(Report(rows, [], []), ("central",), "grouptron report --mode ml")
     assert "## Table I" in text and "## Table II" in text
     assert "| Grouptron | ours, central | 1.716/0.700 | - |" in text
     assert "+10.0% / +0.0%" in text  # Grouptron eth FDE 10% above the published 1.56
@@ -113,8 +160,11 @@ def test_report_command_writes_markdown_and_json(
     text = out.read_text()
     capsys.readouterr()
     assert f"--checkpoints {folder}" in text and "| constant velocity | ours | 2.282/1.075" in text
-    assert main([*common, "--protocol", "central", "--mode", "ml", "--format", "json"]) == 0
-    rows = json.loads(capsys.readouterr().out)["results"]
+    loud = [c for c in common if c != "--quiet"]  # progress goes to stderr, never into JSON
+    assert main([*loud, "--protocol", "central", "--mode", "ml", "--format", "json"]) == 0
+    printed = capsys.readouterr()
+    assert "trajectron++ eth (central, seed 0)" in printed.err
+    rows = json.loads(printed.out)["results"]
     ours = [r for r in rows if r["model"] == "trajectron++"]
     assert [(r["split"], r["mode"], r["samples"]) for r in ours] == [("eth", "ml", 364)]
     assert set(ours[0]) >= {
@@ -127,5 +177,6 @@ def test_report_command_writes_markdown_and_json(
         "ade",
         "fde",
     }
+    assert ours[0]["fde_ci"][0] < ours[0]["fde"] < ours[0]["fde_ci"][1]
     cv = {(r["split"], r["subset"]) for r in rows if r["model"] == "constant-velocity"}
-    assert ("univ", "univ-50") in cv and ("mean", None) in cv
+    assert {("univ", "univ-50"), ("univ", "univ-50-present"), ("mean", None)} <= cv

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,40 +24,33 @@ from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import DataConfig
 from grouptron.data.constants import SPLITS, UNIV_N_PAPER
 from grouptron.data.samples import SampleSet
-from grouptron.data.subsets import univ_n_mask
+from grouptron.data.subsets import UNIV_N_DEFINITIONS, UnivN, time_step_ids, univ_n_mask
 from grouptron.errors import GrouptronError
+from grouptron.evaluation import metrics
 from grouptron.evaluation.evaluate import MODES, SampleScores, score_samples
-from grouptron.evaluation.results import EvaluationResult, mean_over_splits, score
+from grouptron.evaluation.report_stats import Report, build_report
+from grouptron.evaluation.results import EvaluationResult
+from grouptron.evaluation.scored import CONSTANT_VELOCITY, ReportCheckpoint, ScoredRun
 from grouptron.evaluation.test_sets import load_test_set, subset_with_groups
 from grouptron.geometry import DERIVATIVE_SCHEMES, DerivativeScheme
 from grouptron.model.factory import MODEL_NAMES, uses_groups
-from grouptron.training.checkpoint import load_trained_model
+from grouptron.training.checkpoint import load_checkpoint, load_trained_model
 
 log = logging.getLogger(__name__)
 
 PROTOCOLS = DERIVATIVE_SCHEMES
 """``central`` (the papers' protocol) and ``backward`` (causal)."""
-CONSTANT_VELOCITY = "constant-velocity"
 WEIGHTS_FILE = "best.safetensors"
-
-
-@dataclass(frozen=True)
-class ReportCheckpoint:
-    """One shipped checkpoint and what its folder name says it is."""
-
-    model: str
-    split: str
-    protocol: DerivativeScheme
-    path: Path
 
 
 @dataclass(frozen=True)
 class ReportSettings:
     modes: tuple[str, ...] = ("ml", "best-of-20", "nll")
     seed: int = 0
-    nll_max_samples: int = 0
+    nll_max_samples: int = 300
     """KDE NLL on at most this many seeded random test samples per split (0: all of them);
-    2000 decoded futures per sample make the full NLL the slow part on a CPU."""
+    2000 decoded futures per sample make the full NLL the slow part on a CPU (hours for all
+    test samples of all checkpoints, minutes for 300 per split)."""
     batch_size: int = 256
     use_cache: bool = True
 
@@ -69,26 +63,38 @@ class ReportSettings:
 
 
 def find_checkpoints(root: Path, protocols: Sequence[DerivativeScheme]) -> list[ReportCheckpoint]:
-    """The ``<model>-<split>-<protocol>/best.safetensors`` under ``root``, in table order.
+    """Every ``*/best.safetensors`` under ``root`` whose stored configuration is one of our
+    models on an ETH/UCY split under one of ``protocols``, in table order (protocol, model,
+    split, seed). Folder names do not matter; several seeds of one model and split are kept.
 
-    Missing ones are logged (their cells stay empty); finding none at all is an error.
+    Missing (model, split, protocol) cells are logged (they stay empty); none at all is an
+    error.
     """
     if not root.is_dir():
         raise GrouptronError(f"checkpoint folder {root} does not exist; pass --checkpoints DIR")
-    found, missing = [], []
-    for protocol in protocols:
-        for model in MODEL_NAMES:
-            for split in SPLITS:
-                path = root / f"{model}-{split}-{protocol}" / WEIGHTS_FILE
-                if path.is_file():
-                    found.append(ReportCheckpoint(model, split, protocol, path))
-                else:
-                    missing.append(path.parent.name)
+    found = []
+    for path in sorted(root.glob(f"*/{WEIGHTS_FILE}")):
+        config = load_checkpoint(path).config
+        protocol = config.data.derivatives
+        if protocol in protocols and config.split in SPLITS and config.model_name in MODEL_NAMES:
+            found.append(
+                ReportCheckpoint(config.model_name, config.split, protocol, path, config.train.seed)
+            )
     if not found:
         raise GrouptronError(
-            f"no checkpoints in {root}: expected folders like {MODEL_NAMES[0]}-eth-"
-            f"{protocols[0]}/{WEIGHTS_FILE}"
+            f"no checkpoints in {root} for the {'/'.join(protocols)} protocol: expected "
+            f"folders with a {WEIGHTS_FILE} of {' or '.join(MODEL_NAMES)} on an ETH/UCY split"
         )
+    order = {name: i for i, name in enumerate((*protocols, *MODEL_NAMES, *SPLITS))}
+    found.sort(key=lambda c: (order[c.protocol], order[c.model], order[c.split], c.seed))
+    have = {(c.model, c.split, c.protocol) for c in found}
+    missing = [
+        f"{m}-{s}-{p}"
+        for p in protocols
+        for m in MODEL_NAMES
+        for s in SPLITS
+        if (m, s, p) not in have
+    ]
     if missing:
         log.warning(
             "%d checkpoints missing in %s (their cells stay empty): %s",
@@ -103,7 +109,9 @@ def subset_masks(split: str, samples: SampleSet) -> dict[str | None, np.ndarray 
     """The whole test set (None) and, for univ, the paper's UNIV-N masks."""
     masks: dict[str | None, np.ndarray | None] = {None: None}
     if split == "univ":
-        masks.update({f"univ-{n}": univ_n_mask(samples, n) for n in UNIV_N_PAPER})
+        for definition in UNIV_N_DEFINITIONS:
+            subsets = [UnivN(n, definition) for n in UNIV_N_PAPER]
+            masks.update({s.name: univ_n_mask(samples, s) for s in subsets})
     return masks
 
 
@@ -129,34 +137,32 @@ def _rows(
         mask = keep if keep is None or within is None else keep[within]
         summary = scores.summary(mask)
         rows.append(
-            EvaluationResult(
-                split=template.split,
-                model=template.model,
+            dataclasses.replace(
+                template,
                 subset=subset,
                 samples=summary.samples,
                 ade=summary.ade,
                 fde=summary.fde,
                 mode=scores.mode,
                 nll=summary.nll if scores.mode == "nll" else None,
-                checkpoint=template.checkpoint,
-                protocol=template.protocol,
             )
         )
     return rows
 
 
-def evaluate_checkpoint(
+def score_checkpoint(
     entry: ReportCheckpoint,
     data_dir: Path,
     settings: ReportSettings,
     progress: bool = False,
-) -> list[EvaluationResult]:
-    """All rows of one checkpoint: each mode on its test set and, for univ, on UNIV-N."""
+) -> ScoredRun:
+    """Per-sample scores and mean rows of one checkpoint: each mode on its test set and, for
+    univ, on UNIV-N."""
     model, experiment = load_trained_model(entry.path)
     stored = (experiment.model_name, experiment.split, experiment.data.derivatives)
     if stored != (entry.model, entry.split, entry.protocol):
         raise GrouptronError(
-            f"{entry.path}: its folder says {entry.model} on {entry.split} ({entry.protocol}) "
+            f"{entry.path}: expected {entry.model} on {entry.split} ({entry.protocol}) "
             f"but it holds {stored[0]} on {stored[1]} ({stored[2]})"
         )
     group_config = experiment.groups if uses_groups(experiment) else None
@@ -167,13 +173,15 @@ def evaluate_checkpoint(
     template = EvaluationResult(
         entry.split, entry.model, None, 0, 0.0, 0.0, None, None, str(entry.path), entry.protocol
     )
-    rows = []
+    rows, by_mode = [], {}
     full_modes = tuple(m for m in settings.modes if m != "nll")
     batch, seed = settings.batch_size, settings.seed
     for scores in score_samples(
         model, experiment, samples, full_modes, batch, seed, progress, groups
     ):
         rows += _rows(scores, masks, None, template)
+        by_mode[scores.mode] = scores
+    keep = None
     if "nll" in settings.modes:
         keep = nll_subsample(len(samples), settings.nll_max_samples, seed)
         some, some_groups = subset_with_groups(samples, groups, keep)
@@ -181,39 +189,40 @@ def evaluate_checkpoint(
             model, experiment, some, ("nll",), batch, seed, progress, some_groups
         )
         rows += _rows(scores, masks, keep, template)
-    return rows
+        by_mode["nll"] = scores
+    return ScoredRun(entry, time_step_ids(samples), masks, by_mode, keep, rows)
 
 
-def evaluate_constant_velocity(
-    data_dir: Path, protocol: DerivativeScheme, use_cache: bool = True
+def evaluate_checkpoint(
+    entry: ReportCheckpoint,
+    data_dir: Path,
+    settings: ReportSettings,
+    progress: bool = False,
 ) -> list[EvaluationResult]:
-    """Constant-velocity rows of every split and UNIV-N (its inputs are raw positions, so
-    both protocols give the same numbers)."""
+    """The mean rows of :func:`score_checkpoint`."""
+    return score_checkpoint(entry, data_dir, settings, progress).rows
+
+
+def score_constant_velocity(
+    data_dir: Path, protocol: DerivativeScheme, use_cache: bool = True
+) -> list[ScoredRun]:
+    """Constant velocity on every split and UNIV-N (its inputs are raw positions, so both
+    protocols give the same numbers)."""
     config = DataConfig(derivatives=protocol)
-    rows = []
+    runs = []
     for split in SPLITS:
         samples, _ = load_test_set(data_dir, split, config, use_cache=use_cache)
-        for subset, keep in subset_masks(split, samples).items():
-            part = samples if keep is None else samples.subset(keep)
-            pred = constant_velocity(part.hist_rel_m.astype(np.float64), config.horizon_steps)
-            row = score(split, CONSTANT_VELOCITY, subset, pred, part)
-            rows.append(dataclasses.replace(row, mode="ml", protocol=protocol))
-    return rows
-
-
-def with_split_means(rows: list[EvaluationResult]) -> list[EvaluationResult]:
-    """``rows`` plus the AVG row of every (model, protocol, mode) scored on all five splits."""
-    means = []
-    keys = dict.fromkeys((r.model, r.protocol, r.mode) for r in rows if r.subset is None)
-    for model, protocol, mode in keys:
-        per_split = [
-            r
-            for r in rows
-            if (r.model, r.protocol, r.mode, r.subset) == (model, protocol, mode, None)
-        ]
-        if sorted(r.split for r in per_split) == sorted(SPLITS):
-            means.append(mean_over_splits(per_split))
-    return rows + means
+        pred = constant_velocity(samples.hist_rel_m.astype(np.float64), config.horizon_steps)
+        truth = samples.fut_rel_m.astype(np.float64)
+        nan = np.full(len(samples), np.nan)
+        scores = SampleScores("ml", metrics.ade(pred, truth), metrics.fde(pred, truth), nan)
+        masks = subset_masks(split, samples)
+        entry = ReportCheckpoint(CONSTANT_VELOCITY, split, protocol, Path())
+        template = EvaluationResult(split, CONSTANT_VELOCITY, None, 0, 0.0, 0.0, "ml")
+        template = dataclasses.replace(template, protocol=protocol)
+        rows = _rows(scores, masks, None, template)
+        runs.append(ScoredRun(entry, time_step_ids(samples), masks, {"ml": scores}, None, rows))
+    return runs
 
 
 def run_report(
@@ -222,16 +231,38 @@ def run_report(
     protocols: Sequence[DerivativeScheme],
     settings: ReportSettings,
     progress: bool = False,
-) -> list[EvaluationResult]:
-    """Rows for every checkpoint and constant velocity, plus the AVG rows."""
-    rows: list[EvaluationResult] = []
-    baseline = evaluate_constant_velocity(data_dir, protocols[0], settings.use_cache)
+) -> Report:
+    """Rows for every checkpoint and constant velocity, the AVG rows, intervals, paired
+    differences and the seed spread.
+
+    The lowest seed of each (model, split, protocol) gives the table rows in every mode; the
+    other seeds are scored in the ``ml`` mode for the seed spread. Progress goes to standard
+    error, so that standard output can carry JSON.
+    """
+    runs: list[ScoredRun] = []
+    baseline = score_constant_velocity(data_dir, protocols[0], settings.use_cache)
     for protocol in protocols:  # the same numbers under both protocols: scored once
-        rows += [dataclasses.replace(r, protocol=protocol) for r in baseline]
+        runs += [
+            dataclasses.replace(
+                run,
+                entry=dataclasses.replace(run.entry, protocol=protocol),
+                rows=[dataclasses.replace(r, protocol=protocol) for r in run.rows],
+            )
+            for run in baseline
+        ]
+    first_seed: dict[tuple[str, str, str], int] = {}
     for entry in checkpoints:
+        key = (entry.model, entry.split, entry.protocol)
+        first_seed.setdefault(key, entry.seed)
+        primary = first_seed[key] == entry.seed
         log.info("evaluating %s", entry.path)
         if progress:
-            print(f"{entry.model} {entry.split} ({entry.protocol}): {entry.path}", flush=True)
+            print(
+                f"{entry.model} {entry.split} ({entry.protocol}, seed {entry.seed}): {entry.path}",
+                file=sys.stderr,
+                flush=True,
+            )
+        run_settings = settings if primary else dataclasses.replace(settings, modes=("ml",))
         with torch.inference_mode():
-            rows += evaluate_checkpoint(entry, data_dir, settings, progress)
-    return with_split_means(rows)
+            runs.append(score_checkpoint(entry, data_dir, run_settings, progress))
+    return build_report(runs, protocols)

@@ -36,10 +36,13 @@ class EvaluationResult:
     checkpoint: str | None = None
     protocol: str | None = None
     """The derivative scheme of the inputs: ``central`` (the papers') or ``backward``."""
+    ade_ci: tuple[float, float] | None = None
+    """95% bootstrap interval of the mean ADE (time steps resampled), where computed."""
+    fde_ci: tuple[float, float] | None = None
 
     def to_dict(self) -> dict[str, object]:
         row = dataclasses.asdict(self)
-        for optional in ("mode", "nll", "checkpoint", "protocol"):
+        for optional in ("mode", "nll", "checkpoint", "protocol", "ade_ci", "fde_ci"):
             if row[optional] is None:
                 del row[optional]
         return {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in row.items()}
@@ -76,6 +79,8 @@ def mean_over_splits(results: Sequence[EvaluationResult]) -> EvaluationResult:
         fde=float(np.mean([r.fde for r in results])),
         nll=float(np.mean(nll)) if len(nll) == len(results) else None,
         checkpoint=None,
+        ade_ci=None,
+        fde_ci=None,
     )
 
 

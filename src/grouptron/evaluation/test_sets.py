@@ -9,7 +9,7 @@ import numpy as np
 from grouptron.config import DataConfig, GroupConfig
 from grouptron.data.dataset import load_groups, load_part
 from grouptron.data.samples import SampleSet
-from grouptron.data.subsets import univ_n_mask
+from grouptron.data.subsets import UnivN, univ_n_mask
 from grouptron.errors import GrouptronError
 from grouptron.groups.assign import SampleGroups
 
@@ -18,11 +18,11 @@ def load_test_set(
     data_dir: Path,
     split: str,
     config: DataConfig,
-    min_present: int | None = None,
+    subset: UnivN | None = None,
     group_config: GroupConfig | None = None,
     use_cache: bool = True,
 ) -> tuple[SampleSet, SampleGroups | None]:
-    """A split's test samples, restricted to UNIV-N when ``min_present`` is N, and their
+    """A split's test samples, restricted to a UNIV-N ``subset`` when given, and their
     groups when ``group_config`` is given (Grouptron); both cached on disk."""
     samples = load_part(data_dir, split, "test", config, use_cache=use_cache).samples
     if not len(samples):
@@ -35,10 +35,10 @@ def load_test_set(
         groups = load_groups(
             data_dir, split, "test", config, group_config, samples, use_cache=use_cache
         )
-    if min_present is not None:
-        keep = univ_n_mask(samples, min_present)
+    if subset is not None:
+        keep = univ_n_mask(samples, subset)
         if not keep.any():
-            raise GrouptronError(f"no {split} test sample has {min_present} pedestrians or more")
+            raise GrouptronError(f"{split}: the test set has no sample in {subset.name}")
         samples, groups = subset_with_groups(samples, groups, keep)
     return samples, groups
 

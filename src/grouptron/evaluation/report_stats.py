@@ -1,0 +1,287 @@
+"""How sure the report's numbers are: intervals of every score, paired differences between
+models on the same samples, and the spread over seed runs.
+
+Works on :class:`~grouptron.evaluation.scored.ScoredRun` (per-sample scores); the bootstrap
+resamples time steps (``evaluation.uncertainty``) with one fixed seed, so every interval of a
+report resamples the same steps and paired differences see the same resamples.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from grouptron.data.constants import SPLITS
+from grouptron.evaluation.results import MEAN_ROW, EvaluationResult, mean_over_splits
+from grouptron.evaluation.scored import CONSTANT_VELOCITY, ScoredRun
+from grouptron.evaluation.uncertainty import (
+    Interval,
+    mean_interval,
+    seed_spread,
+    split_average_interval,
+)
+
+BOOTSTRAP_SEED = 0
+INTERVAL_MODES = ("ml", "ml-argmax", "best-of-20")
+PAIRS = (
+    ("grouptron", "trajectron++"),
+    ("trajectron++", CONSTANT_VELOCITY),
+    ("grouptron", CONSTANT_VELOCITY),
+)
+"""(model, baseline): the differences a reader asks about, model minus baseline."""
+
+Values = tuple[np.ndarray, np.ndarray]  # (S,) per-sample values, (S,) time steps
+
+
+@dataclass(frozen=True)
+class PairedDifference:
+    """Mean of ``model - baseline`` per-sample errors (metres) on the same test samples, with
+    95% intervals over resampled time steps. Negative: ``model`` is better."""
+
+    protocol: str
+    mode: str
+    model: str
+    baseline: str
+    column: str
+    samples: int
+    fde: Interval
+    ade: Interval
+
+    def to_dict(self) -> dict[str, object]:
+        row = dataclasses.asdict(self)
+        row["fde"], row["ade"] = _interval_dict(self.fde), _interval_dict(self.ade)
+        return row
+
+
+@dataclass(frozen=True)
+class SeedSpread:
+    """ML scores of every seed run of one model (or of a paired difference) on one column."""
+
+    model: str
+    protocol: str
+    column: str
+    seeds: tuple[int, ...]
+    fde: tuple[float, ...]
+    ade: tuple[float, ...]
+
+    def to_dict(self) -> dict[str, object]:
+        row = dataclasses.asdict(self)
+        for name in ("fde", "ade"):
+            mean, sd = seed_spread(getattr(self, name))
+            row[f"{name}_mean"], row[f"{name}_sd"] = mean, None if math.isnan(sd) else sd
+        return row
+
+
+@dataclass(frozen=True)
+class Report:
+    """Everything ``grouptron report`` prints."""
+
+    rows: list[EvaluationResult]
+    paired: list[PairedDifference]
+    seeds: list[SeedSpread]
+
+    def to_json(self) -> str:
+        return json.dumps(
+            {
+                "results": [r.to_dict() for r in self.rows],
+                "paired": [p.to_dict() for p in self.paired],
+                "seeds": [s.to_dict() for s in self.seeds],
+            },
+            indent=2,
+        )
+
+
+def _interval_dict(value: Interval) -> dict[str, float]:
+    return {"mean": value.mean, "low": value.low, "high": value.high}
+
+
+def _column(row: EvaluationResult) -> str:
+    return row.subset if row.subset is not None else row.split
+
+
+def _key(run: ScoredRun) -> tuple[str, str, str]:
+    return run.entry.model, run.entry.split, run.entry.protocol
+
+
+def primary_runs(runs: Sequence[ScoredRun]) -> dict[tuple[str, str, str], ScoredRun]:
+    """The lowest-seed run of every (model, split, protocol): the one in the tables."""
+    primary: dict[tuple[str, str, str], ScoredRun] = {}
+    for run in sorted(runs, key=lambda r: r.entry.seed):
+        primary.setdefault(_key(run), run)
+    return primary
+
+
+def _values(run: ScoredRun, mode: str, column: str, metric: str) -> Values | None:
+    """Per-sample ``metric`` of ``run`` on a split or subset column (None if not scored)."""
+    scores = run.scores.get(mode)
+    if scores is None or mode not in INTERVAL_MODES:
+        return None
+    mask = run.masks.get(None if column == run.entry.split else column, "absent")
+    if isinstance(mask, str):
+        return None
+    values = getattr(scores, metric)
+    keep = np.ones(len(values), dtype=bool) if mask is None else mask
+    return (values[keep], run.steps[keep]) if keep.any() else None
+
+
+def _interval(per_split: Sequence[Values]) -> Interval:
+    """One column's interval: a split or subset, or the AVG over five splits."""
+    if len(per_split) == 1:
+        return mean_interval(*per_split[0], seed=BOOTSTRAP_SEED)
+    return split_average_interval(per_split, seed=BOOTSTRAP_SEED)
+
+
+def _per_split(
+    primary: dict[tuple[str, str, str], ScoredRun],
+    model: str,
+    protocol: str,
+    mode: str,
+    column: str,
+    metric: str,
+) -> list[Values] | None:
+    """The values behind one cell: one split's (or subset's), or all five for AVG."""
+    if column == MEAN_ROW:
+        runs = [primary.get((model, split, protocol)) for split in SPLITS]
+        found = [_values(r, mode, r.entry.split, metric) for r in runs if r is not None]
+        complete = [v for v in found if v is not None]
+        return complete if len(complete) == len(SPLITS) else None
+    split = "univ" if column.startswith("univ") else column
+    run = primary.get((model, split, protocol))
+    values = None if run is None else _values(run, mode, column, metric)
+    return None if values is None else [values]
+
+
+def with_intervals(
+    rows: Sequence[EvaluationResult], primary: dict[tuple[str, str, str], ScoredRun]
+) -> list[EvaluationResult]:
+    """``rows`` with 95% intervals of ADE and FDE wherever per-sample scores exist."""
+    out = []
+    for row in rows:
+        mode, protocol = row.mode or "ml", row.protocol or ""
+        cis = []
+        for metric in ("ade", "fde"):
+            values = _per_split(primary, row.model, protocol, mode, _column(row), metric)
+            cis.append(None if values is None else _interval(values))
+        out.append(
+            dataclasses.replace(
+                row,
+                ade_ci=None if cis[0] is None else (cis[0].low, cis[0].high),
+                fde_ci=None if cis[1] is None else (cis[1].low, cis[1].high),
+            )
+        )
+    return out
+
+
+def paired_differences(
+    primary: dict[tuple[str, str, str], ScoredRun], columns: Sequence[str]
+) -> list[PairedDifference]:
+    """``model - baseline`` for every pair in :data:`PAIRS`, protocol, mode and column."""
+    out = []
+    protocols = dict.fromkeys(protocol for _, _, protocol in primary)
+    for protocol in protocols:
+        for model, baseline in PAIRS:
+            modes = ("ml",) if baseline == CONSTANT_VELOCITY else ("ml", "best-of-20")
+            for mode in modes:
+                for column in columns:
+                    base_mode = "ml" if baseline == CONSTANT_VELOCITY else mode
+                    diffs = {}
+                    for metric in ("fde", "ade"):
+                        a = _per_split(primary, model, protocol, mode, column, metric)
+                        b = _per_split(primary, baseline, protocol, base_mode, column, metric)
+                        if a is None or b is None:
+                            break
+                        if any(len(x[0]) != len(y[0]) for x, y in zip(a, b, strict=True)):
+                            raise ValueError(f"{model} and {baseline} scored other samples")
+                        pairs = [(x[0] - y[0], x[1]) for x, y in zip(a, b, strict=True)]
+                        diffs[metric] = (_interval(pairs), sum(len(x[0]) for x in a))
+                    if len(diffs) == 2:
+                        out.append(
+                            PairedDifference(
+                                protocol,
+                                mode,
+                                model,
+                                baseline,
+                                column,
+                                diffs["fde"][1],
+                                diffs["fde"][0],
+                                diffs["ade"][0],
+                            )
+                        )
+    return out
+
+
+def seed_spreads(runs: Sequence[ScoredRun], columns: Sequence[str]) -> list[SeedSpread]:
+    """ML scores per seed where a (model, split, protocol) has several seed runs, and the
+    Grouptron - Trajectron++ difference of seeds run for both."""
+    by_key: dict[tuple[str, str, str], list[ScoredRun]] = {}
+    for run in runs:
+        if run.entry.model != CONSTANT_VELOCITY:
+            by_key.setdefault(_key(run), []).append(run)
+    out = []
+    for (model, split, protocol), seeded in by_key.items():
+        if len(seeded) < 2:
+            continue
+        seeded = sorted(seeded, key=lambda r: r.entry.seed)
+        for column in (c for c in columns if c == split or c.startswith(f"{split}-")):
+            fde = [_values(r, "ml", column, "fde") for r in seeded]
+            ade = [_values(r, "ml", column, "ade") for r in seeded]
+            if any(v is None for v in (*fde, *ade)):
+                continue
+            seeds = tuple(r.entry.seed for r in seeded)
+            means = [float(v[0].mean()) for v in fde if v is not None]
+            ade_means = [float(v[0].mean()) for v in ade if v is not None]
+            out.append(SeedSpread(model, protocol, column, seeds, tuple(means), tuple(ade_means)))
+    return out + _seed_differences(out)
+
+
+def _seed_differences(spreads: Sequence[SeedSpread]) -> list[SeedSpread]:
+    """Grouptron - Trajectron++ per seed, for the seeds both models have."""
+    out = []
+    index = {(s.model, s.protocol, s.column): s for s in spreads}
+    for (model, protocol, column), grouptron in index.items():
+        other = index.get(("trajectron++", protocol, column))
+        if model != "grouptron" or other is None:
+            continue
+        common = [s for s in grouptron.seeds if s in other.seeds]
+        if len(common) < 2:
+            continue
+        g = dict(zip(grouptron.seeds, zip(grouptron.fde, grouptron.ade, strict=True), strict=True))
+        t = dict(zip(other.seeds, zip(other.fde, other.ade, strict=True), strict=True))
+        fde = tuple(g[s][0] - t[s][0] for s in common)
+        ade = tuple(g[s][1] - t[s][1] for s in common)
+        name = "grouptron - trajectron++"
+        out.append(SeedSpread(name, protocol, column, tuple(common), fde, ade))
+    return out
+
+
+def with_split_means(rows: list[EvaluationResult]) -> list[EvaluationResult]:
+    """``rows`` plus the AVG row of every (model, protocol, mode) scored on all five splits."""
+    means = []
+    keys = dict.fromkeys((r.model, r.protocol, r.mode) for r in rows if r.subset is None)
+    for model, protocol, mode in keys:
+        per_split = [
+            r
+            for r in rows
+            if (r.model, r.protocol, r.mode, r.subset) == (model, protocol, mode, None)
+        ]
+        if sorted(r.split for r in per_split) == sorted(SPLITS):
+            means.append(mean_over_splits(per_split))
+    return rows + means
+
+
+def build_report(runs: Sequence[ScoredRun], protocols: Sequence[str]) -> Report:
+    """Table rows (lowest seed of each checkpoint, plus constant velocity and AVG) with
+    intervals, paired differences and seed spreads."""
+    primary = primary_runs(runs)
+    rows = with_split_means([row for run in primary.values() for row in run.rows])
+    columns = list(dict.fromkeys(_column(r) for r in rows))
+    return Report(
+        rows=with_intervals(rows, primary),
+        paired=paired_differences(primary, columns),
+        seeds=seed_spreads(runs, columns),
+    )
