@@ -21,7 +21,7 @@ import numpy as np
 
 from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import DataConfig
-from grouptron.data.constants import PARTS, SPLITS
+from grouptron.constants import PARTS, SPLITS
 from grouptron.data.dataset import load_part
 from grouptron.data.locate import resolve_data_dir
 

@@ -30,7 +30,7 @@ from grouptron.evaluation.evaluate import score_samples
 from grouptron.evaluation.report import subset_masks
 from grouptron.evaluation.test_sets import load_test_set
 from grouptron.model.factory import uses_groups
-from grouptron.training.checkpoint import load_trained_model
+from grouptron.model.checkpoint import load_trained_model
 
 MODELS = ("trajectron++", "grouptron")
 

@@ -103,12 +103,12 @@ def train_speed(data_dir: Path | None, iterations: int) -> dict[str, float]:
 
 def eval_speed(data_dir: Path | None, checkpoint: str | None) -> dict[str, float]:
     from grouptron.config import ExperimentConfig
-    from grouptron.data.constants import SPLITS
+    from grouptron.constants import SPLITS
     from grouptron.data.dataset import load_part
     from grouptron.data.locate import resolve_data_dir
     from grouptron.evaluation.evaluate import evaluate_model
     from grouptron.model.factory import build_model
-    from grouptron.training.checkpoint import load_trained_model
+    from grouptron.model.checkpoint import load_trained_model
 
     config = ExperimentConfig()
     model = build_model(config)

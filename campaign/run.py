@@ -33,7 +33,7 @@ from pathlib import Path
 import torch
 
 from grouptron.config import save_config
-from grouptron.training.checkpoint import load_checkpoint
+from grouptron.model.checkpoint import load_checkpoint
 from grouptron.training.precision import native_bf16
 
 REPO = Path(__file__).resolve().parents[1]

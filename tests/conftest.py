@@ -75,7 +75,8 @@ def tiny_checkpoints(synthetic_data_dir: Path, tmp_path_factory: pytest.TempPath
     import dataclasses
 
     from grouptron.config import ExperimentConfig, TrainConfig
-    from grouptron.data.dataset import load_groups, load_part
+    from grouptron.data.dataset import load_part
+    from grouptron.groups.cache import load_groups
     from grouptron.training.trainer import train
     from tests.model.test_cvae import SMALL
 

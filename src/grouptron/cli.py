@@ -26,8 +26,8 @@ from grouptron.config import (
     experiment_preset,
     load_config,
 )
-from grouptron.data.constants import SPLITS, UNIV_N_PAPER
-from grouptron.data.dataset import load_groups, load_part
+from grouptron.constants import SPLITS, UNIV_N_PAPER
+from grouptron.data.dataset import load_part
 from grouptron.data.download import fetch_dataset
 from grouptron.data.locate import resolve_data_dir
 from grouptron.data.reader import read_tracks
@@ -46,6 +46,7 @@ from grouptron.evaluation.results import (
 )
 from grouptron.evaluation.test_sets import load_test_set
 from grouptron.geometry import DERIVATIVE_SCHEMES
+from grouptron.groups.cache import load_groups
 from grouptron.groups.clustering import LINKAGES
 from grouptron.groups.distances import DISTANCE_KINDS
 from grouptron.groups.labels import read_group_labels, read_id_map
@@ -58,17 +59,20 @@ from grouptron.io import (
     write_csv_atomically,
     write_text_atomically,
 )
+from grouptron.model.checkpoint import load_checkpoint, load_trained_model
 from grouptron.model.factory import MODEL_NAMES, uses_groups
 from grouptron.training import distributed
-from grouptron.training.checkpoint import load_checkpoint, load_trained_model
+from grouptron.training.metrics_log import MetricsWriter
 from grouptron.training.precision import PRECISIONS, precision_name, resolve_precision
 from grouptron.training.trainer import LAST, train
 from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tracks_around
 from grouptron.viz.groups import plot_step_groups
+from grouptron.viz.training import plot_training_curves
 
 log = logging.getLogger("grouptron")
 EXIT_USAGE = 2
 REPORT_CHECKPOINTS = "checkpoints"
+CURVES = "curves.png"
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefaultsHelpFormatter):
@@ -362,10 +366,10 @@ def cmd_predict(args: argparse.Namespace) -> int:
     forecast = forecast_scene(
         model, experiment, scene, args.mode, args.samples, args.seed, progress=not args.quiet
     )
-    header, rows, formats = forecast.table()
+    header, rows, formats = forecast.table(sampled=args.mode == "samples")
     write_array_csv_atomically(Path(args.out), header, rows, formats)
     print(
-        f"wrote {len(rows)} rows for {len(forecast.frame)} (pedestrian, frame) pairs "
+        f"wrote {len(rows)} rows for {len(forecast)} (pedestrian, frame) pairs "
         f"({experiment.model_name}, {data.derivatives} derivatives, {args.mode}) to {args.out}"
     )
     return 0
@@ -538,6 +542,9 @@ def cmd_train(args: argparse.Namespace) -> int:
     finally:
         distributed.stop(cluster)
     if cluster.is_main:
+        records = MetricsWriter(out).records()
+        if records:
+            plot_training_curves(records, out.name, out / CURVES)
         print(
             f"done: {state.epoch} epochs, {state.iteration} steps; best validation ML FDE "
             f"{state.best_val_fde:.3f} m; checkpoints in {out}"

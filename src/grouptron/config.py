@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, TypeVar
 
-from grouptron.data import constants
+from grouptron import constants
 from grouptron.errors import GrouptronError
 from grouptron.geometry import DERIVATIVE_SCHEMES, DerivativeScheme
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from grouptron.config import DataConfig
-from grouptron.data.constants import EXPECTED_TEST_SAMPLES, SPLITS
+from grouptron.constants import EXPECTED_TEST_SAMPLES, SPLITS
 from grouptron.data.dataset import build_part, load_part
 from grouptron.data.download import parse_checksums, shipped_checksums
 from grouptron.data.locate import split_files

@@ -26,7 +26,7 @@ from grouptron.evaluation.report_stats import Report, build_report
 from grouptron.evaluation.report_tables import report_markdown
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.scored import ScoredRun
-from grouptron.training.checkpoint import load_trained_model
+from grouptron.model.checkpoint import load_trained_model
 
 
 def test_subset_means_of_per_sample_scores_equal_evaluating_the_subset(

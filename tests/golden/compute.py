@@ -21,9 +21,9 @@ from grouptron.data.scene import build_scene
 from grouptron.inference.predictor import Predictor
 from grouptron.inference.tracks import groups_for_model
 from grouptron.model.batch import make_batch
+from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.noise import draw_training_noise
 from grouptron.training import schedules
-from grouptron.training.checkpoint import load_trained_model
 from grouptron.training.losses import elbo_loss
 
 HERE = Path(__file__).parent
@@ -96,7 +96,8 @@ def training_loss(name: str) -> np.ndarray:
     torch.set_rng_state(generator_state)
     model.train()
     output = model(
-        type(batch)(**{**batch.__dict__, "noise": noise}),
+        batch,
+        noise,
         logit_clip=schedules.logit_clip(config.loss, LOSS_ITERATION),
     )
     kl_weight = schedules.kl_weight(config.loss, LOSS_ITERATION)

@@ -30,15 +30,13 @@ def test_predict_matches_the_track_file_forecast(
 ) -> None:
     (scene,) = load_scenes(split_files(synthetic_data_dir, "eth", "test"), causal.config.data)
     whole = forecast_scene(causal.model, causal.config, scene)
-    frame = int(np.median(whole.frame))
+    frame = int(np.median(whole.frames))
     forecast = causal.predict(recording, t=frame, num_samples=4)
-    at_frame = whole.frame == frame
+    at_frame = whole.frames == frame
     assert len(forecast) == at_frame.sum() > 1
-    order = np.argsort(whole.ped_id[at_frame])
-    np.testing.assert_allclose(forecast.ids, whole.ped_id[at_frame][order])
-    np.testing.assert_allclose(
-        forecast.most_likely, whole.positions[at_frame][order][:, 0], atol=1e-5
-    )
+    order = np.argsort(whole.ids[at_frame])
+    np.testing.assert_allclose(forecast.ids, whole.ids[at_frame][order])
+    np.testing.assert_allclose(forecast.most_likely, whole.most_likely[at_frame][order], atol=1e-5)
     N, Z, H = len(forecast), causal.config.model.latent_modes, 12
     assert forecast.samples is not None and forecast.samples.shape == (N, 4, H, 2)
     assert forecast.mixture_means.shape == (N, Z, H, 2)
@@ -144,9 +142,9 @@ def test_a_recording_forecast_with_central_derivatives_matches_the_track_file_fo
     central = Predictor.from_checkpoint("grouptron-eth-central", checkpoints_dir=tiny_checkpoints)
     (scene,) = load_scenes(split_files(synthetic_data_dir, "eth", "test"), central.config.data)
     whole = forecast_scene(central.model, central.config, scene)
-    for frame in np.unique(whole.frame)[::7]:  # forecasts read a window around the frame
+    for frame in np.unique(whole.frames)[::7]:  # forecasts read a window around the frame
         forecast = central.predict(recording, t=int(frame), live=False)
-        at_frame = whole.frame == frame
-        order = np.argsort(whole.ped_id[at_frame])
-        expected = whole.positions[at_frame][order][:, 0]
+        at_frame = whole.frames == frame
+        order = np.argsort(whole.ids[at_frame])
+        expected = whole.most_likely[at_frame][order]
         np.testing.assert_allclose(forecast.most_likely, expected, atol=1e-5)

@@ -16,9 +16,9 @@ import torch
 from grouptron.cli import main
 from grouptron.config import ExperimentConfig, TrainConfig, save_config
 from grouptron.errors import GrouptronError
-from grouptron.training import checkpoint as checkpoint_module
+from grouptron.model import checkpoint as checkpoint_module
+from grouptron.model.checkpoint import load_checkpoint
 from grouptron.training import trainer as trainer_module
-from grouptron.training.checkpoint import load_checkpoint
 from grouptron.training.losses import LossTerms
 from grouptron.training.trainer import LAST, train
 from tests.conftest import REPO
@@ -34,7 +34,7 @@ KILLER = textwrap.dedent(
     """
     import os, signal, sys
     import torch
-    from grouptron.training import checkpoint
+    from grouptron.model import checkpoint
     from grouptron.cli import main
 
     mode, when, argv = sys.argv[1], int(sys.argv[2]), sys.argv[3:]

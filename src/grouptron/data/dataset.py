@@ -13,12 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from grouptron.config import DataConfig, GroupConfig, config_to_dict
+from grouptron.config import DataConfig, config_to_dict
 from grouptron.data.locate import preprocessed_cache_dir, split_files
 from grouptron.data.reader import read_tracks
 from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
 from grouptron.data.scene import Scene, build_scene
-from grouptron.groups.assign import SampleGroups, assign_groups
 
 log = logging.getLogger(__name__)
 
@@ -89,10 +88,10 @@ def _save_part(path: Path, part: PartData) -> None:
     arrays["scenes.name"] = np.asarray([s.name for s in part.scenes])
     for field in ("num_tracks", "num_steps", "max_present"):
         arrays[f"scenes.{field}"] = np.asarray([getattr(s, field) for s in part.scenes])
-    _save_npz(path, arrays)
+    save_npz(path, arrays)
 
 
-def _save_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
+def save_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
     """Write to a temporary file in the same folder, then rename: never a half-written cache."""
     path.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".tmp", delete=False) as handle:
@@ -119,7 +118,7 @@ def _load_part(path: Path) -> PartData:
     return PartData(samples, scenes)
 
 
-def _cache_path(split: str, part: str, config: DataConfig, key: str) -> Path:
+def cache_path(split: str, part: str, config: DataConfig, key: str) -> Path:
     return preprocessed_cache_dir() / f"{split}-{part}-{config.derivatives}-{key}.npz"
 
 
@@ -136,7 +135,7 @@ def load_part(
     if not use_cache:
         return build_part(files, config, min_history)
     key = cache_key(files, config, min_history)
-    path = _cache_path(split, part, config, key)
+    path = cache_path(split, part, config, key)
     if path.exists():
         try:
             return _load_part(path)
@@ -148,36 +147,3 @@ def load_part(
     except OSError as exc:  # a read-only or full cache folder only costs speed
         log.warning("could not write the preprocessing cache %s: %s", path, exc)
     return data
-
-
-def load_groups(
-    data_dir: Path,
-    split: str,
-    part: str,
-    config: DataConfig,
-    groups: GroupConfig,
-    samples: SampleSet,
-    use_cache: bool = True,
-) -> SampleGroups:
-    """The groups of a part's samples (see :func:`grouptron.groups.assign.assign_groups`),
-    cached next to the samples under a key that adds the group settings."""
-    if not use_cache:
-        return assign_groups(samples, groups, config.position_scale_m)
-    files = split_files(data_dir, split, part)
-    payload = json.dumps(
-        [cache_key(files, config, min_history_for(part, config)), config_to_dict(groups)]
-    )
-    key = hashlib.sha256(payload.encode()).hexdigest()[:32]
-    path = _cache_path(split, part, config, "groups-" + key)
-    if path.exists():
-        try:
-            with np.load(path, allow_pickle=False) as npz:
-                return SampleGroups.from_arrays({k: npz[k] for k in npz.files})
-        except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
-            log.warning("ignoring unreadable cache file %s (%s); rebuilding", path, exc)
-    found = assign_groups(samples, groups, config.position_scale_m)
-    try:
-        _save_npz(path, found.to_arrays())
-    except OSError as exc:
-        log.warning("could not write the preprocessing cache %s: %s", path, exc)
-    return found

@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from grouptron.data.constants import PARTS, SPLITS
+from grouptron.constants import PARTS, SPLITS
 from grouptron.errors import GrouptronError
 
 DATA_ENV = "GROUPTRON_DATA"

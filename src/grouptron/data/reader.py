@@ -15,7 +15,7 @@ from typing import Literal
 
 import numpy as np
 
-from grouptron.data.constants import FRAMES_PER_STEP
+from grouptron.constants import FRAMES_PER_STEP
 from grouptron.errors import DataFormatError
 
 log = logging.getLogger(__name__)

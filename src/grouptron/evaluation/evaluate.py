@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -13,14 +12,14 @@ from tqdm import tqdm
 from grouptron.config import ExperimentConfig
 from grouptron.data.samples import SampleSet
 from grouptron.evaluation import metrics
-from grouptron.evaluation.predict import (
+from grouptron.groups.assign import SampleGroups
+from grouptron.model.batch import batches
+from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.predict import (
     predict_argmax_latent,
     predict_most_likely,
     predict_samples,
 )
-from grouptron.groups.assign import SampleGroups
-from grouptron.model.batch import Batch, make_batch
-from grouptron.model.cvae import TrajectronCVAE
 
 MODES = ("ml", "ml-argmax", "best-of-20", "nll")
 BEST_OF = 20
@@ -38,18 +37,6 @@ class ModeScores:
     nll: float = float("nan")
     nll_undefined: int = 0
     """Samples whose KDE could not be built (all predictions identical at some step)."""
-
-
-def batches(
-    samples: SampleSet,
-    config: ExperimentConfig,
-    batch_size: int,
-    groups: SampleGroups | None = None,
-) -> Iterator[tuple[np.ndarray, Batch]]:
-    """Consecutive batches of the whole set, in order, without augmentation."""
-    for start in range(0, len(samples), batch_size):
-        index = np.arange(start, min(start + batch_size, len(samples)))
-        yield index, make_batch(samples, index, config.data, groups=groups)
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ import torch
 
 from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import DataConfig
-from grouptron.data.constants import SPLITS, UNIV_N_PAPER
+from grouptron.constants import SPLITS, UNIV_N_PAPER
 from grouptron.data.samples import SampleSet
 from grouptron.data.subsets import UNIV_N_DEFINITIONS, UnivN, time_step_ids, univ_n_mask
 from grouptron.errors import GrouptronError
@@ -33,8 +33,8 @@ from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.scored import CONSTANT_VELOCITY, ReportCheckpoint, ScoredRun
 from grouptron.evaluation.test_sets import load_test_set, subset_with_groups
 from grouptron.geometry import DERIVATIVE_SCHEMES, DerivativeScheme
+from grouptron.model.checkpoint import load_checkpoint, load_trained_model
 from grouptron.model.factory import MODEL_NAMES, uses_groups
-from grouptron.training.checkpoint import load_checkpoint, load_trained_model
 
 log = logging.getLogger(__name__)
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grouptron.data.constants import SPLITS
+from grouptron.constants import SPLITS
 from grouptron.evaluation.results import MEAN_ROW, EvaluationResult, mean_over_splits
 from grouptron.evaluation.scored import CONSTANT_VELOCITY, ScoredRun
 from grouptron.evaluation.uncertainty import (

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from grouptron.data.constants import SPLITS, UNIV_N_PAPER
+from grouptron.constants import SPLITS, UNIV_N_PAPER
 from grouptron.evaluation.published import TABLE_I, TABLE_II
 from grouptron.evaluation.report_stats import PairedDifference, Report, SeedSpread
 from grouptron.evaluation.results import MEAN_ROW, EvaluationResult

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from grouptron.config import GroupConfig
-from grouptron.data.constants import HISTORY_STEPS, PERCEPTION_RADIUS_M
+from grouptron.constants import HISTORY_STEPS, PERCEPTION_RADIUS_M
 from grouptron.data.scene import Scene
 from grouptron.groups.clustering import agglomerative_groups
 from grouptron.groups.distances import pairwise_distances

@@ -14,7 +14,6 @@ from __future__ import annotations
 import logging
 import os
 import warnings
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
@@ -26,19 +25,23 @@ from grouptron.data.reader import table_from_values
 from grouptron.data.samples import SampleSet, scene_samples
 from grouptron.data.scene import Scene, build_scene
 from grouptron.errors import GrouptronError
-from grouptron.evaluation.evaluate import batches
-from grouptron.evaluation.predict import (
+from grouptron.groups.scene import groups_at_step
+from grouptron.inference.forecast import Forecast
+from grouptron.inference.tracks import groups_for_model
+from grouptron.model.batch import Batch, batches
+from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.gaussians import (
+    covariance_matrices,
+    position_covariances,
+    positions_from_velocities,
+)
+from grouptron.model.predict import (
     decode_every_latent,
     most_likely_positions,
     predict_argmax_latent,
     predict_samples,
 )
-from grouptron.groups.scene import groups_at_step
-from grouptron.inference.tracks import groups_for_model
-from grouptron.model.batch import Batch
-from grouptron.model.cvae import TrajectronCVAE
-from grouptron.model.gaussians import covariance_matrices
-from grouptron.training.checkpoint import load_trained_model
 
 log = logging.getLogger(__name__)
 
@@ -47,36 +50,6 @@ WEIGHTS_FILE = "best.safetensors"
 TRACK_COLUMNS = ("frame", "id", "x", "y")
 MostLikely = Literal["mixture-mode", "argmax-latent"]
 MOST_LIKELY_CHOICES = ("mixture-mode", "argmax-latent")
-
-
-@dataclass(frozen=True)
-class Forecast:
-    """Forecasts of ``N`` agents made at one frame (positions in the input's coordinates).
-
-    Attributes:
-        frame: the frame forecast from (the last observation used).
-        ids: (N,) agent ids, ascending.
-        most_likely: (N, H, 2) most likely positions at steps 1..H after ``frame``.
-        samples: (N, K, H, 2) sampled futures, or None when none were asked for.
-        mixture_log_weights: (N, Z) log p(z|x) of the Z latent values (None when the
-            predictor was made with ``mixture=False``; likewise the next two).
-        mixture_means: (N, Z, H, 2) position means of each latent value's Gaussians.
-        mixture_covariances: (N, Z, H, 2, 2) their covariances (m^2).
-        group: (N,) scene-wide group of every agent at ``frame`` (agglomerative clustering of
-            everyone present on their histories, C(N) groups; numbered from 0).
-    """
-
-    frame: int
-    ids: np.ndarray
-    most_likely: np.ndarray
-    samples: np.ndarray | None
-    mixture_log_weights: np.ndarray | None
-    mixture_means: np.ndarray | None
-    mixture_covariances: np.ndarray | None
-    group: np.ndarray
-
-    def __len__(self) -> int:
-        return len(self.ids)
 
 
 def _as_track_array(tracks: Any) -> np.ndarray:
@@ -280,6 +253,7 @@ class Predictor:
         order = np.argsort(ids, kind="stable")
         return Forecast(
             frame=frame,
+            frames=np.full(len(ids), frame, dtype=np.int64),
             ids=ids[order],
             most_likely=(most_likely + origin[:, None])[order],
             samples=None
@@ -301,7 +275,7 @@ class Predictor:
             fast = predict_argmax_latent(self.model, batch, H, dt)  # decodes one latent value
             return fast.double().numpy(), None, None, None
         encoding, velocity = decode_every_latent(self.model, batch, H)
-        mean = torch.cumsum(velocity.mean, dim=2) * dt  # (N, Z, H, 2) positions
+        mean = positions_from_velocities(velocity.mean, dt)  # (N, Z, H, 2)
         if self.most_likely == "mixture-mode":
             most_likely = most_likely_positions(encoding, velocity, H, dt)
         else:
@@ -309,7 +283,7 @@ class Predictor:
             most_likely = mean[torch.arange(len(best)), best]
         if not self.mixture:
             return most_likely.double().numpy(), None, None, None
-        cov = torch.cumsum(velocity.cov, dim=2) * dt**2  # (N, Z, H, 3)
+        cov = position_covariances(velocity.cov, dt)  # (N, Z, H, 3)
         return (
             most_likely.double().numpy(),
             torch.log_softmax(encoding.p_logits, -1).double().numpy(),
@@ -321,6 +295,7 @@ class Predictor:
         H, Z = self.config.data.horizon_steps, self.config.model.latent_modes
         return Forecast(
             frame=frame,
+            frames=np.zeros(0, dtype=np.int64),
             ids=np.zeros(0),
             most_likely=np.zeros((0, H, 2)),
             samples=np.zeros((0, num_samples, H, 2)) if num_samples else None,

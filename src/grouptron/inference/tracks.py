@@ -6,8 +6,6 @@ over the input directly.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import torch
 from tqdm import tqdm
@@ -16,46 +14,14 @@ from grouptron.config import ExperimentConfig
 from grouptron.data.samples import SampleSet, scene_samples
 from grouptron.data.scene import Scene
 from grouptron.errors import GrouptronError
-from grouptron.evaluation.evaluate import batches
-from grouptron.evaluation.predict import predict_most_likely, predict_samples
 from grouptron.groups.assign import SampleGroups, assign_groups
+from grouptron.inference.forecast import Forecast
+from grouptron.model.batch import batches
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import uses_groups
+from grouptron.model.predict import predict_most_likely, predict_samples
 
 FORECAST_MODES = ("ml", "samples")
-
-
-@dataclass(frozen=True)
-class TrackForecast:
-    """Forecasts of ``S`` (pedestrian, step) pairs.
-
-    Attributes:
-        frame: (S,) frame of the last observed position (the forecast's origin).
-        ped_id: (S,) pedestrian id as written in the file.
-        positions: (S, K, H, 2) predicted positions in the file's coordinates (metres);
-            K = 1 for the most likely forecast.
-        samples: the model inputs the forecasts were made from (``fut_rel_m`` is NaN where the
-            file has no future position).
-    """
-
-    frame: np.ndarray
-    ped_id: np.ndarray
-    positions: np.ndarray
-    samples: SampleSet
-
-    def table(self) -> tuple[list[str], np.ndarray, list[str]]:
-        """CSV header, (S * K * H, 5 or 6) rows ``frame, id, step, x, y[, sample]`` and their
-        number formats; ``step`` k is the position k steps after ``frame``."""
-        S, K, H, _ = self.positions.shape
-        s, k, h = (a.ravel() for a in np.indices((S, K, H)))
-        columns = [self.frame[s], self.ped_id[s], h + 1, *self.positions[s, k, h].T]
-        header = ["frame", "id", "step", "x", "y"]
-        formats = ["%d", "%.10g", "%d", "%.4f", "%.4f"]
-        if K > 1:
-            columns.append(k)
-            header.append("sample")
-            formats.append("%d")
-        return header, np.stack([np.asarray(c, dtype=np.float64) for c in columns], 1), formats
 
 
 def groups_for_model(samples: SampleSet, config: ExperimentConfig) -> SampleGroups | None:
@@ -75,11 +41,12 @@ def forecast_scene(
     seed: int = 0,
     batch_size: int = 256,
     progress: bool = False,
-) -> TrackForecast:
+) -> Forecast:
     """Forecast every (pedestrian, step) of ``scene`` whose last ``history_steps`` are observed.
 
-    ``ml`` is the evaluator's most likely prediction; ``samples`` draws ``num_samples`` futures
-    per pedestrian from the model (seeded). Grouptron clusters the neighbours first.
+    ``ml`` is the evaluator's most likely prediction; ``samples`` also draws ``num_samples``
+    futures per pedestrian from the model (seeded). Grouptron clusters the neighbours first.
+    The forecasts carry no mixture and no scene-wide groups (``Predictor`` gives those).
     """
     if mode not in FORECAST_MODES:
         raise GrouptronError(f"unknown forecast mode {mode!r}; choose from {FORECAST_MODES}")
@@ -93,21 +60,27 @@ def forecast_scene(
     groups = groups_for_model(samples, config)
     model.eval()
     generator = torch.Generator().manual_seed(seed)
-    K = 1 if mode == "ml" else num_samples
-    rel = np.empty((len(samples), K, data.horizon_steps, 2))  # (S, K, H, 2)
+    K, H = (num_samples if mode == "samples" else 0), data.horizon_steps
+    most_likely = np.empty((len(samples), H, 2))  # (S, H, 2)
+    drawn = np.empty((len(samples), K, H, 2))  # (S, K, H, 2)
     total = -(-len(samples) // batch_size)
     for index, batch in tqdm(
         batches(samples, config, batch_size, groups), total=total, disable=not progress
     ):
-        if mode == "ml":
-            pred = predict_most_likely(model, batch, data.horizon_steps, data.dt_s)[:, None]
-        else:
-            pred = predict_samples(model, batch, data.horizon_steps, data.dt_s, K, generator)
-        rel[index] = pred.double().numpy()
+        most_likely[index] = predict_most_likely(model, batch, H, data.dt_s).double().numpy()
+        if K:
+            pred = predict_samples(model, batch, H, data.dt_s, K, generator)
+            drawn[index] = pred.double().numpy()
     origin_world = samples.pos_now_scene_m.astype(np.float64) + scene.centre_world_m  # (S, 2)
-    return TrackForecast(
-        frame=scene.first_frame + samples.step.astype(np.int64) * scene.frames_per_step,
-        ped_id=scene.ped_id[samples.track],
-        positions=rel + origin_world[:, None, None, :],
-        samples=samples,
+    frames = scene.first_frame + samples.step.astype(np.int64) * scene.frames_per_step
+    return Forecast(
+        frame=int(frames[0]) if len(np.unique(frames)) == 1 else None,
+        frames=frames,
+        ids=scene.ped_id[samples.track],
+        most_likely=most_likely + origin_world[:, None, :],
+        samples=drawn + origin_world[:, None, None, :] if K else None,
+        mixture_log_weights=None,
+        mixture_means=None,
+        mixture_covariances=None,
+        group=None,
     )

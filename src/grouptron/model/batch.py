@@ -2,17 +2,17 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
 import torch
 
-from grouptron.config import DataConfig
+from grouptron.config import DataConfig, ExperimentConfig
 from grouptron.data.samples import SampleSet, edge_rows
 from grouptron.geometry import rotate_rows, rotation_matrix
 from grouptron.groups.assign import SampleGroups
-from grouptron.model.noise import TrainingNoise
 
 
 @dataclass(frozen=True)
@@ -93,7 +93,6 @@ class Batch:
         fut_rel_m: (B, H, 2) future positions relative to the current one, metres.
         fut_st: (B, H, 2) the same divided by the future scale (future encoder input).
         groups: the nodes and groups for Grouptron's encoders, or None.
-        noise: a training step's dropout masks and decoder draws, or None (the global RNG).
     """
 
     hist_st: torch.Tensor
@@ -103,7 +102,6 @@ class Batch:
     fut_rel_m: torch.Tensor
     fut_st: torch.Tensor
     groups: GroupBatch | None = None
-    noise: TrainingNoise | None = None
 
     def __len__(self) -> int:
         return self.hist_st.shape[0]
@@ -160,3 +158,15 @@ def make_batch(
             else None
         ),
     )
+
+
+def batches(
+    samples: SampleSet,
+    config: ExperimentConfig,
+    batch_size: int,
+    groups: SampleGroups | None = None,
+) -> Iterator[tuple[np.ndarray, Batch]]:
+    """Consecutive batches of the whole set, in order, without augmentation."""
+    for start in range(0, len(samples), batch_size):
+        index = np.arange(start, min(start + batch_size, len(samples)))
+        yield index, make_batch(samples, index, config.data, groups=groups)

@@ -17,6 +17,7 @@ from grouptron.config import ModelConfig
 from grouptron.model import gaussians, noise
 from grouptron.model.batch import Batch
 from grouptron.model.layers import HoistedGRUDecoder, run_masked_lstm
+from grouptron.model.noise import TrainingNoise
 
 Feedback = Literal["sample", "mean"]
 
@@ -100,16 +101,19 @@ class TrajectronCVAE(nn.Module):
 
     # --- encoders ---------------------------------------------------------------------------
 
-    def _dropout(self, h: torch.Tensor, batch: Batch, site: str, keep: float) -> torch.Tensor:
-        uniforms = batch.noise.dropout[site] if batch.noise is not None else None
+    def _dropout(
+        self, h: torch.Tensor, drawn: TrainingNoise | None, site: str, keep: float
+    ) -> torch.Tensor:
+        uniforms = drawn.dropout[site] if drawn is not None else None
         return noise.dropout(h, keep, self.training, uniforms)
 
-    def encode_condition(self, batch: Batch) -> torch.Tensor:
-        """(B, Dx) ``x = [edge encoding; history encoding]`` (Grouptron appends its own)."""
+    def encode_condition(self, batch: Batch, drawn: TrainingNoise | None = None) -> torch.Tensor:
+        """(B, Dx) ``x = [edge encoding; history encoding]`` (Grouptron appends its own);
+        ``drawn``: a training step's dropout masks (None: the global RNG)."""
         keep = self.config.rnn_dropout_keep
         history = self._dropout(
             run_masked_lstm(self.history_encoder, batch.hist_st, batch.hist_mask),
-            batch,
+            drawn,
             "history",
             keep,
         )
@@ -117,14 +121,14 @@ class TrajectronCVAE(nn.Module):
             return history
         joint = torch.cat([batch.nbr_sum_st, batch.hist_st], dim=-1)  # (B, T, 12)
         edge = run_masked_lstm(self.edge_encoder, joint, batch.hist_mask)
-        edge = self._dropout(edge, batch, "edge", keep)
+        edge = self._dropout(edge, drawn, "edge", keep)
         edge = edge * batch.edge_scale[:, None]
         # The reference combines edge types by attention and applies dropout again; with the
         # single pedestrian-pedestrian edge type the attention is the identity.
-        edge = self._dropout(edge, batch, "edge_combined", keep)
+        edge = self._dropout(edge, drawn, "edge_combined", keep)
         return torch.cat([edge, history], dim=-1)
 
-    def encode_future(self, batch: Batch) -> torch.Tensor:
+    def encode_future(self, batch: Batch, drawn: TrainingNoise | None = None) -> torch.Tensor:
         """(B, 4*future_hidden) final states of the bi-LSTM over the standardised future."""
         now = batch.state_now_st
         h_fwd, c_fwd = self.future_initial_h(now), self.future_initial_c(now)
@@ -133,18 +137,24 @@ class TrajectronCVAE(nn.Module):
         c0 = torch.stack([c_fwd, torch.zeros_like(c_fwd)])
         _, (h_n, c_n) = self.future_encoder(batch.fut_st, (h0, c0))  # (2, B, hf) each
         state = torch.cat([h_n, c_n], dim=0).permute(1, 0, 2).reshape(len(batch), -1)
-        return self._dropout(state, batch, "future", self.config.rnn_dropout_keep)
+        return self._dropout(state, drawn, "future", self.config.rnn_dropout_keep)
 
     def encode(
-        self, batch: Batch, x: torch.Tensor, with_future: bool, logit_clip: float | None
+        self,
+        batch: Batch,
+        x: torch.Tensor,
+        *,
+        with_future: bool,
+        logit_clip: float | None,
+        drawn: TrainingNoise | None = None,
     ) -> Encoding:
         """Latent logits from the condition (and the future, for the posterior)."""
         hidden = F.relu(self.p_z_hidden(x))
-        hidden = self._dropout(hidden, batch, "p_z", self.config.mlp_dropout_keep)
+        hidden = self._dropout(hidden, drawn, "p_z", self.config.mlp_dropout_keep)
         p_logits = centre_logits(self.p_z_logits(hidden), logit_clip)
         q_logits = None
         if with_future:
-            q_input = torch.cat([x, self.encode_future(batch)], dim=-1)
+            q_input = torch.cat([x, self.encode_future(batch, drawn)], dim=-1)
             q_logits = centre_logits(self.q_z_logits(q_input), logit_clip)
         return Encoding(x=x, p_logits=p_logits, q_logits=q_logits)
 
@@ -203,6 +213,7 @@ class TrajectronCVAE(nn.Module):
     def forward(
         self,
         batch: Batch,
+        drawn: TrainingNoise | None = None,
         logit_clip: float | None = None,
         bf16: bool = False,
     ) -> CVAEOutput:
@@ -210,11 +221,14 @@ class TrajectronCVAE(nn.Module):
 
         Args:
             batch: the samples.
+            drawn: the step's dropout masks and decoder draws (None: the global RNG).
             logit_clip: current logit clip of the annealing schedule (None: no clipping).
             bf16: run the decoder recurrence under bfloat16 autocast.
         """
-        condition = self.encode_condition(batch)  # Grouptron's override appends E_scene
-        encoding = self.encode(batch, condition, with_future=True, logit_clip=logit_clip)
+        condition = self.encode_condition(batch, drawn)  # Grouptron appends E_scene
+        encoding = self.encode(
+            batch, condition, with_future=True, logit_clip=logit_clip, drawn=drawn
+        )
         with torch.autocast(condition.device.type, dtype=torch.bfloat16, enabled=bf16):
             velocity = self.decode(
                 condition,
@@ -222,6 +236,6 @@ class TrajectronCVAE(nn.Module):
                 None,
                 batch.fut_st.shape[1],
                 "sample",
-                draws=None if batch.noise is None else batch.noise.decoder,
+                draws=None if drawn is None else drawn.decoder,
             )
         return CVAEOutput(encoding=encoding, velocity=velocity)

@@ -56,6 +56,18 @@ def sample(
     return mean + torch.stack([x, y], dim=-1)
 
 
+def positions_from_velocities(vel: torch.Tensor, dt_s: float) -> torch.Tensor:
+    """(..., H, 2) velocities (m/s) -> (..., H, 2) positions relative to the current one:
+    ``pos_k = dt * sum_{j<=k} v_j`` (single-integrator dynamics, the one integration rule)."""
+    return torch.cumsum(vel, dim=-2) * dt_s
+
+
+def position_covariances(vel_cov: torch.Tensor, dt_s: float) -> torch.Tensor:
+    """(..., H, 3) velocity covariance entries -> position covariances: ``dt^2 Sigma_v``
+    accumulated per step (the steps' velocities independent, as in the reference)."""
+    return torch.cumsum(vel_cov, dim=-2) * dt_s**2
+
+
 def integrate_single_integrator(
     vel_mean: torch.Tensor, vel_cov: torch.Tensor, dt_s: float
 ) -> tuple[torch.Tensor, torch.Tensor]:
@@ -72,7 +84,7 @@ def integrate_single_integrator(
     Returns:
         (..., H, 2) position means relative to ``pos_t`` and (..., H, 3) their covariances.
     """
-    return torch.cumsum(vel_mean, dim=-2) * dt_s, torch.cumsum(vel_cov, dim=-2) * dt_s**2
+    return positions_from_velocities(vel_mean, dt_s), position_covariances(vel_cov, dt_s)
 
 
 def mixture_log_prob(

@@ -14,6 +14,7 @@ from grouptron.config import ModelConfig
 from grouptron.errors import GrouptronError
 from grouptron.model.batch import Batch
 from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.noise import TrainingNoise
 from grouptron.model.stgcn import STGCNBlock, segment_mean
 
 
@@ -41,5 +42,5 @@ class GrouptronCVAE(TrajectronCVAE):
         )  # (G, T, D)
         return scene[groups.ego_group, -1]
 
-    def encode_condition(self, batch: Batch) -> torch.Tensor:
-        return torch.cat([super().encode_condition(batch), self.encode_scene(batch)], dim=-1)
+    def encode_condition(self, batch: Batch, drawn: TrainingNoise | None = None) -> torch.Tensor:
+        return torch.cat([super().encode_condition(batch, drawn), self.encode_scene(batch)], -1)

@@ -32,28 +32,26 @@ from grouptron.evaluation.evaluate import evaluate_model
 from grouptron.groups.assign import SampleGroups
 from grouptron.io import write_text_atomically
 from grouptron.model.batch import make_batch
-from grouptron.model.cvae import TrajectronCVAE
-from grouptron.model.factory import build_model, load_weights, uses_groups
-from grouptron.model.noise import draw_training_noise
-from grouptron.training import schedules
-from grouptron.training.checkpoint import (
+from grouptron.model.checkpoint import (
     TEMPORARY_CHECKPOINTS,
     Checkpoint,
     load_checkpoint,
     save_checkpoint,
 )
+from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.factory import build_model, load_weights, uses_groups
+from grouptron.model.noise import draw_training_noise
+from grouptron.training import schedules
 from grouptron.training.distributed import SINGLE, Cluster, global_mean
 from grouptron.training.losses import elbo_loss
 from grouptron.training.metrics_log import MetricsWriter
 from grouptron.training.model_card import describe_device, write_model_card
 from grouptron.training.precision import precision_name
-from grouptron.viz.training import plot_training_curves
 
 log = logging.getLogger(__name__)
 
 LAST = "last.safetensors"
 CONFIG = "config.json"
-CURVES = "curves.png"
 BEST = "best.safetensors"
 
 
@@ -205,9 +203,10 @@ def train_epoch(
         batch = make_batch(
             samples, index[mine], config.data, None if angles is None else angles[mine], groups
         )
-        batch = dataclasses.replace(batch, noise=noise.rows(mine)).to(device)
+        batch = batch.to(device)
         output = network(
             batch,
+            noise.rows(mine).to(device),
             logit_clip=schedules.logit_clip(config.loss, state.iteration),
             bf16=config.train.bf16,
         )
@@ -527,6 +526,4 @@ def train(
             shown = {k: round(v, 4) for k, v in record.items() if isinstance(v, float)}
             tqdm.write(f"epoch {state.epoch}: {shown}")
         cluster.barrier()
-    if state.history and writes:
-        plot_training_curves(writer.records(), out_dir.name, out_dir / CURVES)
     return state

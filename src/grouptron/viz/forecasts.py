@@ -16,7 +16,7 @@ import numpy as np
 from matplotlib import animation
 
 from grouptron.errors import GrouptronError
-from grouptron.inference.predictor import Forecast
+from grouptron.inference.forecast import Forecast
 from grouptron.io import save_atomically
 
 
@@ -58,7 +58,8 @@ def _draw_panel(ax: plt.Axes, panel: Panel, frame: int) -> None:
     colours = plt.get_cmap("tab10")
     forecast = panel.forecast
     for k in range(len(forecast)):
-        colour = colours(int(forecast.group[k]) % 10)
+        group = k if forecast.group is None else int(forecast.group[k])
+        colour = colours(group % 10)
         origin = panel.history[k, -1]
         if forecast.samples is not None:
             for drawn in forecast.samples[k]:

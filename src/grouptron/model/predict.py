@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import torch
 
-from grouptron.evaluation.mixture_mode import mixture_mode
 from grouptron.model.batch import Batch
 from grouptron.model.cvae import Encoding, TrajectronCVAE, VelocityGaussians
+from grouptron.model.gaussians import positions_from_velocities
+from grouptron.model.mixture_mode import mixture_mode
 
 
 def encode_prior(model: TrajectronCVAE, batch: Batch) -> Encoding:
@@ -46,7 +47,7 @@ def most_likely_positions(
         velocity.mean.transpose(1, 2).reshape(B * horizon, Z, 2),  # (B*H, Z, 2)
         velocity.cov.transpose(1, 2).reshape(B * horizon, Z, 3),
     ).reshape(B, horizon, 2)
-    return torch.cumsum(mode, dim=1).float() * dt_s
+    return positions_from_velocities(mode, dt_s).float()
 
 
 def predict_argmax_latent(
@@ -56,7 +57,7 @@ def predict_argmax_latent(
     encoding = encode_prior(model, batch)
     z_index = encoding.p_logits.argmax(dim=-1, keepdim=True)  # (B, 1)
     velocity = model.decode(encoding.x, batch.state_now_st, z_index, horizon, "mean")
-    return torch.cumsum(velocity.mean[:, 0], dim=1) * dt_s
+    return positions_from_velocities(velocity.mean[:, 0], dt_s)
 
 
 def predict_samples(
@@ -74,4 +75,4 @@ def predict_samples(
     velocity = model.decode(
         encoding.x, batch.state_now_st, z_index, horizon, "sample", generator=generator
     )
-    return torch.cumsum(velocity.fed_back, dim=2) * dt_s
+    return positions_from_velocities(velocity.fed_back, dt_s)

@@ -12,8 +12,8 @@ from safetensors import safe_open
 
 from grouptron.config import ExperimentConfig
 from grouptron.errors import GrouptronError
+from grouptron.model.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from grouptron.model.factory import build_model, load_weights
-from grouptron.training.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from tests.model.test_cvae import SMALL, random_batch
 
 CONFIG = ExperimentConfig(model=SMALL)
@@ -159,7 +159,7 @@ def _bad_checkpoints(folder: Path) -> dict[str, tuple[Path, str]]:
 
 def test_every_damaged_checkpoint_is_refused_in_one_line(tmp_path: Path) -> None:
     from grouptron.cli import main
-    from grouptron.training.checkpoint import load_trained_model
+    from grouptron.model.checkpoint import load_trained_model
     from tests.conftest import synthetic_recording
 
     tracks = synthetic_recording(tmp_path / "tracks.txt", seed=1)

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import torch
 
-from grouptron.evaluation.mixture_mode import grid_mode, mixture_mode
 from grouptron.model import gaussians
+from grouptron.model.mixture_mode import grid_mode, mixture_mode
 
 
 def random_mixtures(n: int, seed: int, spread: float = 0.5) -> tuple[torch.Tensor, ...]:

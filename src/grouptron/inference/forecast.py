@@ -1,0 +1,62 @@
+"""The forecast: what every prediction path of grouptron returns."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from grouptron.errors import GrouptronError
+
+
+@dataclass(frozen=True)
+class Forecast:
+    """Forecasts of ``N`` (agent, frame) pairs, positions in the input's coordinates: the one
+    result type of the Python API (``Predictor``) and of whole-file forecasts.
+
+    Attributes:
+        frame: the frame every forecast was made from (the last observation used), or None
+            when they come from several frames (a whole file).
+        frames: (N,) the frame of every forecast.
+        ids: (N,) agent ids (ascending within a frame).
+        most_likely: (N, H, 2) most likely positions at steps 1..H after ``frame``.
+        samples: (N, K, H, 2) sampled futures, or None when none were asked for.
+        mixture_log_weights: (N, Z) log p(z|x) of the Z latent values (None when the
+            predictor was made with ``mixture=False``; likewise the next two).
+        mixture_means: (N, Z, H, 2) position means of each latent value's Gaussians.
+        mixture_covariances: (N, Z, H, 2, 2) their covariances (m^2).
+        group: (N,) scene-wide group of every agent at ``frame`` (agglomerative clustering of
+            everyone present on their histories, C(N) groups; numbered from 0), or None.
+    """
+
+    frame: int | None
+    frames: np.ndarray
+    ids: np.ndarray
+    most_likely: np.ndarray
+    samples: np.ndarray | None
+    mixture_log_weights: np.ndarray | None
+    mixture_means: np.ndarray | None
+    mixture_covariances: np.ndarray | None
+    group: np.ndarray | None
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def table(self, sampled: bool = False) -> tuple[list[str], np.ndarray, list[str]]:
+        """CSV header, rows ``frame, id, step, x, y`` of the most likely forecasts (or of the
+        samples, with a ``sample`` column) and their number formats; ``step`` k is the
+        position k steps after ``frame``."""
+        if sampled and self.samples is None:
+            raise GrouptronError("this forecast holds no samples")
+        positions = self.samples if sampled else self.most_likely[:, None]
+        assert positions is not None
+        S, K, H, _ = positions.shape  # (N, K, H, 2)
+        s, k, h = (a.ravel() for a in np.indices((S, K, H)))
+        columns = [self.frames[s], self.ids[s], h + 1, *positions[s, k, h].T]
+        header = ["frame", "id", "step", "x", "y"]
+        formats = ["%d", "%.10g", "%d", "%.4f", "%.4f"]
+        if sampled:
+            columns.append(k)
+            header.append("sample")
+            formats.append("%d")
+        return header, np.stack([np.asarray(c, dtype=np.float64) for c in columns], 1), formats
