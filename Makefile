@@ -33,6 +33,7 @@ demo: install
 lint: install
 	$(BIN)/ruff check src tests benchmarks campaign
 	$(BIN)/ruff format --check src tests benchmarks campaign
+	$(BIN)/lint-imports
 
 typecheck: install
 	$(BIN)/mypy

@@ -107,8 +107,8 @@ def eval_speed(data_dir: Path | None, checkpoint: str | None) -> dict[str, float
     from grouptron.data.dataset import load_part
     from grouptron.data.locate import resolve_data_dir
     from grouptron.evaluation.evaluate import evaluate_model
-    from grouptron.model.factory import build_model
     from grouptron.model.checkpoint import load_trained_model
+    from grouptron.model.factory import build_model
 
     config = ExperimentConfig()
     model = build_model(config)

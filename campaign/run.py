@@ -80,7 +80,7 @@ def finished(folder: Path) -> bool:
     return (folder / "selection.json").exists()
 
 
-def command(run: Run, folder: Path, precision: str) -> list[str]:
+def command(run: Run, folder: Path, precision: str, threads: int = 1) -> list[str]:
     argv = [
         sys.executable,
         "-m",
@@ -96,6 +96,8 @@ def command(run: Run, folder: Path, precision: str) -> list[str]:
         str(EPOCHS),
         "--precision",
         precision,
+        "--threads",
+        str(threads),
         "--quiet",
     ]
     if (folder / "last.safetensors").exists():
@@ -133,6 +135,13 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=REPO / "campaign" / "runs")
     parser.add_argument("--only", help="run only the runs whose name contains this")
     parser.add_argument("--dry-run", action="store_true", help="print the commands only")
+    parser.add_argument(
+        "--threads",
+        type=int,
+        default=1,
+        help="CPU threads per run (default 1: leaves a core of a 2-core machine to other work; "
+        "two jobs of 2 threads each on 2 cores slow both several-fold)",
+    )
     args = parser.parse_args()
     native = "bf16" if native_bf16(torch.device("cpu")) else "fp32"
     for run in queue():
@@ -144,7 +153,7 @@ def main() -> int:
             continue
         if not args.dry_run:
             prepare(run, folder)
-        argv = command(run, folder, "fp32" if run.fp32_only else native)
+        argv = command(run, folder, "fp32" if run.fp32_only else native, args.threads)
         print(" ".join(argv), flush=True)
         if args.dry_run:
             continue

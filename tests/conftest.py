@@ -74,7 +74,7 @@ def tiny_checkpoints(synthetic_data_dir: Path, tmp_path_factory: pytest.TempPath
     backward-derivative Grouptron."""
     import dataclasses
 
-    from grouptron.config import ExperimentConfig, TrainConfig
+    from grouptron.config import ExperimentConfig, GroupEncoderConfig, TrainConfig
     from grouptron.data.dataset import load_part
     from grouptron.groups.cache import load_groups
     from grouptron.training.trainer import train
@@ -86,7 +86,8 @@ def tiny_checkpoints(synthetic_data_dir: Path, tmp_path_factory: pytest.TempPath
         config = ExperimentConfig(
             model_name=model,
             data=dataclasses.replace(ExperimentConfig().data, derivatives=protocol),
-            model=dataclasses.replace(SMALL, group_dim=4),
+            model=SMALL,
+            group_encoder=GroupEncoderConfig(group_dim=4),
             train=TrainConfig(epochs=1, batch_size=64, threads=1),
         )
         parts = [

@@ -95,11 +95,6 @@ class ModelConfig:
     log_sigma_max: float = 10.0
     corr_max: float = 0.999
     """|rho| bound of the bivariate Gaussians (keeps the covariance invertible)."""
-    group_dim: int = 16
-    """Output width of Grouptron's group- and scene-level ST-GCNs (8 on the eth split)."""
-    group_adjacency: Literal["sym_norm", "laplacian"] = "sym_norm"
-    """``sym_norm``: D^-1/2 (A + I) D^-1/2; ``laplacian``: Social-STGCNN's normalised
-    Laplacian I - D^-1/2 A D^-1/2 (zero for a singleton group)."""
 
     def __post_init__(self) -> None:
         for name in (
@@ -115,6 +110,23 @@ class ModelConfig:
         for name in ("rnn_dropout_keep", "mlp_dropout_keep"):
             if not 0.0 < getattr(self, name) <= 1.0:
                 raise GrouptronError(f"model.{name} must be in (0, 1]")
+
+
+@dataclass(frozen=True)
+class GroupEncoderConfig:
+    """Grouptron's group- and scene-level ST-GCN encoders (unused by Trajectron++)."""
+
+    group_dim: int = 16
+    """Output width of both ST-GCNs (the paper narrows it to 8 on the eth split)."""
+    group_adjacency: Literal["sym_norm", "laplacian"] = "sym_norm"
+    """``sym_norm``: D^-1/2 (A + I) D^-1/2; ``laplacian``: Social-STGCNN's normalised
+    Laplacian I - D^-1/2 A D^-1/2 (zero for a singleton group)."""
+
+    def __post_init__(self) -> None:
+        if self.group_dim < 1:
+            raise GrouptronError("group_encoder.group_dim must be >= 1")
+        if self.group_adjacency not in ("sym_norm", "laplacian"):
+            raise GrouptronError("group_encoder.group_adjacency must be sym_norm or laplacian")
 
 
 @dataclass(frozen=True)
@@ -188,6 +200,7 @@ class ExperimentConfig:
     data: DataConfig = dataclasses.field(default_factory=DataConfig)
     groups: GroupConfig = dataclasses.field(default_factory=GroupConfig)
     model: ModelConfig = dataclasses.field(default_factory=ModelConfig)
+    group_encoder: GroupEncoderConfig = dataclasses.field(default_factory=GroupEncoderConfig)
     loss: LossConfig = dataclasses.field(default_factory=LossConfig)
     train: TrainConfig = dataclasses.field(default_factory=TrainConfig)
 
@@ -204,6 +217,13 @@ def experiment_from_stored(values: dict[str, Any]) -> ExperimentConfig:
     if not isinstance(values, dict):
         raise GrouptronError(f"ExperimentConfig must be a table of settings, not {values!r:.40}")
     upgraded = dict(values)
+    model = upgraded.get("model")
+    if isinstance(model, dict) and ("group_dim" in model or "group_adjacency" in model):
+        # Stored before the group encoders had a section of their own.
+        model = dict(model)
+        moved = {k: model.pop(k) for k in ("group_dim", "group_adjacency") if k in model}
+        upgraded["model"] = model
+        upgraded["group_encoder"] = {**moved, **upgraded.get("group_encoder", {})}
     for section, defaults in STORED_DEFAULTS.items():
         stored = upgraded.get(section, {})
         if isinstance(stored, dict):
@@ -247,20 +267,39 @@ _NESTED: dict[str, type] = {
     "DataConfig": DataConfig,
     "GroupConfig": GroupConfig,
     "ModelConfig": ModelConfig,
+    "GroupEncoderConfig": GroupEncoderConfig,
     "LossConfig": LossConfig,
     "TrainConfig": TrainConfig,
 }
 
 
-SPLIT_PRESETS: dict[str, dict[str, Any]] = {"eth": {"group_dim": 8}}
-"""Model settings that differ per split: the paper narrows the ST-GCNs to 8 on eth, whose
-test recording rarely has 5 or more people in view."""
+SPLIT_PRESETS: dict[tuple[str, str], dict[str, dict[str, Any]]] = {
+    ("grouptron", "eth"): {"group_encoder": {"group_dim": 8}},
+}
+"""Settings that differ per (model, ETH/UCY split), by section: the paper narrows Grouptron's
+ST-GCNs to 8 on eth, whose test recording rarely has 5 or more people in view. Nothing else
+(no other model, no dataset of one's own) gets a preset."""
+
+
+def preset_values(split: str, model_name: str) -> dict[str, Any]:
+    """The preset of a (model, split) as nested settings (empty where there is none)."""
+    return {"split": split, "model_name": model_name, **SPLIT_PRESETS.get((model_name, split), {})}
 
 
 def experiment_preset(split: str, model_name: str = "trajectron++") -> ExperimentConfig:
-    """The default experiment for a split, with its per-split model settings."""
-    model = dataclasses.replace(ModelConfig(), **SPLIT_PRESETS.get(split, {}))
-    return ExperimentConfig(split=split, model_name=model_name, model=model)
+    """The default experiment of a model on a split, with its preset."""
+    return config_from_dict(ExperimentConfig, preset_values(split, model_name))
+
+
+def merge_settings(base: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
+    """``base`` with ``overrides`` laid over it, section by section (nested dicts merge)."""
+    merged = dict(base)
+    for key, value in overrides.items():
+        if isinstance(value, dict) and isinstance(merged.get(key), dict):
+            merged[key] = merge_settings(merged[key], value)
+        else:
+            merged[key] = value
+    return merged
 
 
 def load_config(cls: type[ConfigT], path: str | Path) -> ConfigT:

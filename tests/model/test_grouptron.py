@@ -11,7 +11,13 @@ import pytest
 import torch
 
 from grouptron.cli import main
-from grouptron.config import DataConfig, ExperimentConfig, GroupConfig, experiment_preset
+from grouptron.config import (
+    DataConfig,
+    ExperimentConfig,
+    GroupConfig,
+    GroupEncoderConfig,
+    experiment_preset,
+)
 from grouptron.data.dataset import load_part
 from grouptron.groups.assign import assign_groups
 from grouptron.model.batch import make_batch
@@ -92,7 +98,9 @@ def test_rotating_the_batch_does_not_change_the_groups(synthetic_data_dir: Path)
 
 def test_grouptron_forward_adds_the_scene_encoding(synthetic_data_dir: Path) -> None:
     torch.manual_seed(0)
-    config = ExperimentConfig(model_name="grouptron", model=dataclasses.replace(SMALL, group_dim=4))
+    config = ExperimentConfig(
+        model_name="grouptron", model=SMALL, group_encoder=GroupEncoderConfig(group_dim=4)
+    )
     _, _, batch = synthetic_batch(synthetic_data_dir, config)
     model = build_model(config)
     out = model(batch, logit_clip=1.0)
@@ -102,9 +110,10 @@ def test_grouptron_forward_adds_the_scene_encoding(synthetic_data_dir: Path) -> 
     assert trajectron(batch).encoding.x.shape == (48, 16)  # encoders switched off
 
 
-def test_eth_preset_narrows_the_group_encoders() -> None:
-    assert experiment_preset("eth", "grouptron").model.group_dim == 8
-    assert experiment_preset("univ", "grouptron").model.group_dim == 16
+def test_eth_preset_narrows_the_group_encoders_of_grouptron_only() -> None:
+    assert experiment_preset("eth", "grouptron").group_encoder.group_dim == 8
+    assert experiment_preset("univ", "grouptron").group_encoder.group_dim == 16
+    assert experiment_preset("eth", "trajectron++") == ExperimentConfig(split="eth")
     assert GroupConfig().linkage in ("single", "average", "complete")
     assert DataConfig().derivatives == "central"
 
@@ -118,7 +127,8 @@ def test_train_and_evaluate_grouptron_end_to_end(
         json.dumps(
             {
                 "model_name": "grouptron",
-                "model": {**tiny, "group_dim": 4},
+                "model": tiny,
+                "group_encoder": {"group_dim": 4},
                 "train": {"batch_size": 64},
             }
         )

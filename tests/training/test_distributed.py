@@ -12,7 +12,7 @@ import pytest
 import torch
 from safetensors.torch import load_file
 
-from grouptron.config import ExperimentConfig, TrainConfig, save_config
+from grouptron.config import ExperimentConfig, GroupEncoderConfig, TrainConfig, save_config
 from grouptron.data.dataset import load_part
 from grouptron.errors import GrouptronError
 from grouptron.training.distributed import Cluster, global_mean
@@ -25,7 +25,8 @@ def _config(batch_size: int) -> ExperimentConfig:
     return ExperimentConfig(
         model_name="grouptron",
         split="eth",
-        model=dataclasses.replace(SMALL, group_dim=4),
+        model=SMALL,
+        group_encoder=GroupEncoderConfig(group_dim=4),
         train=TrainConfig(epochs=1, batch_size=batch_size, threads=1),
     )
 

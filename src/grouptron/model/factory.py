@@ -22,7 +22,7 @@ def build_model(config: ExperimentConfig) -> TrajectronCVAE:
     if config.model_name == "trajectron++":
         return TrajectronCVAE(config.model)
     if config.model_name == "grouptron":
-        return GrouptronCVAE(config.model)
+        return GrouptronCVAE(config.model, config.group_encoder)
     raise GrouptronError(
         f"unknown model {config.model_name!r}; choose from {', '.join(MODEL_NAMES)}"
     )

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import torch
 
-from grouptron.config import ModelConfig
+from grouptron.config import GroupEncoderConfig, ModelConfig
 from grouptron.errors import GrouptronError
 from grouptron.model.batch import Batch
 from grouptron.model.cvae import TrajectronCVAE
@@ -21,10 +21,11 @@ from grouptron.model.stgcn import STGCNBlock, segment_mean
 class GrouptronCVAE(TrajectronCVAE):
     """Trajectron++ plus the group- and scene-level encoders (weights shared by all groups)."""
 
-    def __init__(self, config: ModelConfig):
-        super().__init__(config, extra_condition_dim=config.group_dim)
-        self.group_encoder = STGCNBlock(config.state_dim, config.group_dim, config.group_adjacency)
-        self.scene_encoder = STGCNBlock(config.group_dim, config.group_dim, config.group_adjacency)
+    def __init__(self, config: ModelConfig, groups: GroupEncoderConfig):
+        super().__init__(config, extra_condition_dim=groups.group_dim)
+        width, adjacency = groups.group_dim, groups.group_adjacency
+        self.group_encoder = STGCNBlock(config.state_dim, width, adjacency)
+        self.scene_encoder = STGCNBlock(width, width, adjacency)
 
     def encode_scene(self, batch: Batch) -> torch.Tensor:
         """(B, group_dim) E_scene of every sample."""

@@ -1,0 +1,7 @@
+"""``python -m grouptron.cli``."""
+
+import sys
+
+from grouptron.cli.app import main
+
+sys.exit(main())

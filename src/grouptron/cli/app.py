@@ -1,0 +1,86 @@
+"""The ``grouptron`` command: the top-level parser, global options and the one error policy.
+
+Errors caused by input are printed on one line and end the program with exit code 2."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from collections.abc import Callable, Sequence
+
+from grouptron import __version__
+from grouptron.cli import data, evaluate, forecast, groups, report, train
+from grouptron.cli.common import (
+    EXIT_USAGE,
+    Formatter,
+    Parser,
+)
+from grouptron.errors import GrouptronError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser(
+        prog="grouptron",
+        description="Group-aware pedestrian trajectory forecasting on ETH/UCY "
+        "(Grouptron and Trajectron++).",
+        formatter_class=Formatter,
+        epilog="examples:\n"
+        "  grouptron data fetch\n"
+        "  grouptron data stats --split all\n"
+        "  grouptron evaluate --model constant-velocity --split all\n"
+        "  grouptron train --split eth --epochs 10\n"
+        "  grouptron evaluate --checkpoint runs/trajectron++-eth-central/best.safetensors\n\n"
+        "Run 'grouptron COMMAND --help' for the options of a command.",
+    )
+    parser.add_argument("--version", action="version", version=f"grouptron {__version__}")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log more detail")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
+    for module in (data, evaluate, report, forecast, train, groups):
+        module.add_parser(commands)
+    _accept_global_options_everywhere(parser)
+    return parser
+
+
+def _accept_global_options_everywhere(parser: argparse.ArgumentParser) -> None:
+    """``-v`` also after a command (``grouptron train ... -v``); SUPPRESS keeps a command's
+    parser from resetting what was given before the command."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                child.add_argument(
+                    "-v",
+                    "--verbose",
+                    action="store_true",
+                    default=argparse.SUPPRESS,
+                    help="log more detail",
+                )
+                _accept_global_options_everywhere(child)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``grouptron`` console script; returns the exit code."""
+    logging.basicConfig(format="grouptron: %(levelname)s: %(message)s", level=logging.WARNING)
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        if args.verbose:
+            logging.getLogger().setLevel(logging.INFO)
+        handler: Callable[[argparse.Namespace], int] | None = getattr(args, "handler", None)
+        if handler is None:
+            # A command group without an action: show its help.
+            target = {"data": "data", "groups": "groups"}.get(args.command or "")
+            if target:
+                parser.parse_args([target, "--help"])
+            parser.print_help()
+            return EXIT_USAGE
+        return handler(args)
+    except GrouptronError as exc:
+        print(f"grouptron: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as exc:  # unwritable output, full disk, a folder given as a file, ...
+        print(f"grouptron: error: {exc.strerror or exc}: {exc.filename or ''}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("grouptron: interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,124 @@
+"""Shared pieces of the command line: the help formatter, the error-raising parser, option
+groups used by several commands and argument types."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+
+import torch
+
+from grouptron.constants import SPLITS
+from grouptron.errors import GrouptronError
+from grouptron.evaluation.evaluate import MODES
+from grouptron.geometry import DERIVATIVE_SCHEMES
+
+log = logging.getLogger("grouptron")
+EXIT_USAGE = 2
+REPORT_CHECKPOINTS = "checkpoints"
+CURVES = "curves.png"
+
+
+class Formatter(argparse.RawDescriptionHelpFormatter):
+    """Keeps the examples' line breaks and notes a default once: appended where an option has
+    a real default its help does not already state (never "(default: None)")."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        default = action.default
+        missing = default is None or default is False or default is argparse.SUPPRESS
+        unstated = missing or "default" in text.lower()
+        if unstated or action.option_strings == [] or action.nargs == 0:
+            return text
+        return f"{text} (default: %(default)s)"
+
+
+class Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.print_usage(sys.stderr)
+        raise GrouptronError(message)
+
+
+def add_gap_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--on-gap",
+        choices=("split", "error"),
+        default="split",
+        help="a track that misses steps in the middle: split it into two tracks (with a "
+        "warning) or stop with an error",
+    )
+
+
+def add_data_options(parser: argparse.ArgumentParser, derivatives: bool = True) -> None:
+    parser.add_argument(
+        "--data-dir",
+        help="ETH/UCY folder (default: $GROUPTRON_DATA, else ~/.cache/grouptron/eth_ucy)",
+    )
+    if derivatives:
+        parser.add_argument(
+            "--derivatives",
+            choices=DERIVATIVE_SCHEMES,
+            help="velocity/acceleration scheme: 'central' (the papers' protocol, looks one step "
+            "ahead; the default) or 'backward' (causal); a checkpoint brings its own",
+        )
+    add_gap_option(parser)
+    parser.add_argument(
+        "--no-cache", action="store_true", help="rebuild samples instead of using the cache"
+    )
+
+
+def int_at_least(value: str, lowest: int) -> int:
+    try:
+        number = int(value)
+    except ValueError:
+        number = lowest - 1
+    if number < lowest:
+        wanted = "a positive integer" if lowest == 1 else f"an integer >= {lowest}"
+        raise argparse.ArgumentTypeError(f"expected {wanted}, got {value!r}")
+    return number
+
+
+def positive_int(value: str) -> int:
+    return int_at_least(value, 1)
+
+
+def non_negative_int(value: str) -> int:
+    return int_at_least(value, 0)
+
+
+def device_type(value: str) -> torch.device:
+    try:
+        return torch.device(value)
+    except RuntimeError:
+        raise argparse.ArgumentTypeError(f"not a torch device: {value!r}") from None
+
+
+def parse_splits(value: str) -> list[str]:
+    if value == "all":
+        return list(SPLITS)
+    if value not in SPLITS:
+        raise GrouptronError(f"unknown split {value!r}; choose from {', '.join(SPLITS)} or all")
+    return [value]
+
+
+def int_list(value: str) -> list[int]:
+    try:
+        numbers = [int(v) for v in value.split(",") if v.strip()]
+    except ValueError:
+        raise GrouptronError(f"expected comma-separated integers, got {value!r}") from None
+    if any(n < 1 for n in numbers):
+        raise GrouptronError(f"expected positive integers, got {value!r}")
+    return numbers
+
+
+def eval_modes(value: str) -> tuple[str, ...]:
+    if value == "all":
+        return MODES
+    modes = tuple(v.strip() for v in value.split(",") if v.strip())
+    unknown = [m for m in modes if m not in MODES]
+    if unknown or not modes:
+        raise GrouptronError(
+            f"unknown mode {', '.join(unknown) or value!r}; choose from {', '.join(MODES)} or all"
+        )
+    return modes

@@ -1,0 +1,200 @@
+"""``grouptron predict`` and ``grouptron plot``: forecasts of a track file, as CSV or pictures."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from grouptron.cli.common import (
+    Formatter,
+    add_gap_option,
+    non_negative_int,
+    positive_int,
+)
+from grouptron.data.reader import read_tracks
+from grouptron.data.scene import build_scene
+from grouptron.errors import GrouptronError
+from grouptron.inference.predictor import Predictor, resolve_checkpoint
+from grouptron.inference.tracks import FORECAST_MODES, forecast_scene
+from grouptron.io import (
+    refuse_folder,
+    write_array_csv_atomically,
+)
+from grouptron.model.checkpoint import load_trained_model
+from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tracks_around
+
+
+def cmd_predict(args: argparse.Namespace) -> int:
+    refuse_folder(Path(args.out))  # before the work, not after it
+    model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
+    torch.set_num_threads(args.threads)
+    frames_per_step = args.frames_per_step or experiment.data.frames_per_step
+    data = dataclasses.replace(experiment.data, frames_per_step=frames_per_step)
+    experiment = dataclasses.replace(experiment, data=data)
+    scene = build_scene(
+        read_tracks(args.tracks, frames_per_step, args.on_gap), data, name=str(args.tracks)
+    )
+    forecast = forecast_scene(
+        model, experiment, scene, args.mode, args.samples, args.seed, progress=not args.quiet
+    )
+    header, rows, formats = forecast.table(sampled=args.mode == "samples")
+    write_array_csv_atomically(Path(args.out), header, rows, formats)
+    print(
+        f"wrote {len(rows)} rows for {len(forecast)} (pedestrian, frame) pairs "
+        f"({experiment.model_name}, {data.derivatives} derivatives, {args.mode}) to {args.out}"
+    )
+    return 0
+
+
+# --- plot -------------------------------------------------------------------------------------
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    refuse_folder(out)  # before the work, not after it
+    predictors = [Predictor.from_checkpoint(c) for c in (args.checkpoint, args.compare) if c]
+    data = predictors[0].config.data
+    table = read_tracks(args.tracks, data.frames_per_step, args.on_gap)
+    rows = np.column_stack([table.frame, table.ped_id, table.pos_m]).astype(np.float64)
+    if args.until is None:
+        plot_forecasts(_plot_panels(args, predictors, rows, args.frame), args.frame, out)
+        print(f"wrote {out}: forecasts at frame {args.frame}")
+        return 0
+    if args.until <= args.frame:
+        raise GrouptronError(f"--until {args.until} must come after --frame {args.frame}")
+    if out.suffix.lower() not in (".gif", ".mp4"):
+        raise GrouptronError(f"{out}: an animation (--until) is written as .gif or .mp4")
+    step = data.frames_per_step
+    wanted = range(args.frame, args.until + 1, step)
+    present = set(rows[:, 0].astype(np.int64).tolist())
+    drawn = [
+        (frame, _plot_panels(args, predictors, rows, frame, required=False))
+        for frame in tqdm(wanted, desc="forecasting", unit="frame", disable=args.quiet)
+        if frame in present
+    ]
+    drawn = [(frame, panels) for frame, panels in drawn if panels]
+    if not drawn:
+        raise GrouptronError(
+            f"{args.tracks}: nobody between frames {args.frame} and {args.until} has "
+            f"{data.history_steps} observed steps"
+        )
+    animate_forecasts(drawn, out)
+    print(f"wrote {out}: {len(drawn)} frames from {drawn[0][0]} to {drawn[-1][0]}")
+    return 0
+
+
+def _plot_panels(
+    args: argparse.Namespace,
+    predictors: list[Predictor],
+    rows: np.ndarray,
+    frame: int,
+    required: bool = True,
+) -> list[Panel]:
+    """One panel per model at ``frame`` (empty when nobody can be forecast and not required)."""
+    data = predictors[0].config.data
+    panels = []
+    for predictor in predictors:
+        forecast = predictor.predict(rows, frame, args.samples, args.seed, live=False)
+        if not len(forecast):
+            if not required:
+                return []
+            raise GrouptronError(
+                f"{args.tracks}: nobody at frame {frame} has {data.history_steps} observed "
+                "steps; pick another --frame"
+            )
+        history, truth = tracks_around(
+            rows,
+            forecast.ids,
+            frame,
+            data.frames_per_step,
+            data.history_steps - 1,
+            data.horizon_steps,
+        )
+        name = f"{predictor.config.model_name} ({predictor.config.data.derivatives})"
+        panels.append(Panel(name, forecast, history, truth))
+    return panels
+
+
+def add_parser(commands: argparse._SubParsersAction) -> None:
+    """Add the command and its options to the ``grouptron`` parser."""
+    predict = commands.add_parser(
+        "predict",
+        help="forecast every pedestrian of a track file with a trained checkpoint",
+        description="For every pedestrian and frame with 8 observed steps (the last at that "
+        "frame), write the 12 predicted positions as CSV rows 'frame,id,step,x,y': frame is "
+        "the last observed frame, step k (1..12) the position k steps (k * frames-per-step "
+        "frames) later, x/y in the file's coordinates. --mode samples adds a 'sample' column "
+        "and writes --samples futures per pedestrian and frame. The most likely (ml) output "
+        "equals what `grouptron evaluate --mode ml` scores.",
+        formatter_class=Formatter,
+        epilog="examples:\n"
+        "  grouptron predict --checkpoint checkpoints/grouptron-eth-central/best.safetensors \\\n"
+        "      --tracks biwi_eth.txt --out forecast.csv\n"
+        "  grouptron predict --checkpoint CKPT --tracks tracks.txt --out s.csv --mode samples",
+    )
+    predict.add_argument(
+        "--checkpoint",
+        required=True,
+        help="a .safetensors checkpoint or a shipped name (grouptron-univ-backward)",
+    )
+    predict.add_argument("--tracks", required=True, help="a 'frame id x y' track file")
+    predict.add_argument("--out", required=True, help="CSV file to write")
+    predict.add_argument(
+        "--mode",
+        choices=FORECAST_MODES,
+        default="ml",
+        help="ml: the most likely future per pedestrian; samples: --samples sampled futures",
+    )
+    predict.add_argument(
+        "--samples", type=positive_int, default=20, help="futures per pedestrian (samples)"
+    )
+    predict.add_argument("--seed", type=int, default=0, help="seed of --mode samples")
+    predict.add_argument(
+        "--frames-per-step",
+        type=positive_int,
+        help="frames between steps 0.4 s apart (default: the checkpoint's, 10 for ETH/UCY)",
+    )
+    add_gap_option(predict)
+    predict.add_argument("--threads", type=positive_int, default=2, help="CPU threads")
+    predict.add_argument("--quiet", action="store_true", help="no progress bar")
+    predict.set_defaults(handler=cmd_predict)
+
+    plot = commands.add_parser(
+        "plot",
+        help="draw a checkpoint's forecasts at one frame of a track file",
+        description="Draw, at one frame, every pedestrian with 8 observed steps: the observed "
+        "path, the recorded future (dotted), the most likely forecast (dashed) and sampled "
+        "futures (thin), coloured by detected group; axes in metres. --compare adds a second "
+        "model's panel beside the first.",
+        formatter_class=Formatter,
+        epilog="examples:\n"
+        "  grouptron plot --checkpoint checkpoints/grouptron-univ-central/best.safetensors \\\n"
+        "      --tracks students003.txt --frame 3000 --out forecast.png\n"
+        "  grouptron plot --checkpoint A --compare B --tracks FILE --frame F --out ab.png\n"
+        "  grouptron plot --checkpoint A --tracks FILE --frame 3000 --until 3400 --out a.gif",
+    )
+    plot.add_argument(
+        "--checkpoint",
+        required=True,
+        help="a .safetensors checkpoint or a shipped name (grouptron-univ-backward)",
+    )
+    plot.add_argument("--compare", help="a second checkpoint drawn beside the first")
+    plot.add_argument("--tracks", required=True, help="a 'frame id x y' track file")
+    plot.add_argument("--frame", type=int, required=True, help="the frame to forecast from")
+    plot.add_argument(
+        "--until",
+        type=int,
+        help="animate every step from --frame to this frame (the --out file is then a .gif, "
+        "or a .mp4 when ffmpeg is installed; 2.5 pictures per second = real time)",
+    )
+    plot.add_argument("--out", required=True, help="PNG file to write (.gif/.mp4 with --until)")
+    plot.add_argument("--samples", type=non_negative_int, default=20, help="sampled futures")
+    plot.add_argument("--seed", type=int, default=0, help="seed of the samples")
+    plot.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_gap_option(plot)
+    plot.set_defaults(handler=cmd_plot)

@@ -1,0 +1,246 @@
+"""``grouptron train``: train a model on one split."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from grouptron.cli.common import (
+    CURVES,
+    Formatter,
+    add_data_options,
+    device_type,
+)
+from grouptron.config import (
+    ExperimentConfig,
+    config_from_dict,
+    merge_settings,
+    preset_values,
+)
+from grouptron.constants import SPLITS
+from grouptron.data.dataset import load_part
+from grouptron.data.locate import resolve_data_dir
+from grouptron.errors import GrouptronError
+from grouptron.groups.cache import load_groups
+from grouptron.model.checkpoint import load_checkpoint
+from grouptron.model.factory import MODEL_NAMES, uses_groups
+from grouptron.training import distributed
+from grouptron.training.metrics_log import MetricsWriter
+from grouptron.training.precision import PRECISIONS, precision_name, resolve_precision
+from grouptron.training.trainer import LAST, train
+from grouptron.viz.training import plot_training_curves
+
+
+def _settings_file(path: str) -> dict[str, Any]:
+    try:
+        values = json.loads(Path(path).read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise GrouptronError(f"{path}: cannot read config: {exc}") from None
+    if not isinstance(values, dict):
+        raise GrouptronError(f"{path}: a config file holds a table of settings")
+    return values
+
+
+def parse_setting(text: str) -> dict[str, Any]:
+    """``"model.group_dim=32"`` -> ``{"model": {"group_dim": 32}}``; the value is read as
+    JSON where it parses (numbers, true/false, lists), else as a string."""
+    key, sep, raw = text.partition("=")
+    parts = key.strip().split(".")
+    if not sep or not all(parts):
+        raise GrouptronError(f"--set {text!r}: expected SECTION.KEY=VALUE, e.g. train.seed=3")
+    try:
+        value: Any = json.loads(raw)
+    except json.JSONDecodeError:
+        value = raw
+    for part in reversed(parts):
+        value = {part: value}
+    return value
+
+
+def experiment_from_args(args: argparse.Namespace) -> ExperimentConfig:
+    """The run's configuration: the model's preset on the split, then the --config file, then
+    each --set, then the explicit flags (a later source wins)."""
+    file_values = _settings_file(args.config) if args.config else {}
+    model = args.model or file_values.get("model_name") or "trajectron++"
+    values = merge_settings(preset_values(args.split, model), file_values)
+    for text in args.set or []:
+        values = merge_settings(values, parse_setting(text))
+    values = merge_settings(values, {"split": args.split, "model_name": model})
+    flags = {
+        "epochs": args.epochs,
+        "seed": args.seed,
+        "batch_size": args.batch_size,
+        "learning_rate": args.lr,
+        "threads": args.threads,
+        "init_from": args.init_from,
+    }
+    train_values = {k: v for k, v in flags.items() if v is not None}
+    if args.precision is not None or "bf16" not in values.get("train", {}):
+        train_values["bf16"] = resolve_precision(args.precision or "auto", args.device)
+    data_values: dict[str, Any] = {"on_gap": args.on_gap}
+    if args.derivatives:
+        data_values["derivatives"] = args.derivatives
+    values = merge_settings(values, {"train": train_values, "data": data_values})
+    return config_from_dict(ExperimentConfig, values)
+
+
+def _resumed(args: argparse.Namespace, out: Path, asked: ExperimentConfig) -> ExperimentConfig:
+    """A resumed run keeps its stored configuration; only its length, threads and (when
+    given explicitly) precision may change."""
+    stored = load_checkpoint(out / LAST).config
+    if (stored.split, stored.model_name) != (asked.split, asked.model_name):
+        raise GrouptronError(
+            f"{out} holds a {stored.model_name} run on {stored.split}, not "
+            f"{asked.model_name} on {asked.split}"
+        )
+    length: dict[str, Any] = {"epochs": asked.train.epochs, "threads": asked.train.threads}
+    if args.precision is not None:
+        length["bf16"] = asked.train.bf16
+        if asked.train.bf16 != stored.train.bf16:
+            print(
+                f"note: {out} ran in {precision_name(stored.train.bf16)} so far; the "
+                f"remaining epochs run in {precision_name(asked.train.bf16)} (each epoch's "
+                "precision is in metrics.csv and on the model card)"
+            )
+    if args.epochs is None:
+        length["epochs"] = stored.train.epochs
+    if args.threads is None:
+        length["threads"] = stored.train.threads
+    return dataclasses.replace(stored, train=dataclasses.replace(stored.train, **length))
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    experiment = experiment_from_args(args)
+    data = experiment.data
+    out = Path(args.out or f"runs/{experiment.model_name}-{args.split}-{data.derivatives}")
+    if args.resume and (out / LAST).exists():
+        experiment = _resumed(args, out, experiment)
+        data = experiment.data
+    data_dir = resolve_data_dir(args.data_dir)
+    train_part = load_part(data_dir, args.split, "train", data, use_cache=not args.no_cache)
+    val_part = load_part(data_dir, args.split, "val", data, use_cache=not args.no_cache)
+    train_groups = val_groups = None
+    if uses_groups(experiment):
+        print("clustering every sample's neighbours into groups (cached after the first run)")
+        train_groups, val_groups = (
+            load_groups(
+                data_dir,
+                args.split,
+                name,
+                data,
+                experiment.groups,
+                part.samples,
+                use_cache=not args.no_cache,
+            )
+            for name, part in (("train", train_part), ("val", val_part))
+        )
+    cluster = distributed.start(torch.device(args.device))
+    if cluster.is_main:
+        processes = f", {cluster.world_size} processes" if cluster.distributed else ""
+        print(
+            f"training {experiment.model_name} on {args.split} ({data.derivatives} derivatives): "
+            f"{len(train_part.samples)} training / {len(val_part.samples)} validation samples, "
+            f"{experiment.train.epochs} epochs{processes} -> {out}"
+        )
+    try:
+        state = train(
+            experiment,
+            train_part.samples,
+            val_part.samples,
+            out,
+            resume=args.resume,
+            progress=not args.quiet,
+            train_groups=train_groups,
+            val_groups=val_groups,
+            device=args.device,
+            cluster=cluster,
+        )
+    finally:
+        distributed.stop(cluster)
+    if cluster.is_main:
+        records = MetricsWriter(out).records()
+        if records:
+            plot_training_curves(records, out.name, out / CURVES)
+        print(
+            f"done: {state.epoch} epochs, {state.iteration} steps; best validation ML FDE "
+            f"{state.best_val_fde:.3f} m; checkpoints in {out}"
+        )
+    return 0
+
+
+def add_parser(commands: argparse._SubParsersAction) -> None:
+    """Add the command and its options to the ``grouptron`` parser."""
+    train_cmd = commands.add_parser(
+        "train",
+        help="train a model on one split",
+        description="Train a model on the training part of a split, validating on its "
+        "validation part after every epoch. The output folder gets last.safetensors (full "
+        "state; --resume continues from it exactly), best.safetensors (weights with the best "
+        "validation ML FDE) and metrics.jsonl/metrics.csv.",
+        formatter_class=Formatter,
+        epilog="examples:\n"
+        "  grouptron train --split eth --model trajectron++ --epochs 10\n"
+        "  grouptron train --split univ --derivatives backward --out runs/univ-causal\n"
+        "  grouptron train --split eth --resume\n"
+        "  grouptron train --split eth --derivatives backward --epochs 3 \\\n"
+        "      --init-from runs/trajectron++-eth-central/last.safetensors",
+    )
+    train_cmd.add_argument(
+        "--split", required=True, choices=SPLITS, help="the split (its location is held out)"
+    )
+    train_cmd.add_argument(
+        "--model",
+        choices=MODEL_NAMES,
+        help="the model (default: a --config file's model_name, else trajectron++)",
+    )
+    train_cmd.add_argument("--epochs", type=int, help="epochs (default 100, as the reference)")
+    train_cmd.add_argument("--out", help="output folder (default runs/MODEL-SPLIT-DERIVATIVES)")
+    train_cmd.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the run in --out with its stored configuration (--epochs may extend it)",
+    )
+    train_cmd.add_argument(
+        "--init-from",
+        help="warm start from another run's last.safetensors (same model): its weights, "
+        "optimiser state and step count, e.g. to move a central run to backward derivatives",
+    )
+    train_cmd.add_argument(
+        "--config",
+        help="JSON file of settings laid over the model's preset (any subset of "
+        "ExperimentConfig; its model_name is used unless --model is given)",
+    )
+    train_cmd.add_argument(
+        "--set",
+        action="append",
+        metavar="SECTION.KEY=VALUE",
+        help="one setting, e.g. --set group_encoder.group_dim=32 --set train.lr_decay_per_iter=1 "
+        "(repeatable; applied after --config, before the other flags)",
+    )
+    train_cmd.add_argument(
+        "--seed", type=int, help="seed of initialisation, order and noise (default 0)"
+    )
+    train_cmd.add_argument(
+        "--batch-size", type=int, help="samples per optimiser step (default 256)"
+    )
+    train_cmd.add_argument("--lr", type=float, help="initial learning rate")
+    train_cmd.add_argument("--threads", type=int, help="CPU threads (default 2)")
+    train_cmd.add_argument(
+        "--precision",
+        choices=PRECISIONS,
+        help="arithmetic of the decoder: bf16 autocast or fp32; auto (the default) picks bf16 "
+        "where the hardware has it natively (CUDA, or a CPU with AVX-512 BF16 or AMX) and fp32 "
+        "elsewhere, where bf16 is emulated and slow. Without this option a --config file's "
+        "train.bf16 holds, and --resume keeps the run's precision",
+    )
+    train_cmd.add_argument("--quiet", action="store_true", help="no progress bars")
+    train_cmd.add_argument(
+        "--device", type=device_type, default="cpu", help="torch device, e.g. cpu or cuda"
+    )
+    add_data_options(train_cmd)
+    train_cmd.set_defaults(handler=cmd_train)

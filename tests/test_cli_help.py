@@ -1,0 +1,44 @@
+"""Every command's --help: each option explained, each default noted once, never "None"."""
+
+from __future__ import annotations
+
+import argparse
+import re
+
+import pytest
+
+from grouptron.cli import build_parser
+
+
+def _parsers() -> dict[str, argparse.ArgumentParser]:
+    found = {"grouptron": build_parser()}
+    pending = list(found.items())
+    while pending:
+        name, parser = pending.pop()
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for sub, child in action.choices.items():
+                    found[f"{name} {sub}"] = child
+                    pending.append((f"{name} {sub}", child))
+    return found
+
+
+PARSERS = _parsers()
+
+
+def test_every_command_is_reached() -> None:
+    names = set(PARSERS)
+    assert {"grouptron train", "grouptron data stats", "grouptron groups evaluate"} <= names
+
+
+@pytest.mark.parametrize("name", sorted(PARSERS))
+def test_help_explains_every_option_and_states_defaults_once(name: str) -> None:
+    parser = PARSERS[name]
+    for action in parser._actions:
+        if action.option_strings and action.help is not argparse.SUPPRESS:
+            assert action.help, f"{name} {action.option_strings[0]} has no help"
+    text = parser.format_help()
+    assert "(default: None)" not in text
+    flat = re.sub(r"\s+", " ", text)
+    for entry in re.split(r" (?=-{1,2}[a-z])", flat):
+        assert entry.lower().count("default") <= 1, f"{name}: {entry}"

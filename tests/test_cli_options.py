@@ -1,0 +1,64 @@
+"""Command-line behaviour shared by every command: global options, --config, --set."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from grouptron.cli import build_parser
+from grouptron.cli.train import experiment_from_args, parse_setting
+from grouptron.errors import GrouptronError
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["-v", "data", "stats"],
+        ["data", "stats", "-v"],
+        ["data", "-v", "stats"],
+        ["train", "--split", "eth", "--verbose"],
+    ],
+)
+def test_verbose_is_accepted_before_and_after_the_command(argv: list[str]) -> None:
+    assert build_parser().parse_args(argv).verbose is True
+
+
+def test_verbose_defaults_to_off() -> None:
+    assert build_parser().parse_args(["data", "stats"]).verbose is False
+
+
+def _train_args(*extra: str):
+    return build_parser().parse_args(["train", "--split", "eth", "--precision", "fp32", *extra])
+
+
+def test_config_file_model_name_is_used_and_the_preset_applies(tmp_path: Path) -> None:
+    """The --config trap: a file naming grouptron trained Trajectron++ without the eth preset."""
+    path = tmp_path / "run.json"
+    path.write_text(json.dumps({"model_name": "grouptron", "train": {"epochs": 3}}))
+    config = experiment_from_args(_train_args("--config", str(path)))
+    assert config.model_name == "grouptron"
+    assert config.group_encoder.group_dim == 8  # eth preset of Grouptron
+    assert config.train.epochs == 3
+    explicit = experiment_from_args(_train_args("--config", str(path), "--model", "trajectron++"))
+    assert explicit.model_name == "trajectron++"
+
+
+def test_set_overrides_the_file_and_flags_override_set(tmp_path: Path) -> None:
+    path = tmp_path / "run.json"
+    path.write_text(json.dumps({"train": {"seed": 1, "epochs": 3}}))
+    args = _train_args(
+        "--config", str(path), "--set", "train.seed=2", "--set", "train.epochs=4", "--epochs", "5"
+    )
+    config = experiment_from_args(args)
+    assert (config.train.seed, config.train.epochs) == (2, 5)
+
+
+def test_set_parses_values_and_refuses_bad_keys() -> None:
+    assert parse_setting("group_encoder.group_dim=32") == {"group_encoder": {"group_dim": 32}}
+    assert parse_setting("data.derivatives=backward") == {"data": {"derivatives": "backward"}}
+    with pytest.raises(GrouptronError, match=r"SECTION\.KEY=VALUE"):
+        parse_setting("train.seed")
+    with pytest.raises(GrouptronError, match="unknown TrainConfig keys: sed"):
+        experiment_from_args(_train_args("--set", "train.sed=3"))
