@@ -4,7 +4,7 @@ Usage:
     python benchmarks/group_labels.py --labels-dir DIR [--data-dir DIR]
 
 DIR holds eth/, hotel/, zara1/, zara2/ with a groups.txt each (ids as in the benchmark files).
-Every linkage and distance is scored with both protocols; prints Markdown tables (pairwise F1,
+Every linkage and distance is scored with both scopes; prints Markdown tables (pairwise F1,
 precision, recall and Dice per recording, and the means used to choose the defaults).
 """
 
@@ -40,15 +40,15 @@ def main() -> None:
     }
     labels = {name: read_group_labels(Path(args.labels_dir) / name / "groups.txt")
               for name in RECORDINGS}  # fmt: skip
-    for protocol in ("per_ego", "scene"):
-        print(f"\n### protocol `{protocol}`\n")
+    for scope in ("per_ego", "scene"):
+        print(f"\n### scope `{scope}`\n")
         print("| linkage | distance | " + " | ".join(f"{n} F1 / Dice" for n in RECORDINGS)
               + " | mean F1 | mean Dice | mean precision | mean recall |")  # fmt: skip
         print("|---|---|" + "---|" * (len(RECORDINGS) + 4))
         for linkage in LINKAGES:
             for distance in DISTANCE_KINDS:
                 config = GroupConfig(linkage=linkage, distance=distance)
-                scores = [score_against_labels(scenes[n], labels[n], config)[protocol]
+                scores = [score_against_labels(scenes[n], labels[n], config)[scope]
                           for n in RECORDINGS]  # fmt: skip
                 cells = " | ".join(f"{s['pair_f1']:.3f} / {s['dice']:.3f}" for s in scores)
                 means = [np.mean([s[k] for s in scores])

@@ -151,7 +151,7 @@ def test_evaluate_on_a_tiny_split(tmp_path: Path, capsys: pytest.CaptureFixture[
         "samples": 12,
         "ade": pytest.approx(0.0, abs=1e-6),
         "fde": pytest.approx(0.0, abs=1e-6),
-        "protocol": "central",
+        "derivatives": "central",
     }
 
 

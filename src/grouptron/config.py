@@ -61,7 +61,7 @@ class GroupConfig:
 
     linkage: Literal["single", "average", "complete"] = "complete"
     """Chosen by agreement with human labels (docs/groups.md): best mean pairwise F1 and Dice
-    in the per-ego protocol the model uses."""
+    in the per-ego scope the model uses."""
     distance: Literal["hausdorff", "modified"] = "hausdorff"
     quantile: float = 0.9
     """Quantile of the modified Hausdorff distance (Atev et al.)."""

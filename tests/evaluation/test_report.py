@@ -53,7 +53,7 @@ def test_nll_subsample_is_seeded_and_capped() -> None:
     assert not np.array_equal(first, nll_subsample(100, 7, 4))
 
 
-def test_checkpoint_rows_carry_protocol_path_and_nll_sample_count(
+def test_checkpoint_rows_carry_derivatives_path_and_nll_sample_count(
     tiny_checkpoints: Path, synthetic_data_dir: Path
 ) -> None:
     path = tiny_checkpoints / "grouptron-eth-central/best.safetensors"
@@ -62,7 +62,7 @@ def test_checkpoint_rows_carry_protocol_path_and_nll_sample_count(
     rows = evaluate_checkpoint(entry, synthetic_data_dir, settings)
     by_mode = {r.mode: r for r in rows}
     assert set(by_mode) == {"ml", "best-of-20", "nll"}
-    assert all(r.protocol == "central" and r.checkpoint == str(path) for r in rows)
+    assert all(r.derivatives == "central" and r.checkpoint == str(path) for r in rows)
     assert by_mode["nll"].samples == 9 and math.isfinite(by_mode["nll"].nll or math.nan)
     assert by_mode["best-of-20"].fde < by_mode["ml"].fde
 
@@ -74,7 +74,7 @@ def test_checkpoints_are_found_by_their_stored_configuration(
     shutil.copytree(tiny_checkpoints / "trajectron++-eth-central", misleading)
     shutil.copytree(tiny_checkpoints / "grouptron-eth-central", tmp_path / "any-name")
     found = find_checkpoints(tmp_path, ("central", "backward"))
-    assert [(c.model, c.split, c.protocol, c.path.parent.name) for c in found] == [
+    assert [(c.model, c.split, c.derivatives, c.path.parent.name) for c in found] == [
         ("trajectron++", "eth", "central", "grouptron-eth-backward"),
         ("grouptron", "eth", "central", "any-name"),
     ]
@@ -156,21 +156,21 @@ def test_report_command_writes_markdown_and_json(
     )
     common = ["report", "--checkpoints", str(folder), "--data-dir", str(eth_ucy_dir), "--quiet"]
     out = tmp_path / "RESULTS.md"
-    assert main([*common, "--protocol", "central", "--mode", "ml", "--out", str(out)]) == 0
+    assert main([*common, "--derivatives", "central", "--mode", "ml", "--out", str(out)]) == 0
     text = out.read_text()
     capsys.readouterr()
     assert f"--checkpoints {folder}" in text and "| constant velocity | ours | 2.282/1.075" in text
     loud = [c for c in common if c != "--quiet"]  # progress goes to stderr, never into JSON
-    assert main([*loud, "--protocol", "central", "--mode", "ml", "--format", "json"]) == 0
+    assert main([*loud, "--derivatives", "central", "--mode", "ml", "--format", "json"]) == 0
     printed = capsys.readouterr()
-    assert "trajectron++ eth (central, seed 0)" in printed.err
+    assert "trajectron++ eth (central derivatives, seed 0)" in printed.err
     rows = json.loads(printed.out)["results"]
     ours = [r for r in rows if r["model"] == "trajectron++"]
     assert [(r["split"], r["mode"], r["samples"]) for r in ours] == [("eth", "ml", 364)]
     assert set(ours[0]) >= {
         "model",
         "split",
-        "protocol",
+        "derivatives",
         "subset",
         "mode",
         "checkpoint",

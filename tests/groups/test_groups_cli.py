@@ -62,7 +62,7 @@ def test_evaluate_against_labels(tmp_path: Path, capsys: pytest.CaptureFixture[s
     labels = tmp_path / "groups.txt"
     labels.write_text("1 2\n3 4\n")
     results = evaluate_json(capsys, "--tracks", str(tracks), "--labels", str(labels))
-    assert {r["protocol"] for r in results} == {"scene", "per_ego"}
+    assert {r["scope"] for r in results} == {"scene", "per_ego"}
     for row in results:
         assert {"pair_precision", "pair_recall", "pair_f1", "dice"} <= set(row)
         assert row["pair_f1"] == pytest.approx(1.0) and row["dice"] == pytest.approx(1.0)

@@ -66,7 +66,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         if model is None:
             pred = constant_velocity(samples.hist_rel_m.astype("float64"), config.horizon_steps)
             cv = score(split, "constant-velocity", args.subset, pred, samples)
-            results.append(dataclasses.replace(cv, protocol=config.derivatives))
+            results.append(dataclasses.replace(cv, derivatives=config.derivatives))
             continue
         scores = evaluate_model(
             model,
@@ -89,7 +89,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
                     mode=s.mode,
                     nll=s.nll if s.mode == "nll" else None,
                     checkpoint=str(args.checkpoint),
-                    protocol=config.derivatives,
+                    derivatives=config.derivatives,
                 )
             )
     if len(splits) == len(SPLITS):

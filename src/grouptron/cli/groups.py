@@ -51,10 +51,10 @@ def cmd_groups_evaluate(args: argparse.Namespace) -> int:
     rows = []
     for config in _group_configs(args):
         scores = score_against_labels(scene, labels, config, every=args.every)
-        for protocol, values in scores.items():
+        for scope, values in scores.items():
             rows.append(
                 {
-                    "protocol": protocol,
+                    "scope": scope,
                     "linkage": config.linkage,
                     "distance": config.distance,
                     **values,
@@ -67,14 +67,14 @@ def cmd_groups_evaluate(args: argparse.Namespace) -> int:
         print(json.dumps(document, indent=2))
         return 0
     header = (
-        f"{'protocol':<9} {'linkage':<9} {'distance':<10} {'precision':>9} {'recall':>7} "
+        f"{'scope':<9} {'linkage':<9} {'distance':<10} {'precision':>9} {'recall':>7} "
         f"{'F1':>6} {'Dice':>6} {'decisions':>9}"
     )
     print(header)
     print("-" * len(header))
     for r in rows:
         print(
-            f"{r['protocol']:<9} {r['linkage']:<9} {r['distance']:<10} "
+            f"{r['scope']:<9} {r['linkage']:<9} {r['distance']:<10} "
             f"{r['pair_precision']:>9.3f} {r['pair_recall']:>7.3f} {r['pair_f1']:>6.3f} "
             f"{r['dice']:>6.3f} {r['decisions']:>9}"
         )

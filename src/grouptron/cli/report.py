@@ -17,8 +17,13 @@ from grouptron.cli.common import (
 )
 from grouptron.data.locate import resolve_data_dir
 from grouptron.evaluation.evaluate import MODES
-from grouptron.evaluation.report import PROTOCOLS, ReportSettings, find_checkpoints, run_report
+from grouptron.evaluation.report import (
+    ReportSettings,
+    find_checkpoints,
+    run_report,
+)
 from grouptron.evaluation.report_tables import report_markdown
+from grouptron.geometry import DERIVATIVE_SCHEMES
 from grouptron.io import (
     refuse_folder,
     write_text_atomically,
@@ -27,7 +32,7 @@ from grouptron.io import (
 
 def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
     """The canonical command line that regenerates this report (written into it)."""
-    parts = ["grouptron report", f"--protocol {args.protocol}", f"--mode {','.join(modes)}"]
+    parts = ["grouptron report", f"--derivatives {args.derivatives}", f"--mode {','.join(modes)}"]
     if args.nll_max_samples:
         parts.append(f"--nll-max-samples {args.nll_max_samples}")
     if args.checkpoints != REPORT_CHECKPOINTS:
@@ -42,7 +47,7 @@ def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
 def cmd_report(args: argparse.Namespace) -> int:
     if args.out:
         refuse_folder(Path(args.out))  # before the work, not after it
-    protocols = PROTOCOLS if args.protocol == "both" else (args.protocol,)
+    schemes = DERIVATIVE_SCHEMES if args.derivatives == "both" else (args.derivatives,)
     modes = eval_modes(args.mode)
     settings = ReportSettings(
         modes=modes,
@@ -51,13 +56,13 @@ def cmd_report(args: argparse.Namespace) -> int:
         use_cache=not args.no_cache,
     )
     data_dir = resolve_data_dir(args.data_dir)
-    checkpoints = find_checkpoints(Path(args.checkpoints), protocols)
+    checkpoints = find_checkpoints(Path(args.checkpoints), schemes)
     torch.set_num_threads(args.threads)
-    report = run_report(data_dir, checkpoints, protocols, settings, progress=not args.quiet)
+    report = run_report(data_dir, checkpoints, schemes, settings, progress=not args.quiet)
     if args.format == "json":
         text = report.to_json() + "\n"
     else:
-        text = report_markdown(report, protocols, _report_command(args, modes))
+        text = report_markdown(report, schemes, _report_command(args, modes))
     if args.out:
         write_text_atomically(Path(args.out), text)
         print(f"wrote {args.out}")
@@ -71,7 +76,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     report = commands.add_parser(
         "report",
         help="regenerate the paper's tables from a folder of checkpoints",
-        description="Evaluate every <model>-<split>-<protocol>/best.safetensors in --checkpoints "
+        description="Evaluate every best.safetensors in the folders of --checkpoints "
         "on its test set (and univ ones on UNIV-40/45/50), with constant velocity alongside, "
         "and write the Grouptron paper's Tables I and II with our numbers beside the published "
         "ones, the difference in percent, best-of-20, KDE NLL and the reproduction targets.",
@@ -79,7 +84,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         epilog="examples:\n"
         "  grouptron report --mode ml                      # Tables I and II only (minutes)\n"
         "  grouptron report --out RESULTS.md --nll-max-samples 500\n"
-        "  grouptron report --protocol central --format json --out results.json",
+        "  grouptron report --derivatives central --format json --out results.json",
     )
     report.add_argument(
         "--checkpoints", default=REPORT_CHECKPOINTS, help="folder of checkpoint folders"
@@ -87,11 +92,11 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     report.add_argument(
         "--derivatives",
         "--protocol",
-        dest="protocol",
-        choices=(*PROTOCOLS, "both"),
+        dest="derivatives",
+        choices=(*DERIVATIVE_SCHEMES, "both"),
         default="both",
         help="the derivative scheme of the checkpoints to report: central (the papers'), "
-        "backward (causal) or both (--protocol is an older name of this option)",
+        "backward (causal) or both (--derivatives is an older name of this option)",
     )
     report.add_argument(
         "--mode",

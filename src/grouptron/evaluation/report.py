@@ -1,6 +1,6 @@
 """Evaluate a folder of checkpoints on every test set: the rows behind the paper's tables.
 
-The folder holds ``<model>-<split>-<protocol>/best.safetensors`` (e.g.
+The folder holds ``<model>-<split>-<derivatives>/best.safetensors`` (e.g.
 ``grouptron-eth-central``). Each checkpoint is scored on its split's test set once per mode;
 UNIV-N rows are means over the univ samples with N or more people in view (every sample is
 predicted independently, so this equals evaluating the subset). Constant velocity is scored
@@ -32,14 +32,12 @@ from grouptron.evaluation.report_stats import Report, build_report
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.scored import CONSTANT_VELOCITY, ReportCheckpoint, ScoredRun
 from grouptron.evaluation.test_sets import load_test_set, subset_with_groups
-from grouptron.geometry import DERIVATIVE_SCHEMES, DerivativeScheme
+from grouptron.geometry import DerivativeScheme
 from grouptron.model.checkpoint import load_checkpoint, load_trained_model
 from grouptron.model.factory import MODEL_NAMES, uses_groups
 
 log = logging.getLogger(__name__)
 
-PROTOCOLS = DERIVATIVE_SCHEMES
-"""``central`` (the papers' protocol) and ``backward`` (causal)."""
 WEIGHTS_FILE = "best.safetensors"
 
 
@@ -62,12 +60,12 @@ class ReportSettings:
             raise GrouptronError("the NLL sample cap must be >= 0 (0 means all samples)")
 
 
-def find_checkpoints(root: Path, protocols: Sequence[DerivativeScheme]) -> list[ReportCheckpoint]:
+def find_checkpoints(root: Path, schemes: Sequence[DerivativeScheme]) -> list[ReportCheckpoint]:
     """Every ``*/best.safetensors`` under ``root`` whose stored configuration is one of our
-    models on an ETH/UCY split under one of ``protocols``, in table order (protocol, model,
+    models on an ETH/UCY split under one of ``schemes``, in table order (derivatives, model,
     split, seed). Folder names do not matter; several seeds of one model and split are kept.
 
-    Missing (model, split, protocol) cells are logged (they stay empty); none at all is an
+    Missing (model, split, derivatives) cells are logged (they stay empty); none at all is an
     error.
     """
     if not root.is_dir():
@@ -75,22 +73,24 @@ def find_checkpoints(root: Path, protocols: Sequence[DerivativeScheme]) -> list[
     found = []
     for path in sorted(root.glob(f"*/{WEIGHTS_FILE}")):
         config = load_checkpoint(path).config
-        protocol = config.data.derivatives
-        if protocol in protocols and config.split in SPLITS and config.model_name in MODEL_NAMES:
+        derivatives = config.data.derivatives
+        if derivatives in schemes and config.split in SPLITS and config.model_name in MODEL_NAMES:
             found.append(
-                ReportCheckpoint(config.model_name, config.split, protocol, path, config.train.seed)
+                ReportCheckpoint(
+                    config.model_name, config.split, derivatives, path, config.train.seed
+                )
             )
     if not found:
         raise GrouptronError(
-            f"no checkpoints in {root} for the {'/'.join(protocols)} protocol: expected "
+            f"no checkpoints in {root} for the {'/'.join(schemes)} derivatives: expected "
             f"folders with a {WEIGHTS_FILE} of {' or '.join(MODEL_NAMES)} on an ETH/UCY split"
         )
-    order = {name: i for i, name in enumerate((*protocols, *MODEL_NAMES, *SPLITS))}
-    found.sort(key=lambda c: (order[c.protocol], order[c.model], order[c.split], c.seed))
-    have = {(c.model, c.split, c.protocol) for c in found}
+    order = {name: i for i, name in enumerate((*schemes, *MODEL_NAMES, *SPLITS))}
+    found.sort(key=lambda c: (order[c.derivatives], order[c.model], order[c.split], c.seed))
+    have = {(c.model, c.split, c.derivatives) for c in found}
     missing = [
         f"{m}-{s}-{p}"
-        for p in protocols
+        for p in schemes
         for m in MODEL_NAMES
         for s in SPLITS
         if (m, s, p) not in have
@@ -160,9 +160,9 @@ def score_checkpoint(
     univ, on UNIV-N."""
     model, experiment = load_trained_model(entry.path)
     stored = (experiment.model_name, experiment.split, experiment.data.derivatives)
-    if stored != (entry.model, entry.split, entry.protocol):
+    if stored != (entry.model, entry.split, entry.derivatives):
         raise GrouptronError(
-            f"{entry.path}: expected {entry.model} on {entry.split} ({entry.protocol}) "
+            f"{entry.path}: expected {entry.model} on {entry.split} ({entry.derivatives}) "
             f"but it holds {stored[0]} on {stored[1]} ({stored[2]})"
         )
     group_config = experiment.groups if uses_groups(experiment) else None
@@ -171,7 +171,7 @@ def score_checkpoint(
     )
     masks = subset_masks(entry.split, samples)
     template = EvaluationResult(
-        entry.split, entry.model, None, 0, 0.0, 0.0, None, None, str(entry.path), entry.protocol
+        entry.split, entry.model, None, 0, 0.0, 0.0, None, None, str(entry.path), entry.derivatives
     )
     rows, by_mode = [], {}
     full_modes = tuple(m for m in settings.modes if m != "nll")
@@ -204,11 +204,11 @@ def evaluate_checkpoint(
 
 
 def score_constant_velocity(
-    data_dir: Path, protocol: DerivativeScheme, use_cache: bool = True
+    data_dir: Path, derivatives: DerivativeScheme, use_cache: bool = True
 ) -> list[ScoredRun]:
     """Constant velocity on every split and UNIV-N (its inputs are raw positions, so both
-    protocols give the same numbers)."""
-    config = DataConfig(derivatives=protocol)
+    schemes give the same numbers)."""
+    config = DataConfig(derivatives=derivatives)
     runs = []
     for split in SPLITS:
         samples, _ = load_test_set(data_dir, split, config, use_cache=use_cache)
@@ -217,9 +217,9 @@ def score_constant_velocity(
         nan = np.full(len(samples), np.nan)
         scores = SampleScores("ml", metrics.ade(pred, truth), metrics.fde(pred, truth), nan)
         masks = subset_masks(split, samples)
-        entry = ReportCheckpoint(CONSTANT_VELOCITY, split, protocol, Path())
+        entry = ReportCheckpoint(CONSTANT_VELOCITY, split, derivatives, Path())
         template = EvaluationResult(split, CONSTANT_VELOCITY, None, 0, 0.0, 0.0, "ml")
-        template = dataclasses.replace(template, protocol=protocol)
+        template = dataclasses.replace(template, derivatives=derivatives)
         rows = _rows(scores, masks, None, template)
         runs.append(ScoredRun(entry, time_step_ids(samples), masks, {"ml": scores}, None, rows))
     return runs
@@ -228,41 +228,42 @@ def score_constant_velocity(
 def run_report(
     data_dir: Path,
     checkpoints: Sequence[ReportCheckpoint],
-    protocols: Sequence[DerivativeScheme],
+    schemes: Sequence[DerivativeScheme],
     settings: ReportSettings,
     progress: bool = False,
 ) -> Report:
     """Rows for every checkpoint and constant velocity, the AVG rows, intervals, paired
     differences and the seed spread.
 
-    The lowest seed of each (model, split, protocol) gives the table rows in every mode; the
+    The lowest seed of each (model, split, derivatives) gives the table rows in every mode; the
     other seeds are scored in the ``ml`` mode for the seed spread. Progress goes to standard
     error, so that standard output can carry JSON.
     """
     runs: list[ScoredRun] = []
-    baseline = score_constant_velocity(data_dir, protocols[0], settings.use_cache)
-    for protocol in protocols:  # the same numbers under both protocols: scored once
+    baseline = score_constant_velocity(data_dir, schemes[0], settings.use_cache)
+    for derivatives in schemes:  # the same numbers under both schemes: scored once
         runs += [
             dataclasses.replace(
                 run,
-                entry=dataclasses.replace(run.entry, protocol=protocol),
-                rows=[dataclasses.replace(r, protocol=protocol) for r in run.rows],
+                entry=dataclasses.replace(run.entry, derivatives=derivatives),
+                rows=[dataclasses.replace(r, derivatives=derivatives) for r in run.rows],
             )
             for run in baseline
         ]
     first_seed: dict[tuple[str, str, str], int] = {}
     for entry in checkpoints:
-        key = (entry.model, entry.split, entry.protocol)
+        key = (entry.model, entry.split, entry.derivatives)
         first_seed.setdefault(key, entry.seed)
         primary = first_seed[key] == entry.seed
         log.info("evaluating %s", entry.path)
         if progress:
             print(
-                f"{entry.model} {entry.split} ({entry.protocol}, seed {entry.seed}): {entry.path}",
+                f"{entry.model} {entry.split} ({entry.derivatives} derivatives, seed "
+                f"{entry.seed}): {entry.path}",
                 file=sys.stderr,
                 flush=True,
             )
         run_settings = settings if primary else dataclasses.replace(settings, modes=("ml",))
         with torch.inference_mode():
             runs.append(score_checkpoint(entry, data_dir, run_settings, progress))
-    return build_report(runs, protocols)
+    return build_report(runs, schemes)

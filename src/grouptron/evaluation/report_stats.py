@@ -43,7 +43,7 @@ class PairedDifference:
     """Mean of ``model - baseline`` per-sample errors (metres) on the same test samples, with
     95% intervals over resampled time steps. Negative: ``model`` is better."""
 
-    protocol: str
+    derivatives: str
     mode: str
     model: str
     baseline: str
@@ -63,7 +63,7 @@ class SeedSpread:
     """ML scores of every seed run of one model (or of a paired difference) on one column."""
 
     model: str
-    protocol: str
+    derivatives: str
     column: str
     seeds: tuple[int, ...]
     fde: tuple[float, ...]
@@ -105,11 +105,11 @@ def _column(row: EvaluationResult) -> str:
 
 
 def _key(run: ScoredRun) -> tuple[str, str, str]:
-    return run.entry.model, run.entry.split, run.entry.protocol
+    return run.entry.model, run.entry.split, run.entry.derivatives
 
 
 def primary_runs(runs: Sequence[ScoredRun]) -> dict[tuple[str, str, str], ScoredRun]:
-    """The lowest-seed run of every (model, split, protocol): the one in the tables."""
+    """The lowest-seed run of every (model, split, derivatives): the one in the tables."""
     primary: dict[tuple[str, str, str], ScoredRun] = {}
     for run in sorted(runs, key=lambda r: r.entry.seed):
         primary.setdefault(_key(run), run)
@@ -139,19 +139,19 @@ def _interval(per_split: Sequence[Values]) -> Interval:
 def _per_split(
     primary: dict[tuple[str, str, str], ScoredRun],
     model: str,
-    protocol: str,
+    derivatives: str,
     mode: str,
     column: str,
     metric: str,
 ) -> list[Values] | None:
     """The values behind one cell: one split's (or subset's), or all five for AVG."""
     if column == MEAN_ROW:
-        runs = [primary.get((model, split, protocol)) for split in SPLITS]
+        runs = [primary.get((model, split, derivatives)) for split in SPLITS]
         found = [_values(r, mode, r.entry.split, metric) for r in runs if r is not None]
         complete = [v for v in found if v is not None]
         return complete if len(complete) == len(SPLITS) else None
     split = "univ" if column.startswith("univ") else column
-    run = primary.get((model, split, protocol))
+    run = primary.get((model, split, derivatives))
     values = None if run is None else _values(run, mode, column, metric)
     return None if values is None else [values]
 
@@ -162,10 +162,10 @@ def with_intervals(
     """``rows`` with 95% intervals of ADE and FDE wherever per-sample scores exist."""
     out = []
     for row in rows:
-        mode, protocol = row.mode or "ml", row.protocol or ""
+        mode, derivatives = row.mode or "ml", row.derivatives or ""
         cis = []
         for metric in ("ade", "fde"):
-            values = _per_split(primary, row.model, protocol, mode, _column(row), metric)
+            values = _per_split(primary, row.model, derivatives, mode, _column(row), metric)
             cis.append(None if values is None else _interval(values))
         out.append(
             dataclasses.replace(
@@ -180,10 +180,10 @@ def with_intervals(
 def paired_differences(
     primary: dict[tuple[str, str, str], ScoredRun], columns: Sequence[str]
 ) -> list[PairedDifference]:
-    """``model - baseline`` for every pair in :data:`PAIRS`, protocol, mode and column."""
+    """``model - baseline`` for every pair in :data:`PAIRS`, derivatives, mode and column."""
     out = []
-    protocols = dict.fromkeys(protocol for _, _, protocol in primary)
-    for protocol in protocols:
+    schemes = dict.fromkeys(derivatives for _, _, derivatives in primary)
+    for derivatives in schemes:
         for model, baseline in PAIRS:
             modes = ("ml",) if baseline == CONSTANT_VELOCITY else ("ml", "best-of-20")
             for mode in modes:
@@ -191,8 +191,8 @@ def paired_differences(
                     base_mode = "ml" if baseline == CONSTANT_VELOCITY else mode
                     diffs = {}
                     for metric in ("fde", "ade"):
-                        a = _per_split(primary, model, protocol, mode, column, metric)
-                        b = _per_split(primary, baseline, protocol, base_mode, column, metric)
+                        a = _per_split(primary, model, derivatives, mode, column, metric)
+                        b = _per_split(primary, baseline, derivatives, base_mode, column, metric)
                         if a is None or b is None:
                             break
                         if any(len(x[0]) != len(y[0]) for x, y in zip(a, b, strict=True)):
@@ -202,7 +202,7 @@ def paired_differences(
                     if len(diffs) == 2:
                         out.append(
                             PairedDifference(
-                                protocol,
+                                derivatives,
                                 mode,
                                 model,
                                 baseline,
@@ -216,14 +216,14 @@ def paired_differences(
 
 
 def seed_spreads(runs: Sequence[ScoredRun], columns: Sequence[str]) -> list[SeedSpread]:
-    """ML scores per seed where a (model, split, protocol) has several seed runs, and the
+    """ML scores per seed where a (model, split, derivatives) has several seed runs, and the
     Grouptron - Trajectron++ difference of seeds run for both."""
     by_key: dict[tuple[str, str, str], list[ScoredRun]] = {}
     for run in runs:
         if run.entry.model != CONSTANT_VELOCITY:
             by_key.setdefault(_key(run), []).append(run)
     out = []
-    for (model, split, protocol), seeded in by_key.items():
+    for (model, split, derivatives), seeded in by_key.items():
         if len(seeded) < 2:
             continue
         seeded = sorted(seeded, key=lambda r: r.entry.seed)
@@ -235,16 +235,18 @@ def seed_spreads(runs: Sequence[ScoredRun], columns: Sequence[str]) -> list[Seed
             seeds = tuple(r.entry.seed for r in seeded)
             means = [float(v[0].mean()) for v in fde if v is not None]
             ade_means = [float(v[0].mean()) for v in ade if v is not None]
-            out.append(SeedSpread(model, protocol, column, seeds, tuple(means), tuple(ade_means)))
+            out.append(
+                SeedSpread(model, derivatives, column, seeds, tuple(means), tuple(ade_means))
+            )
     return out + _seed_differences(out)
 
 
 def _seed_differences(spreads: Sequence[SeedSpread]) -> list[SeedSpread]:
     """Grouptron - Trajectron++ per seed, for the seeds both models have."""
     out = []
-    index = {(s.model, s.protocol, s.column): s for s in spreads}
-    for (model, protocol, column), grouptron in index.items():
-        other = index.get(("trajectron++", protocol, column))
+    index = {(s.model, s.derivatives, s.column): s for s in spreads}
+    for (model, derivatives, column), grouptron in index.items():
+        other = index.get(("trajectron++", derivatives, column))
         if model != "grouptron" or other is None:
             continue
         common = [s for s in grouptron.seeds if s in other.seeds]
@@ -255,26 +257,26 @@ def _seed_differences(spreads: Sequence[SeedSpread]) -> list[SeedSpread]:
         fde = tuple(g[s][0] - t[s][0] for s in common)
         ade = tuple(g[s][1] - t[s][1] for s in common)
         name = "grouptron - trajectron++"
-        out.append(SeedSpread(name, protocol, column, tuple(common), fde, ade))
+        out.append(SeedSpread(name, derivatives, column, tuple(common), fde, ade))
     return out
 
 
 def with_split_means(rows: list[EvaluationResult]) -> list[EvaluationResult]:
-    """``rows`` plus the AVG row of every (model, protocol, mode) scored on all five splits."""
+    """``rows`` plus the AVG row of every (model, derivatives, mode) scored on all five splits."""
     means = []
-    keys = dict.fromkeys((r.model, r.protocol, r.mode) for r in rows if r.subset is None)
-    for model, protocol, mode in keys:
+    keys = dict.fromkeys((r.model, r.derivatives, r.mode) for r in rows if r.subset is None)
+    for model, derivatives, mode in keys:
         per_split = [
             r
             for r in rows
-            if (r.model, r.protocol, r.mode, r.subset) == (model, protocol, mode, None)
+            if (r.model, r.derivatives, r.mode, r.subset) == (model, derivatives, mode, None)
         ]
         if sorted(r.split for r in per_split) == sorted(SPLITS):
             means.append(mean_over_splits(per_split))
     return rows + means
 
 
-def build_report(runs: Sequence[ScoredRun], protocols: Sequence[str]) -> Report:
+def build_report(runs: Sequence[ScoredRun], schemes: Sequence[str]) -> Report:
     """Table rows (lowest seed of each checkpoint, plus constant velocity and AVG) with
     intervals, paired differences and seed spreads."""
     primary = primary_runs(runs)

@@ -32,7 +32,7 @@ OURS_MODELS = ("trajectron++", "grouptron")
 TARGET_TOLERANCE = 0.05
 """The reproduction targets: within 5% of the published row on every split."""
 
-Key = tuple[str, str | None, str, str | None]  # model, protocol, column, mode
+Key = tuple[str, str | None, str, str | None]  # model, derivatives, column, mode
 
 
 def _name(value: str) -> str:
@@ -46,7 +46,7 @@ def _column(row: EvaluationResult) -> str:
 
 
 def index_rows(rows: Sequence[EvaluationResult]) -> dict[Key, EvaluationResult]:
-    return {(r.model, r.protocol, _column(r), r.mode): r for r in rows}
+    return {(r.model, r.derivatives, _column(r), r.mode): r for r in rows}
 
 
 def _pair(fde: float, ade: float) -> str:
@@ -73,13 +73,13 @@ def _ml_table(
     rows: dict[Key, EvaluationResult],
     columns: Sequence[str],
     published: dict[str, dict[str, tuple[float, float]]],
-    protocols: Sequence[str],
+    schemes: Sequence[str],
 ) -> list[str]:
-    """Published rows, our rows per protocol, Δ to published (central) and Grouptron vs ours."""
+    """Published rows, our rows per derivatives, Δ to published (central) and Grouptron vs ours."""
     lines: list[list[str]] = []
 
-    def ours(model: str, protocol: str, column: str) -> EvaluationResult | None:
-        return rows.get((model, protocol, column, "ml"))
+    def ours(model: str, derivatives: str, column: str) -> EvaluationResult | None:
+        return rows.get((model, derivatives, column, "ml"))
 
     for method, values in published.items():
         if method in OURS_MODELS:
@@ -89,18 +89,18 @@ def _ml_table(
         if model in published:
             values = published[model]
             lines.append([_name(model), "published", *(_published(values[c]) for c in columns)])
-        for protocol in protocols:
-            cells = [ours(model, protocol, c) for c in columns]
+        for derivatives in schemes:
+            cells = [ours(model, derivatives, c) for c in columns]
             if not any(cells):
                 continue
             lines.append(
                 [
                     _name(model),
-                    f"ours, {protocol}",
+                    f"ours, {derivatives}",
                     *(_pair(r.fde, r.ade) if r else "-" for r in cells),
                 ]
             )
-            if protocol == "central" and model in published:
+            if derivatives == "central" and model in published:
                 lines.append(
                     [
                         "",
@@ -114,22 +114,23 @@ def _ml_table(
                         ),
                     ]
                 )
-    for protocol in protocols:
+    for derivatives in schemes:
         pairs = [
-            (ours("grouptron", protocol, c), ours("trajectron++", protocol, c)) for c in columns
+            (ours("grouptron", derivatives, c), ours("trajectron++", derivatives, c))
+            for c in columns
         ]
         if any(g and t for g, t in pairs):
             lines.append(
                 [
                     "Grouptron vs Trajectron++",
-                    f"Δ ours, {protocol}",
+                    f"Δ ours, {derivatives}",
                     *(
                         f"{_percent(g.fde, t.fde)} / {_percent(g.ade, t.ade)}" if g and t else "-"
                         for g, t in pairs
                     ),
                 ]
             )
-    cv = [rows.get((CONSTANT_VELOCITY, protocols[0], c, "ml")) for c in columns]
+    cv = [rows.get((CONSTANT_VELOCITY, schemes[0], c, "ml")) for c in columns]
     if any(cv):
         lines.append(
             [_name(CONSTANT_VELOCITY), "ours", *(_pair(r.fde, r.ade) if r else "-" for r in cv)]
@@ -145,15 +146,15 @@ def _mode_table(
     rows: dict[Key, EvaluationResult],
     columns: Sequence[str],
     mode: str,
-    protocols: Sequence[str],
+    schemes: Sequence[str],
     with_baseline: bool = False,
 ) -> list[str]:
-    """One line per (model, protocol): FDE/ADE, or the NLL in nats for ``nll``."""
+    """One line per (model, derivatives): FDE/ADE, or the NLL in nats for ``nll``."""
     lines = []
     models = (*OURS_MODELS, CONSTANT_VELOCITY) if with_baseline else OURS_MODELS
-    for protocol in protocols:
+    for derivatives in schemes:
         for model in models:
-            cells = [rows.get((model, protocol, c, mode)) for c in columns]
+            cells = [rows.get((model, derivatives, c, mode)) for c in columns]
             if not any(cells):
                 continue
             if mode == "nll":
@@ -162,27 +163,27 @@ def _mode_table(
                 ]
             else:
                 text = [_pair(r.fde, r.ade) if r else "-" for r in cells]
-            lines.append([_name(model), protocol, *text])
+            lines.append([_name(model), derivatives, *text])
     if not lines:
         return []
-    return _table(["model", "protocol", *(_name(c) for c in columns)], lines)
+    return _table(["model", "derivatives", *(_name(c) for c in columns)], lines)
 
 
 def target_checks(
     rows: dict[Key, EvaluationResult],
-    protocols: Sequence[str],
+    schemes: Sequence[str],
     paired: Sequence[PairedDifference] = (),
 ) -> list[str]:
     """The reproduction targets, each with its measured evidence and 'met' or 'NOT met'."""
     checks = []
 
-    def ml(model: str, protocol: str, column: str) -> EvaluationResult | None:
-        return rows.get((model, protocol, column, "ml"))
+    def ml(model: str, derivatives: str, column: str) -> EvaluationResult | None:
+        return rows.get((model, derivatives, column, "ml"))
 
     def verdict(ok: bool) -> str:
         return "met" if ok else "NOT met"
 
-    if "central" in protocols:
+    if "central" in schemes:
         for model in OURS_MODELS:
             worst: list[tuple[float, str]] = []
             for split in SPLITS:
@@ -225,11 +226,11 @@ def target_checks(
                     f"Grouptron {_name(column)} at or below published "
                     f"{fde_ref:.2f}/{ade_ref:.2f}: {verdict(ok)} ({_pair(r.fde, r.ade)})"
                 )
-    for model in OURS_MODELS if "backward" in protocols else ():
+    for model in OURS_MODELS if "backward" in schemes else ():
         pairs = [
             p
             for p in paired
-            if (p.protocol, p.mode, p.model, p.baseline)
+            if (p.derivatives, p.mode, p.model, p.baseline)
             == ("backward", "ml", model, CONSTANT_VELOCITY)
             and p.column in SPLITS
         ]
@@ -242,13 +243,13 @@ def target_checks(
                 f"{_name(model)} (backward) ML FDE at or below constant velocity's on every "
                 f"split: {verdict(ok)} (paired FDE differences, m: {evidence})"
             )
-    for protocol in protocols:
+    for derivatives in schemes:
         for column in (MEAN_ROW, *TABLE_II_COLUMNS):
-            g, t = ml("grouptron", protocol, column), ml("trajectron++", protocol, column)
+            g, t = ml("grouptron", derivatives, column), ml("trajectron++", derivatives, column)
             if g is None or t is None:
                 continue
             checks.append(
-                f"Grouptron FDE below our Trajectron++ on {_name(column)} ({protocol}): "
+                f"Grouptron FDE below our Trajectron++ on {_name(column)} ({derivatives}): "
                 f"{verdict(g.fde < t.fde)} ({g.fde:.3f} vs {t.fde:.3f})"
             )
     return [f"- {check}" for check in checks]
@@ -261,34 +262,34 @@ def _ci(row: EvaluationResult | None) -> str:
 
 
 def interval_table(
-    rows: dict[Key, EvaluationResult], columns: Sequence[str], protocols: Sequence[str]
+    rows: dict[Key, EvaluationResult], columns: Sequence[str], schemes: Sequence[str]
 ) -> list[str]:
-    """ML FDE with its 95% interval (time steps resampled) per model, protocol and column."""
+    """ML FDE with its 95% interval (time steps resampled) per model, derivatives and column."""
     lines = []
-    for protocol in protocols:
+    for derivatives in schemes:
         for model in (*OURS_MODELS, CONSTANT_VELOCITY):
-            cells = [rows.get((model, protocol, c, "ml")) for c in columns]
+            cells = [rows.get((model, derivatives, c, "ml")) for c in columns]
             if any(cells):
-                lines.append([_name(model), protocol, *(_ci(r) for r in cells)])
-    return _table(["model", "protocol", *(_name(c) for c in columns)], lines) if lines else []
+                lines.append([_name(model), derivatives, *(_ci(r) for r in cells)])
+    return _table(["model", "derivatives", *(_name(c) for c in columns)], lines) if lines else []
 
 
 def paired_table(paired: Sequence[PairedDifference], columns: Sequence[str]) -> list[str]:
     """Mean FDE differences (model - baseline, same samples) with 95% intervals; a * marks an
     interval that excludes zero."""
-    index = {(p.protocol, p.mode, p.model, p.baseline, p.column): p for p in paired}
-    keys = dict.fromkeys((p.protocol, p.mode, p.model, p.baseline) for p in paired)
+    index = {(p.derivatives, p.mode, p.model, p.baseline, p.column): p for p in paired}
+    keys = dict.fromkeys((p.derivatives, p.mode, p.model, p.baseline) for p in paired)
     lines = []
-    for protocol, mode, model, baseline in keys:
+    for derivatives, mode, model, baseline in keys:
         cells = []
         for column in columns:
-            p = index.get((protocol, mode, model, baseline, column))
+            p = index.get((derivatives, mode, model, baseline, column))
             star = "*" if p is not None and p.fde.excludes_zero() else ""
             cells.append(
                 f"{p.fde.mean:+.3f} [{p.fde.low:+.3f}, {p.fde.high:+.3f}]{star}" if p else "-"
             )
-        lines.append([f"{_name(model)} - {_name(baseline)}", f"{protocol}, {mode}", *cells])
-    return _table(["difference", "protocol, mode", *(_name(c) for c in columns)], lines)
+        lines.append([f"{_name(model)} - {_name(baseline)}", f"{derivatives}, {mode}", *cells])
+    return _table(["difference", "derivatives, mode", *(_name(c) for c in columns)], lines)
 
 
 def seed_table(seeds: Sequence[SeedSpread]) -> list[str]:
@@ -300,7 +301,7 @@ def seed_table(seeds: Sequence[SeedSpread]) -> list[str]:
         lines.append(
             [
                 name,
-                s.protocol,
+                s.derivatives,
                 _name(s.column),
                 ", ".join(str(seed) for seed in s.seeds),
                 f"{fde:.3f} ± {fde_sd:.3f}",
@@ -308,11 +309,11 @@ def seed_table(seeds: Sequence[SeedSpread]) -> list[str]:
                 ", ".join(f"{v:.3f}" for v in s.fde),
             ]
         )
-    header = ["model", "protocol", "test set", "seeds", "FDE mean ± sd", "ADE mean ± sd"]
+    header = ["model", "derivatives", "test set", "seeds", "FDE mean ± sd", "ADE mean ± sd"]
     return _table([*header, "FDE per seed"], lines)
 
 
-def report_markdown(report: Report, protocols: Sequence[str], command: str) -> str:
+def report_markdown(report: Report, schemes: Sequence[str], command: str) -> str:
     """The whole report as a Markdown document."""
     results = report.rows
     rows = index_rows(results)
@@ -322,14 +323,14 @@ def report_markdown(report: Report, protocols: Sequence[str], command: str) -> s
         "",
         f"Generated by `{command}` from the checkpoints listed at the end; do not edit by hand.",
         "Cells are FDE/ADE in metres on the test sets (leave one location out), as in the",
-        "Grouptron paper. *published* rows are copied from the paper (central protocol);",
+        "Grouptron paper. *published* rows are copied from the paper (central derivatives);",
         "*ours* rows are measured. Δ is the difference in percent (negative: lower error).",
         "Protocols: `central` derivatives are the papers' inputs (the velocity at the last",
         "observed step uses the next, unobserved position); `backward` derivatives are causal.",
         "",
         "## Table I: ETH/UCY, most likely prediction",
         "",
-        *_ml_table(rows, TABLE_I_COLUMNS, TABLE_I, protocols),
+        *_ml_table(rows, TABLE_I_COLUMNS, TABLE_I, schemes),
         "",
         "## Table II: dense UNIV subsets, most likely",
         "",
@@ -337,7 +338,7 @@ def report_markdown(report: Report, protocols: Sequence[str], command: str) -> s
         "predicted agents (test samples). Scoring the public Trajectron++ univ weights this way",
         "reproduces the paper's Trajectron++ row to within 0.007 m.",
         "",
-        *_ml_table(rows, TABLE_II_COLUMNS, TABLE_II, protocols),
+        *_ml_table(rows, TABLE_II_COLUMNS, TABLE_II, schemes),
     ]
     present = [c for c in PRESENT_COLUMNS if any(_column_of(k) == c for k in rows)]
     if present:
@@ -348,7 +349,7 @@ def report_markdown(report: Report, protocols: Sequence[str], command: str) -> s
             "The same, at time steps with N or more pedestrians *present* (observed at t,",
             "whatever their history or future): many more samples; not the paper's definition.",
             "",
-            *_mode_table(rows, ("univ", *present), "ml", protocols, with_baseline=True),
+            *_mode_table(rows, ("univ", *present), "ml", schemes, with_baseline=True),
         ]
     columns = (*TABLE_I_COLUMNS, *TABLE_II_COLUMNS[1:])
     out += [
@@ -359,7 +360,7 @@ def report_markdown(report: Report, protocols: Sequence[str], command: str) -> s
         "time steps (samples of one step are not independent), 2000 replicates; AVG resamples",
         "each split and averages.",
         "",
-        *interval_table(rows, columns, protocols),
+        *interval_table(rows, columns, schemes),
     ]
     if report.paired:
         out += [
@@ -383,9 +384,9 @@ def report_markdown(report: Report, protocols: Sequence[str], command: str) -> s
     }
     for mode, title in extra.items():
         if mode in modes:
-            table = _mode_table(rows, (*TABLE_I_COLUMNS, *TABLE_II_COLUMNS[1:]), mode, protocols)
+            table = _mode_table(rows, (*TABLE_I_COLUMNS, *TABLE_II_COLUMNS[1:]), mode, schemes)
             out += ["", f"## {title}", "", *table]
-    checks = target_checks(rows, protocols, report.paired)
+    checks = target_checks(rows, schemes, report.paired)
     if checks:
         out += ["", "## Targets", "", *checks]
     used = sorted(

@@ -34,7 +34,7 @@ class EvaluationResult:
     mode: str | None = None
     nll: float | None = None
     checkpoint: str | None = None
-    protocol: str | None = None
+    derivatives: str | None = None
     """The derivative scheme of the inputs: ``central`` (the papers') or ``backward``."""
     ade_ci: tuple[float, float] | None = None
     """95% bootstrap interval of the mean ADE (time steps resampled), where computed."""
@@ -42,7 +42,7 @@ class EvaluationResult:
 
     def to_dict(self) -> dict[str, object]:
         row = dataclasses.asdict(self)
-        for optional in ("mode", "nll", "checkpoint", "protocol", "ade_ci", "fde_ci"):
+        for optional in ("mode", "nll", "checkpoint", "derivatives", "ade_ci", "fde_ci"):
             if row[optional] is None:
                 del row[optional]
         return {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in row.items()}

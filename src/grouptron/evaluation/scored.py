@@ -21,7 +21,7 @@ class ReportCheckpoint:
 
     model: str
     split: str
-    protocol: DerivativeScheme
+    derivatives: DerivativeScheme
     path: Path
     seed: int = 0
 

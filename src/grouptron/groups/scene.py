@@ -93,7 +93,7 @@ def score_against_labels(
 ) -> dict[str, dict[str, float]]:
     """Pairwise precision/recall/F1 and Dice of detected against labelled groups.
 
-    Two protocols, over every step with two or more pedestrians:
+    Two scopes, over every step with two or more pedestrians:
       ``scene``: all pedestrians present are clustered together; every pair is a decision.
       ``per_ego``: as the model does, each pedestrian and those within ``radius_m`` of it are
       clustered; the decisions are "is this neighbour in the ego's group".

@@ -188,7 +188,7 @@ class Predictor:
         # into a scene for every frame asked about (central derivatives read two steps ahead).
         ahead = 0 if live else 2 * self.frames_per_step
         near = (values[:, 0] >= frame - self.window_frames) & (values[:, 0] <= frame + ahead)
-        return self._forecast(values[near], frame, num_samples, seed, warn_off_protocol=live)
+        return self._forecast(values[near], frame, num_samples, seed, warn_if_central=live)
 
     def stream(self) -> StreamSession:
         """A session that is fed one frame at a time and keeps the history it needs."""
@@ -200,11 +200,11 @@ class Predictor:
         frame: int,
         num_samples: int,
         seed: int,
-        warn_off_protocol: bool = True,
+        warn_if_central: bool = True,
     ) -> Forecast:
         if num_samples < 0:
             raise GrouptronError(f"num_samples must be >= 0, not {num_samples}")
-        if warn_off_protocol:
+        if warn_if_central:
             self._warn_if_central()
         data = self.config.data
         if len(values) == 0 or not (values[:, 0] == frame).any():

@@ -1,6 +1,6 @@
 """A model card (README.md) beside every run's checkpoints, rewritten after every epoch.
 
-It says what the weights are (model, split, protocol), how they were trained (recipe, epochs,
+It says what the weights are (model, split, derivatives), how they were trained (recipe, epochs,
 wall time, machine) and how they did on validation, so a shipped checkpoint explains itself.
 """
 
@@ -18,7 +18,7 @@ from grouptron.io import write_text_atomically
 
 CARD = "README.md"
 DISPLAY_NAMES = {"trajectron++": "Trajectron++", "grouptron": "Grouptron"}
-PROTOCOL_NOTES = {
+DERIVATIVES_NOTES = {
     "central": "central derivatives (the papers' protocol; the last observed velocity uses "
     "the next position)",
     "backward": "backward derivatives (causal)",
@@ -149,7 +149,7 @@ def render_model_card(
             f"{config.split} (trained on the train parts of the other four locations, "
             "validated on their val parts)",
         ),
-        ("protocol", PROTOCOL_NOTES.get(config.data.derivatives, config.data.derivatives)),
+        ("derivatives", DERIVATIVES_NOTES.get(config.data.derivatives, config.data.derivatives)),
         ("recipe", recipe),
         ("epochs trained", _epochs_trained(last, bool(train.init_from))),
         *_selection_rows(scored, selection),

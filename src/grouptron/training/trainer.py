@@ -128,7 +128,7 @@ def _warm_start(
 ) -> None:
     """Start from another run's weights, optimiser state and step count (not its epochs).
 
-    Used to move a trained model to another protocol (e.g. central -> backward derivatives):
+    Used to move a trained model to other derivatives (e.g. central -> backward):
     the step count keeps the KL and logit-clip schedules and the learning-rate decay where
     the source run left them instead of re-annealing a trained model.
     """
