@@ -11,6 +11,7 @@ from typing import Any, Literal, TypeVar
 from grouptron import constants
 from grouptron.errors import GrouptronError
 from grouptron.geometry import DERIVATIVE_SCHEMES, DerivativeScheme
+from grouptron.io import write_text_atomically
 
 
 @dataclass(frozen=True)
@@ -312,5 +313,5 @@ def load_config(cls: type[ConfigT], path: str | Path) -> ConfigT:
 
 
 def save_config(config: Any, path: str | Path) -> None:
-    """Write a config dataclass as indented JSON."""
-    Path(path).write_text(json.dumps(config_to_dict(config), indent=2) + "\n")
+    """Write a config dataclass as indented JSON (atomically)."""
+    write_text_atomically(Path(path), json.dumps(config_to_dict(config), indent=2) + "\n")

@@ -44,19 +44,32 @@ def write_text_atomically(path: Path, text: str) -> None:
     _write_atomically(path, lambda handle: handle.write(text))
 
 
-def save_atomically(path: Path, save: Callable[[Path], object]) -> None:
-    """Let ``save`` write a file (a table, a picture, an animation) at a temporary path beside
-    ``path``, with the same suffix so format-by-suffix writers still work; rename it into place."""
+def save_atomically(
+    path: Path, save: Callable[[Path], object], *, fsync: bool = False, suffix: str | None = None
+) -> None:
+    """The one way grouptron writes a file: ``save`` writes it (a table, a picture, an
+    animation, a cache, a checkpoint) at a temporary path beside ``path``, which is then
+    renamed into place, so a crash or a full disk leaves the previous file, never a torn one.
+
+    Args:
+        path: the file to write.
+        save: writes the file at the path it is given.
+        fsync: flush the file to the disk before the rename (checkpoints).
+        suffix: the temporary's suffix; default ``path``'s, so format-by-suffix writers work.
+    """
     refuse_folder(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     descriptor, name = tempfile.mkstemp(
-        dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix
+        dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix if suffix is None else suffix
     )
     os.close(descriptor)
     temporary = Path(name)
     try:
         save(temporary)
-        os.chmod(temporary, 0o644)
+        if fsync:
+            with temporary.open("rb") as handle:
+                os.fsync(handle.fileno())
+        os.chmod(temporary, 0o644)  # mkstemp creates 0600; these are ordinary files
         os.replace(temporary, path)
     finally:
         if temporary.exists():

@@ -5,8 +5,6 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-import os
-import tempfile
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,6 +16,7 @@ from grouptron.data.locate import preprocessed_cache_dir, split_files
 from grouptron.data.reader import read_tracks
 from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
 from grouptron.data.scene import Scene, build_scene
+from grouptron.io import save_atomically
 
 log = logging.getLogger(__name__)
 
@@ -92,11 +91,8 @@ def _save_part(path: Path, part: PartData) -> None:
 
 
 def save_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    """Write to a temporary file in the same folder, then rename: never a half-written cache."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".tmp", delete=False) as handle:
-        np.savez(handle, **arrays)  # type: ignore[arg-type]
-    os.replace(handle.name, path)
+    """Write atomically: never a half-written cache."""
+    save_atomically(path, lambda temporary: np.savez(temporary, **arrays))  # type: ignore[arg-type]
 
 
 def _load_part(path: Path) -> PartData:

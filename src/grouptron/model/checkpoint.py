@@ -8,8 +8,6 @@ safetensors header's string metadata. A weights-only file (for shipping) has jus
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -20,6 +18,7 @@ from safetensors.torch import load_file, safe_open, save_file
 
 from grouptron.config import ExperimentConfig, config_to_dict, experiment_from_stored
 from grouptron.errors import GrouptronError
+from grouptron.io import save_atomically
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import build_model, load_weights
 
@@ -95,27 +94,18 @@ def save_checkpoint(path: str | Path, checkpoint: Checkpoint) -> None:
         "optimizer": json.dumps(optimizer_meta),
         "extra": json.dumps(checkpoint.extra),
     }
-    path.parent.mkdir(parents=True, exist_ok=True)
-    descriptor, temporary = tempfile.mkstemp(
-        dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"
-    )
-    os.close(descriptor)
     try:
-        try:
-            save_file(tensors, temporary, metadata=metadata)
-            with open(temporary, "rb") as handle:
-                os.fsync(handle.fileno())
-        except OSError as exc:  # e.g. a full disk: the previous file has not been touched
-            kept = "is kept as it was" if path.exists() else "was not written"
-            raise GrouptronError(
-                f"{path}: could not write the checkpoint ({exc.strerror or exc}); {path.name} "
-                f"{kept}"
-            ) from None
-        os.chmod(temporary, 0o644)  # mkstemp creates 0600; a checkpoint is an ordinary file
-        os.replace(temporary, path)
-    finally:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
+        save_atomically(
+            path,
+            lambda temporary: save_file(tensors, str(temporary), metadata=metadata),
+            fsync=True,
+            suffix=".tmp",
+        )
+    except OSError as exc:  # e.g. a full disk: the previous file has not been touched
+        kept = "is kept as it was" if path.exists() else "was not written"
+        raise GrouptronError(
+            f"{path}: could not write the checkpoint ({exc.strerror or exc}); {path.name} {kept}"
+        ) from None
 
 
 def _refuse(path: Path, why: str) -> GrouptronError:

@@ -7,6 +7,8 @@ from typing import Any
 
 import matplotlib
 
+from grouptron.io import save_atomically
+
 matplotlib.use("Agg")  # files only; works without a display
 import matplotlib.pyplot as plt
 import numpy as np
@@ -71,6 +73,6 @@ def plot_step_groups(
     try:
         fig.tight_layout()
         out.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(out)
+        save_atomically(out, fig.savefig)
     finally:
         plt.close(fig)
