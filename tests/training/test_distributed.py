@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import socket
 import subprocess
@@ -108,4 +109,5 @@ def test_two_processes_end_at_the_weights_of_one(
     assert weights and sorted(both[0]) == sorted(both[1])
     for name in weights:
         torch.testing.assert_close(both[0][name], both[1][name], atol=1e-5, rtol=1e-4)
-    assert (tmp_path / "two" / "metrics.csv").read_text().splitlines()[1].split(",")[-1] == "2"
+    with (tmp_path / "two" / "metrics.csv").open() as handle:
+        assert next(csv.DictReader(handle))["processes"] == "2"

@@ -21,7 +21,7 @@ from grouptron.constants import SPLITS
 from grouptron.data.locate import resolve_data_dir
 from grouptron.data.subsets import parse_univ_n
 from grouptron.errors import GrouptronError
-from grouptron.evaluation.evaluate import MODES, evaluate_model
+from grouptron.evaluation.evaluate import MODES, ModeScores, evaluate_model
 from grouptron.evaluation.results import (
     EvaluationResult,
     mean_over_splits,
@@ -32,6 +32,17 @@ from grouptron.evaluation.results import (
 from grouptron.evaluation.test_sets import load_test_set
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.factory import uses_groups
+
+
+def _row(template: EvaluationResult, scores: ModeScores) -> EvaluationResult:
+    return dataclasses.replace(
+        template,
+        samples=scores.samples,
+        ade=scores.ade,
+        fde=scores.fde,
+        mode=scores.mode,
+        nll=scores.nll if scores.mode == "nll" else None,
+    )
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
@@ -77,21 +88,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             progress=not args.quiet,
             groups=groups,
         )
-        for s in scores:
-            results.append(
-                EvaluationResult(
-                    split=split,
-                    model=experiment.model_name,
-                    subset=args.subset,
-                    samples=s.samples,
-                    ade=s.ade,
-                    fde=s.fde,
-                    mode=s.mode,
-                    nll=s.nll if s.mode == "nll" else None,
-                    checkpoint=str(args.checkpoint),
-                    derivatives=config.derivatives,
-                )
-            )
+        template = EvaluationResult(split, experiment.model_name, args.subset, 0, 0.0, 0.0)
+        template = dataclasses.replace(
+            template, checkpoint=str(args.checkpoint), derivatives=config.derivatives
+        )
+        results += [_row(template, s) for s in scores]
     if len(splits) == len(SPLITS):
         for mode in dict.fromkeys(r.mode for r in results):
             results.append(mean_over_splits([r for r in results if r.mode == mode]))

@@ -163,7 +163,10 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     predict.add_argument("--threads", type=positive_int, default=2, help="CPU threads")
     predict.add_argument("--quiet", action="store_true", help="no progress bar")
     predict.set_defaults(handler=cmd_predict)
+    _add_plot(commands)
 
+
+def _add_plot(commands: argparse._SubParsersAction) -> None:
     plot = commands.add_parser(
         "plot",
         help="draw a checkpoint's forecasts at one frame of a track file",

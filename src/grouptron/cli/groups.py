@@ -147,16 +147,22 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         dest="groups_command", metavar="ACTION", parser_class=Parser
     )
 
-    def track_options(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("--tracks", required=True, help="a 'frame id x y' track file")
-        parser.add_argument(
-            "--frames-per-step",
-            type=positive_int,
-            default=10,
-            help="frames between annotated steps",
-        )
-        add_gap_option(parser)
+    _add_detect(group_commands)
+    _add_evaluate(group_commands)
 
+
+def _track_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--tracks", required=True, help="a 'frame id x y' track file")
+    parser.add_argument(
+        "--frames-per-step",
+        type=positive_int,
+        default=10,
+        help="frames between annotated steps",
+    )
+    add_gap_option(parser)
+
+
+def _add_detect(group_commands: argparse._SubParsersAction) -> None:
     detect = group_commands.add_parser(
         "detect",
         help="group ids of every pedestrian at every step",
@@ -167,7 +173,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "  grouptron groups detect --tracks students003.txt --out groups.csv\n"
         "  grouptron groups detect --tracks biwi_eth.txt --plot eth.png --frame 5000",
     )
-    track_options(detect)
+    _track_options(detect)
     detect.add_argument("--out", help="CSV file (default: print to standard output)")
     detect.add_argument("--plot", help="PNG of one step's groups")
     detect.add_argument("--frame", type=int, help="frame to plot (default: the most crowded)")
@@ -185,6 +191,8 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     )
     detect.set_defaults(handler=cmd_groups_detect)
 
+
+def _add_evaluate(group_commands: argparse._SubParsersAction) -> None:
     score = group_commands.add_parser(
         "evaluate",
         help="score detected groups against whole-track human labels",
@@ -200,7 +208,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "  grouptron groups evaluate --tracks crowds_zara01.txt --labels zara1/groups.txt "
         "--linkage all --distance all --format json",
     )
-    track_options(score)
+    _track_options(score)
     score.add_argument("--labels", required=True, help="group label file")
     score.add_argument("--id-map", help="CSV 'track_id,label_id' when the ids differ")
     score.add_argument(

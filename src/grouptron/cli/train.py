@@ -210,6 +210,13 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         help="warm start from another run's last.safetensors (same model): its weights, "
         "optimiser state and step count, e.g. to move a central run to backward derivatives",
     )
+    _add_settings_options(train_cmd)
+    add_data_options(train_cmd)
+    train_cmd.set_defaults(handler=cmd_train)
+
+
+def _add_settings_options(train_cmd: argparse.ArgumentParser) -> None:
+    """Where the run's settings come from, and the common ones as flags."""
     train_cmd.add_argument(
         "--config",
         help="JSON file of settings laid over the model's preset (any subset of "
@@ -242,5 +249,3 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     train_cmd.add_argument(
         "--device", type=device_type, default="cpu", help="torch device, e.g. cpu or cuda"
     )
-    add_data_options(train_cmd)
-    train_cmd.set_defaults(handler=cmd_train)

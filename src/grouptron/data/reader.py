@@ -175,6 +175,36 @@ def read_tracks(
     return table_from_values(path, values, lines, frames_per_step, on_gap)
 
 
+def _check_range(path: Path, values: np.ndarray, lines: np.ndarray) -> None:
+    too_far = np.flatnonzero(np.abs(values[:, 2:4]).max(axis=1) > MAX_ABS_COORDINATE_M)
+    if too_far.size:
+        row = int(too_far[0])
+        column = 2 + int(np.abs(values[row, 2:4]).argmax())
+        raise DataFormatError(
+            path,
+            f"{COLUMNS[column]} = {values[row, column]:.3g} m is out of range "
+            f"(|x|, |y| <= {MAX_ABS_COORDINATE_M:.0e} m; positions are in metres)",
+            int(lines[row]),
+        )
+
+
+def _grid_steps(
+    path: Path, frame: np.ndarray, lines: np.ndarray, frames_per_step: int
+) -> np.ndarray:
+    """(R,) step of every row on the grid of ``frames_per_step`` frames from the first frame."""
+    first_frame = int(frame.min())
+    off_grid = np.flatnonzero((frame - first_frame) % frames_per_step)
+    if off_grid.size:
+        row = int(off_grid[0])
+        raise DataFormatError(
+            path,
+            f"frame {frame[row]} is not on the {frames_per_step}-frame grid that starts at frame "
+            f"{first_frame} (every frame must be first_frame + a multiple of {frames_per_step})",
+            int(lines[row]),
+        )
+    return (frame - first_frame) // frames_per_step
+
+
 def table_from_values(
     source: Path,
     values: np.ndarray,
@@ -192,32 +222,12 @@ def table_from_values(
         raise DataFormatError(source, "no 'frame id x y' rows")
     path = source
     _check_integers(path, values, lines)
-    too_far = np.flatnonzero(np.abs(values[:, 2:4]).max(axis=1) > MAX_ABS_COORDINATE_M)
-    if too_far.size:
-        row = int(too_far[0])
-        column = 2 + int(np.abs(values[row, 2:4]).argmax())
-        raise DataFormatError(
-            path,
-            f"{COLUMNS[column]} = {values[row, column]:.3g} m is out of range "
-            f"(|x|, |y| <= {MAX_ABS_COORDINATE_M:.0e} m; positions are in metres)",
-            int(lines[row]),
-        )
+    _check_range(path, values, lines)
     frame = values[:, 0].astype(np.int64)
     ped_id = values[:, 1].astype(np.int64)
     pos_m = values[:, 2:4].copy()
-
     first_frame = int(frame.min())
-    off_grid = np.flatnonzero((frame - first_frame) % frames_per_step)
-    if off_grid.size:
-        row = int(off_grid[0])
-        raise DataFormatError(
-            path,
-            f"frame {frame[row]} is not on the {frames_per_step}-frame grid that starts at frame "
-            f"{first_frame} (every frame must be first_frame + a multiple of {frames_per_step})",
-            int(lines[row]),
-        )
-    step = (frame - first_frame) // frames_per_step
-
+    step = _grid_steps(path, frame, lines, frames_per_step)
     order = np.lexsort((step, ped_id))  # sort by id, then step
     ped_id, step, pos_m, lines = ped_id[order], step[order], pos_m[order], lines[order]
     same_ped = ped_id[1:] == ped_id[:-1]
@@ -230,7 +240,6 @@ def table_from_values(
             f"{first_frame + step[duplicate[0]] * frames_per_step} (also on line {first})",
             second,
         )
-
     gap = same_ped & (step[1:] - step[:-1] > 1)
     if gap.any():
         where = int(np.flatnonzero(gap)[0])
@@ -243,10 +252,7 @@ def table_from_values(
             raise DataFormatError(path, message, int(lines[where + 1]))
         if warn_on_gap:
             log.warning(
-                "%s: %d track gap(s); split into separate tracks (first: %s)",
-                path,
-                int(gap.sum()),
-                message,
+                "%s: %d track gap(s); split into tracks (first: %s)", path, gap.sum(), message
             )
     new_track = np.concatenate([[True], ~same_ped | gap])
     track = np.cumsum(new_track) - 1

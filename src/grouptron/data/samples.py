@@ -121,6 +121,49 @@ def _dense_grid(scene: Scene, pad_before: int, pad_after: int) -> tuple[np.ndarr
     return state, present
 
 
+def _ego_history(
+    hist_state: np.ndarray, hist_mask: np.ndarray, ego_now: np.ndarray, scale: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(S, T, 6) states and (S, T) masks -> (S, T, 2) positions relative to now (metres) and
+    (S, T, 6) standardised states (positions relative to now); 0 where unobserved."""
+    hist_rel = (hist_state[..., :2] - ego_now[:, None, :2]) * hist_mask[..., None]
+    hist_st = hist_state.copy()
+    hist_st[..., :2] = hist_rel
+    return hist_rel, hist_st / scale * hist_mask[..., None]
+
+
+def segment_sums(values: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Sums of consecutive row ranges: (E, ...) values and (S + 1,) CSR offsets -> (S, ...),
+    via a prefix sum (no loop over the S ranges)."""
+    values = np.asarray(values, dtype=np.float64)
+    prefix = np.concatenate([np.zeros((1, *values.shape[1:])), np.cumsum(values, axis=0)])
+    return prefix[offsets[1:]] - prefix[offsets[:-1]]
+
+
+def _neighbours_at(
+    scene: Scene,
+    config: DataConfig,
+    track: np.ndarray,
+    step: np.ndarray,
+    only_step: int | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The neighbours of S samples at their step: (E,) tracks and edge weights, flat in sample
+    order, and (S,) counts. ``only_step`` limits the edge search to the steps it needs."""
+    ramp = config.edge_ramp_weights
+    from_step = 0 if only_step is None else max(0, only_step - (len(ramp) - 1))
+    edges = perception_edges(scene, config.perception_radius_m, ramp, from_step)
+    # The ego's outgoing edges at its step, already sorted by (src, step).
+    edge_key = edges.src.astype(np.int64) * scene.num_steps + edges.step
+    sample_key = track.astype(np.int64) * scene.num_steps + step
+    lo = np.searchsorted(edge_key, sample_key, side="left")
+    hi = np.searchsorted(edge_key, sample_key, side="right")
+    counts = hi - lo
+    edge_index = ranges_to_indices(lo, counts)
+    return edges.dst[edge_index], edges.weight[edge_index], counts
+
+
+# Longer than 60 lines on purpose: a 20-line docstring and the 17 named fields of the
+# SampleSet it fills; the steps in between are the helpers above.
 def scene_samples(
     scene: Scene,
     config: DataConfig,
@@ -158,45 +201,28 @@ def scene_samples(
     ego_now = scene.state_scene[is_sample]  # (S, 6)
 
     hist_cols = step[:, None] + np.arange(T)  # grid columns of t-T+1..t, (S, T)
-    hist_state = state_grid[track[:, None], hist_cols]  # (S, T, 6)
     hist_mask = present_grid[track[:, None], hist_cols]  # (S, T)
-    hist_rel = (hist_state[..., :2] - ego_now[:, None, :2]) * hist_mask[..., None]
-    hist_st = hist_state.copy()
-    hist_st[..., :2] = hist_rel
-    hist_st = hist_st / scale * hist_mask[..., None]
-
+    hist_rel, hist_st = _ego_history(
+        state_grid[track[:, None], hist_cols], hist_mask, ego_now, scale
+    )
     fut_cols = step[:, None] + pad_before + 1 + np.arange(H)  # (S, H)
     fut_rel = state_grid[track[:, None], fut_cols, :2] - ego_now[:, None, :2]  # (S, H, 2)
     fut_rel[~present_grid[track[:, None], fut_cols]] = np.nan
 
-    # Neighbours at t: the ego's outgoing edges at its step, already sorted by (src, step).
-    ramp = config.edge_ramp_weights
-    from_step = 0 if only_step is None else max(0, only_step - (len(ramp) - 1))
-    edges = perception_edges(scene, config.perception_radius_m, ramp, from_step)
-    edge_key = edges.src.astype(np.int64) * scene.num_steps + edges.step
-    sample_key = track.astype(np.int64) * scene.num_steps + step
-    lo = np.searchsorted(edge_key, sample_key, side="left")
-    hi = np.searchsorted(edge_key, sample_key, side="right")
-    counts = hi - lo
-    edge_index = ranges_to_indices(lo, counts)
-    nbr_track, nbr_weight = edges.dst[edge_index], edges.weight[edge_index]
+    nbr_track, nbr_weight, counts = _neighbours_at(scene, config, track, step, only_step)
     nbr_offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
 
-    # Sum of neighbour states per history step, via prefix sums over the flat edge list.
+    # Neighbour states per history step: each one's, and their sum per sample.
     edge_sample = np.repeat(np.arange(len(step)), counts)
     nbr_cols = hist_cols[edge_sample]  # (E, T)
     nbr_present = present_grid[nbr_track[:, None], nbr_cols]  # (E, T)
     nbr_state = state_grid[nbr_track[:, None], nbr_cols] * nbr_present[..., None]  # (E, T, 6)
-    zeros = np.zeros((1, T, 6))
-    state_prefix = np.concatenate([zeros, np.cumsum(nbr_state, axis=0)])
-    count_prefix = np.concatenate([zeros[..., 0], np.cumsum(nbr_present, axis=0)])
-    state_sum = state_prefix[nbr_offsets[1:]] - state_prefix[nbr_offsets[:-1]]  # (S, T, 6)
-    present_sum = count_prefix[nbr_offsets[1:]] - count_prefix[nbr_offsets[:-1]]  # (S, T)
+    state_sum, present_sum, edge_weight_sum = (
+        segment_sums(values, nbr_offsets) for values in (nbr_state, nbr_present, nbr_weight)
+    )  # (S, T, 6), (S, T), (S,)
     nbr_hist_st = (nbr_state - ego_now[edge_sample, None, :]) / scale * nbr_present[..., None]
     nbr_sum_st = (state_sum - present_sum[..., None] * ego_now[:, None, :]) / scale
     nbr_sum_st = nbr_sum_st * hist_mask[..., None]
-    weight_prefix = np.concatenate([[0.0], np.cumsum(nbr_weight)])
-    edge_weight_sum = weight_prefix[nbr_offsets[1:]] - weight_prefix[nbr_offsets[:-1]]
 
     return SampleSet(
         scene_names=np.asarray([scene.name]),

@@ -48,6 +48,9 @@ def _solve(a: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
     )
 
 
+# Longer than 60 lines on purpose: one safeguarded Newton iteration whose active set, step
+# choice and acceptance test share their intermediate tensors; split, each helper would take
+# and return most of them.
 def _climb(
     points: torch.Tensor,
     log_norm: torch.Tensor,

@@ -49,17 +49,9 @@ def plot_step_groups(
     ax.set_title(title)
     ax.grid(alpha=0.3)
     handles = [
-        plt.Line2D(
-            [0],
-            [0],
-            color=style(int(g))[0],
-            marker=style(int(g))[1],
-            lw=2,
-            mec="black",
-            mew=0.6,
-            label=f"group {g}",
-        )
+        plt.Line2D([0], [0], color=c, marker=m, lw=2, mec="black", mew=0.6, label=f"group {g}")
         for g in np.unique(labels)
+        for c, m in [style(int(g))]
     ]
     ax.legend(
         handles=handles,
