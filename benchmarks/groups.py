@@ -55,8 +55,8 @@ def main() -> None:
         index = rng.choice(len(samples), 256, replace=False)
         started = time.perf_counter()
         batch = make_batch(samples, index, config.data, draw_rotation_angles(rng, 256),
-                           train_groups if name == "grouptron" else None)  # fmt: skip
-        terms = elbo_loss(models[name](batch, logit_clip=1.0), batch, config.loss, 1.0, 0.4)
+                           groups=train_groups if name == "grouptron" else None)  # fmt: skip
+        terms = elbo_loss(models[name](batch, logit_clip=1.0), batch, config.loss, 1.0, dt_s=0.4)
         optimizers[name].zero_grad()
         terms.loss.backward()
         optimizers[name].step()

@@ -52,7 +52,9 @@ def score_run(path: Path, data_dir: Path) -> dict[str | None, tuple[float, float
     """(FDE, ADE) of the most likely prediction on the test set and its UNIV-N subsets."""
     model, config = load_trained_model(path)
     groups_config = config.groups if uses_groups(config) else None
-    samples, groups = load_test_set(data_dir, config.split, config.data, None, groups_config)
+    samples, groups = load_test_set(
+        data_dir, config.split, config.data, None, group_config=groups_config
+    )
     (scores,) = score_samples(model, config, samples, ("ml",), groups=groups)
     out = {}
     for subset, keep in subset_masks(config.split, samples).items():

@@ -74,7 +74,7 @@ def train_speed(data_dir: Path | None, iterations: int) -> dict[str, float]:
         counter = FlopCounterMode(display=False) if count_flops else None
         if counter is not None:
             counter.__enter__()
-        terms = elbo_loss(model(batch, logit_clip=1.0), batch, config.loss, 1.0, 0.4)
+        terms = elbo_loss(model(batch, logit_clip=1.0), batch, config.loss, 1.0, dt_s=0.4)
         optimizer.zero_grad()
         terms.loss.backward()
         if counter is not None:

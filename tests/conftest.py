@@ -95,7 +95,9 @@ def tiny_checkpoints(synthetic_data_dir: Path, tmp_path_factory: pytest.TempPath
         ]
         groups = (
             [
-                load_groups(synthetic_data_dir, "eth", p, config.data, config.groups, s)
+                load_groups(
+                    synthetic_data_dir, "eth", p, config.data, groups=config.groups, samples=s
+                )
                 for p, s in zip(("train", "val"), parts, strict=True)
             ]
             if model == "grouptron"

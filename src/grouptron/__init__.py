@@ -1,13 +1,17 @@
 """grouptron: group-aware pedestrian trajectory forecasting.
 
-The package follows the data flow ``data -> groups -> model -> training/evaluation -> cli``.
+Layers, each importing only those below it (docs/architecture.md):
+``cli > viz > inference > training > evaluation > baselines > model > groups > data > config``.
 
-Shape vocabulary used in docstrings and comments throughout:
+Shape letters used in docstrings and comments throughout (docs/vocabulary.md):
 
-    B  batch (samples)          N  agents / neighbours
-    T  history steps (8)        H  prediction horizon (12)
-    K  samples per prediction   Z  latent modes (25)
-    G  groups                   D  features
+    B  batch of samples          S  samples of a whole set or scene
+    N  agents / graph nodes      E  edges (neighbour rows, flat)
+    R  rows of a track table     T  history steps (8)
+    H  horizon steps (12)        K  sampled futures per sample
+    Z  latent values (25)        M  latent values decoded per sample
+    G  groups                    C  bootstrap clusters (time steps)
+    D  features
 
 A sample is one pedestrian (the *ego*) at one step ``t``; its history covers ``t-7..t`` and its
 future ``t+1..t+12``. Every step is 0.4 s (the ETH/UCY convention).

@@ -89,7 +89,7 @@ def training_loss(name: str) -> np.ndarray:
     groups = groups_for_model(samples, config)
     index = np.arange(len(samples))
     angles = np.deg2rad(15.0 * (index % 24))
-    batch = make_batch(samples, index, config.data, angles, groups)
+    batch = make_batch(samples, index, config.data, angles, groups=groups)
     generator_state = torch.get_rng_state()
     torch.manual_seed(11)
     noise = draw_training_noise(len(index), config.model, config.data.horizon_steps)
@@ -101,7 +101,7 @@ def training_loss(name: str) -> np.ndarray:
         logit_clip=schedules.logit_clip(config.loss, LOSS_ITERATION),
     )
     kl_weight = schedules.kl_weight(config.loss, LOSS_ITERATION)
-    terms = elbo_loss(output, batch, config.loss, kl_weight, config.data.dt_s)
+    terms = elbo_loss(output, batch, config.loss, kl_weight, dt_s=config.data.dt_s)
     values = (terms.loss, terms.log_likelihood, terms.kl, terms.mutual_info)
     return np.asarray([float(v.detach()) for v in values] + [kl_weight])
 

@@ -49,7 +49,12 @@ def test_ml_forecast_reproduces_the_evaluator(
     groups = None
     if model_name == "grouptron":
         groups = load_groups(
-            synthetic_data_dir, "eth", "test", config.data, config.groups, test.samples
+            synthetic_data_dir,
+            "eth",
+            "test",
+            config.data,
+            groups=config.groups,
+            samples=test.samples,
         )
     (scores,) = evaluate_model(model, config, test.samples, ("ml",), groups=groups)
     assert len(truth) == scores.samples

@@ -98,9 +98,9 @@ def test_decoding_chosen_latents_equals_the_same_rows_of_all() -> None:
     model = TrajectronCVAE(SMALL).eval()
     batch = random_batch()
     x = model.encode_condition(batch)
-    every = model.decode(x, batch.state_now_st, None, 12, "mean")
+    every = model.decode(x, batch.state_now_st, None, 12, feedback="mean")
     chosen = torch.tensor(np.array([[3, 1]] * 6))
-    some = model.decode(x, batch.state_now_st, chosen, 12, "mean")
+    some = model.decode(x, batch.state_now_st, chosen, 12, feedback="mean")
     torch.testing.assert_close(some.mean, every.mean[:, [3, 1]])
     torch.testing.assert_close(some.corr, every.corr[:, [3, 1]])
 
@@ -111,7 +111,11 @@ def test_sampled_feedback_is_reproducible_with_a_generator() -> None:
     batch = random_batch()
     x = model.encode_condition(batch)
     z = torch.zeros(6, 4, dtype=torch.long)
-    first = model.decode(x, batch.state_now_st, z, 12, "sample", torch.Generator().manual_seed(1))
-    again = model.decode(x, batch.state_now_st, z, 12, "sample", torch.Generator().manual_seed(1))
+    first = model.decode(
+        x, batch.state_now_st, z, 12, feedback="sample", generator=torch.Generator().manual_seed(1)
+    )
+    again = model.decode(
+        x, batch.state_now_st, z, 12, feedback="sample", generator=torch.Generator().manual_seed(1)
+    )
     torch.testing.assert_close(first.fed_back, again.fed_back)
     assert not torch.allclose(first.fed_back[:, 0], first.fed_back[:, 1])

@@ -32,19 +32,19 @@ MASK = torch.ones(4, 2, dtype=torch.bool)
 
 
 def test_sym_norm_graph_conv_is_the_group_mean_and_a_singleton_keeps_itself() -> None:
-    out = segment_graph_conv(FEATURES, MASK, SEGMENT, 3, "sym_norm")
+    out = segment_graph_conv(FEATURES, MASK, SEGMENT, 3, adjacency="sym_norm")
     torch.testing.assert_close(out[:, 0, 0], torch.tensor([2.0, 2.0, 5.0, 7.0]))
 
 
 def test_laplacian_graph_conv_is_zero_for_a_singleton() -> None:
-    out = segment_graph_conv(FEATURES, MASK, SEGMENT, 3, "laplacian")
+    out = segment_graph_conv(FEATURES, MASK, SEGMENT, 3, adjacency="laplacian")
     torch.testing.assert_close(out[:, 0, 0], torch.tensor([-2.0, 2.0, 0.0, 0.0]))
 
 
 def test_masked_members_are_left_out_of_the_graph_and_the_mean() -> None:
     mask = MASK.clone()
     mask[1, 0] = False  # member 1 not yet observed at step 0
-    out = segment_graph_conv(FEATURES, mask, SEGMENT, 3, "sym_norm")
+    out = segment_graph_conv(FEATURES, mask, SEGMENT, 3, adjacency="sym_norm")
     assert out[0, 0, 0] == 1.0 and out[1, 0, 0] == 0.0 and out[0, 1, 0] == 2.0
     mean, exists = segment_mean(FEATURES, mask, SEGMENT, 3)
     assert mean[0, 0, 0] == 1.0 and mean[0, 1, 0] == 2.0 and exists.all()
@@ -66,7 +66,7 @@ def synthetic_batch(root: Path, config: ExperimentConfig, count: int = 48):
     samples = load_part(root, "eth", "train", config.data).samples
     groups = assign_groups(samples, config.groups, config.data.position_scale_m)
     index = np.arange(count)
-    return samples, groups, make_batch(samples, index, config.data, np.zeros(count), groups)
+    return samples, groups, make_batch(samples, index, config.data, np.zeros(count), groups=groups)
 
 
 def test_group_batch_layout(synthetic_data_dir: Path) -> None:
@@ -87,7 +87,7 @@ def test_group_batch_layout(synthetic_data_dir: Path) -> None:
 def test_rotating_the_batch_does_not_change_the_groups(synthetic_data_dir: Path) -> None:
     config = ExperimentConfig(model_name="grouptron")
     samples, groups, plain = synthetic_batch(synthetic_data_dir, config)
-    turned = make_batch(samples, np.arange(48), config.data, np.full(48, 1.0), groups)
+    turned = make_batch(samples, np.arange(48), config.data, np.full(48, 1.0), groups=groups)
     assert plain.groups is not None and turned.groups is not None
     torch.testing.assert_close(turned.groups.node_group, plain.groups.node_group)
     # Rotation keeps lengths of every (x, y) pair.

@@ -72,11 +72,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     group_config = experiment.groups if model is not None and uses_groups(experiment) else None
     for split in splits:
         samples, groups = load_test_set(
-            data_dir, split, config, subset, group_config, use_cache=not args.no_cache
+            data_dir, split, config, subset, group_config=group_config, use_cache=not args.no_cache
         )
         if model is None:
             pred = constant_velocity(samples.hist_rel_m.astype("float64"), config.horizon_steps)
-            cv = score(split, "constant-velocity", args.subset, pred, samples)
+            cv = score(split, "constant-velocity", args.subset, pred, samples=samples)
             results.append(dataclasses.replace(cv, derivatives=config.derivatives))
             continue
         scores = evaluate_model(

@@ -40,7 +40,13 @@ def cmd_predict(args: argparse.Namespace) -> int:
         read_tracks(args.tracks, frames_per_step, args.on_gap), data, name=str(args.tracks)
     )
     forecast = forecast_scene(
-        model, experiment, scene, args.mode, args.samples, args.seed, progress=not args.quiet
+        model,
+        experiment,
+        scene,
+        args.mode,
+        num_samples=args.samples,
+        seed=args.seed,
+        progress=not args.quiet,
     )
     header, rows, formats = forecast.table(sampled=args.mode == "samples")
     write_array_csv_atomically(Path(args.out), header, rows, formats)
@@ -93,6 +99,7 @@ def _plot_panels(
     predictors: list[Predictor],
     rows: np.ndarray,
     frame: int,
+    *,
     required: bool = True,
 ) -> list[Panel]:
     """One panel per model at ``frame`` (empty when nobody can be forecast and not required)."""
@@ -112,8 +119,8 @@ def _plot_panels(
             forecast.ids,
             frame,
             data.frames_per_step,
-            data.history_steps - 1,
-            data.horizon_steps,
+            before=data.history_steps - 1,
+            after=data.horizon_steps,
         )
         name = f"{predictor.config.model_name} ({predictor.config.data.derivatives})"
         panels.append(Panel(name, forecast, history, truth))

@@ -122,9 +122,9 @@ def cmd_groups_detect(args: argparse.Namespace) -> int:
             present[chosen.tracks, window],
             chosen.labels,
             scene.ped_id[chosen.tracks],
-            f"{Path(args.tracks).name}, frame {frame}: {len(chosen.tracks)} pedestrians, "
+            title=f"{Path(args.tracks).name}, frame {frame}: {len(chosen.tracks)} pedestrians, "
             f"{len(np.unique(chosen.labels))} groups ({config.linkage} linkage)",
-            Path(args.plot),
+            out=Path(args.plot),
         )
         print(f"plot of frame {frame} written to {args.plot}")
     return 0

@@ -133,8 +133,8 @@ def cmd_train(args: argparse.Namespace) -> int:
                 args.split,
                 name,
                 data,
-                experiment.groups,
-                part.samples,
+                groups=experiment.groups,
+                samples=part.samples,
                 use_cache=not args.no_cache,
             )
             for name, part in (("train", train_part), ("val", val_part))

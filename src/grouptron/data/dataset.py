@@ -119,7 +119,7 @@ def cache_path(split: str, part: str, config: DataConfig, key: str) -> Path:
 
 
 def load_part(
-    data_dir: Path, split: str, part: str, config: DataConfig, use_cache: bool = True
+    data_dir: Path, split: str, part: str, config: DataConfig, *, use_cache: bool = True
 ) -> PartData:
     """Samples of one part of a split, from the on-disk cache when it is there.
 

@@ -172,7 +172,7 @@ def read_tracks(
     if frames_per_step < 1:
         raise DataFormatError(path, f"frames per step must be >= 1, not {frames_per_step}")
     values, lines = _parse(path)
-    return table_from_values(path, values, lines, frames_per_step, on_gap)
+    return table_from_values(path, values, lines, frames_per_step, on_gap=on_gap)
 
 
 def _check_range(path: Path, values: np.ndarray, lines: np.ndarray) -> None:
@@ -210,16 +210,16 @@ def table_from_values(
     values: np.ndarray,
     lines: np.ndarray,
     frames_per_step: int = FRAMES_PER_STEP,
+    *,
     on_gap: GapPolicy = "split",
     warn_on_gap: bool = True,
 ) -> TrackTable:
     """Validate finite (R, 4) ``frame id x y`` values into a table; errors name ``source`` and
     the entry of ``lines`` (file line or row number) at fault. See :func:`read_tracks`.
     ``warn_on_gap=False`` splits gapped tracks silently (missed detections in live data)."""
-    if frames_per_step < 1:
-        raise DataFormatError(source, f"frames per step must be >= 1, not {frames_per_step}")
-    if len(values) == 0:
-        raise DataFormatError(source, "no 'frame id x y' rows")
+    if frames_per_step < 1 or len(values) == 0:
+        why = "no 'frame id x y' rows" if len(values) == 0 else "frames per step must be >= 1"
+        raise DataFormatError(source, f"{why}, not {frames_per_step}" if len(values) else why)
     path = source
     _check_integers(path, values, lines)
     _check_range(path, values, lines)

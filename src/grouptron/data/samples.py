@@ -145,6 +145,7 @@ def _neighbours_at(
     config: DataConfig,
     track: np.ndarray,
     step: np.ndarray,
+    *,
     only_step: int | None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The neighbours of S samples at their step: (E,) tracks and edge weights, flat in sample
@@ -169,6 +170,7 @@ def scene_samples(
     config: DataConfig,
     min_history: int,
     scene_index: int = 0,
+    *,
     require_future: bool = True,
     only_step: int | None = None,
 ) -> SampleSet:
@@ -209,7 +211,7 @@ def scene_samples(
     fut_rel = state_grid[track[:, None], fut_cols, :2] - ego_now[:, None, :2]  # (S, H, 2)
     fut_rel[~present_grid[track[:, None], fut_cols]] = np.nan
 
-    nbr_track, nbr_weight, counts = _neighbours_at(scene, config, track, step, only_step)
+    nbr_track, nbr_weight, counts = _neighbours_at(scene, config, track, step, only_step=only_step)
     nbr_offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
 
     # Neighbour states per history step: each one's, and their sum per sample.

@@ -69,6 +69,7 @@ def score_samples(
     config: ExperimentConfig,
     samples: SampleSet,
     modes: tuple[str, ...] = ("ml",),
+    *,
     batch_size: int = 256,
     seed: int = 0,
     progress: bool = False,
@@ -107,7 +108,7 @@ def score_samples(
                 ade[index], fde[index] = metrics.ade(pred, truth), metrics.fde(pred, truth)
                 continue
             k = BEST_OF if mode == "best-of-20" else NLL_SAMPLES
-            draws = predict_samples(model, batch, horizon, dt, k, generator)
+            draws = predict_samples(model, batch, horizon, dt, num_samples=k, generator=generator)
             draws_np = draws.double().cpu().numpy()  # (B, K, H, 2)
             if mode == "best-of-20":
                 ade[index] = metrics.min_ade_k(draws_np, truth)
@@ -123,6 +124,7 @@ def evaluate_model(
     config: ExperimentConfig,
     samples: SampleSet,
     modes: tuple[str, ...] = ("ml",),
+    *,
     batch_size: int = 256,
     seed: int = 0,
     progress: bool = False,
@@ -131,6 +133,14 @@ def evaluate_model(
 ) -> list[ModeScores]:
     """Mean ADE/FDE (metres) of each requested mode over ``samples`` (see ``score_samples``)."""
     per_sample = score_samples(
-        model, config, samples, modes, batch_size, seed, progress, groups, device
+        model,
+        config,
+        samples,
+        modes,
+        batch_size=batch_size,
+        seed=seed,
+        progress=progress,
+        groups=groups,
+        device=device,
     )
     return [scores.summary() for scores in per_sample]

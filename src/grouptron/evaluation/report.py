@@ -167,7 +167,12 @@ def score_checkpoint(
         )
     group_config = experiment.groups if uses_groups(experiment) else None
     samples, groups = load_test_set(
-        data_dir, entry.split, experiment.data, None, group_config, settings.use_cache
+        data_dir,
+        entry.split,
+        experiment.data,
+        None,
+        group_config=group_config,
+        use_cache=settings.use_cache,
     )
     masks = subset_masks(entry.split, samples)
     template = EvaluationResult(
@@ -177,7 +182,14 @@ def score_checkpoint(
     full_modes = tuple(m for m in settings.modes if m != "nll")
     batch, seed = settings.batch_size, settings.seed
     for scores in score_samples(
-        model, experiment, samples, full_modes, batch, seed, progress, groups
+        model,
+        experiment,
+        samples,
+        full_modes,
+        batch_size=batch,
+        seed=seed,
+        progress=progress,
+        groups=groups,
     ):
         rows += _rows(scores, masks, None, template)
         by_mode[scores.mode] = scores
@@ -186,7 +198,14 @@ def score_checkpoint(
         keep = nll_subsample(len(samples), settings.nll_max_samples, seed)
         some, some_groups = subset_with_groups(samples, groups, keep)
         (scores,) = score_samples(
-            model, experiment, some, ("nll",), batch, seed, progress, some_groups
+            model,
+            experiment,
+            some,
+            ("nll",),
+            batch_size=batch,
+            seed=seed,
+            progress=progress,
+            groups=some_groups,
         )
         rows += _rows(scores, masks, keep, template)
         by_mode["nll"] = scores
@@ -230,6 +249,7 @@ def run_report(
     checkpoints: Sequence[ReportCheckpoint],
     schemes: Sequence[DerivativeScheme],
     settings: ReportSettings,
+    *,
     progress: bool = False,
 ) -> Report:
     """Rows for every checkpoint and constant velocity, the AVG rows, intervals, paired

@@ -141,6 +141,7 @@ def _per_split(
     model: str,
     derivatives: str,
     mode: str,
+    *,
     column: str,
     metric: str,
 ) -> list[Values] | None:
@@ -165,7 +166,9 @@ def with_intervals(
         mode, derivatives = row.mode or "ml", row.derivatives or ""
         cis = []
         for metric in ("ade", "fde"):
-            values = _per_split(primary, row.model, derivatives, mode, _column(row), metric)
+            values = _per_split(
+                primary, row.model, derivatives, mode, column=_column(row), metric=metric
+            )
             cis.append(None if values is None else _interval(values))
         out.append(
             dataclasses.replace(
@@ -191,8 +194,12 @@ def paired_differences(
                     base_mode = "ml" if baseline == CONSTANT_VELOCITY else mode
                     diffs = {}
                     for metric in ("fde", "ade"):
-                        a = _per_split(primary, model, derivatives, mode, column, metric)
-                        b = _per_split(primary, baseline, derivatives, base_mode, column, metric)
+                        a = _per_split(
+                            primary, model, derivatives, mode, column=column, metric=metric
+                        )
+                        b = _per_split(
+                            primary, baseline, derivatives, base_mode, column=column, metric=metric
+                        )
                         if a is None or b is None:
                             break
                         if any(len(x[0]) != len(y[0]) for x, y in zip(a, b, strict=True)):

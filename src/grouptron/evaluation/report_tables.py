@@ -154,6 +154,7 @@ def _mode_table(
     columns: Sequence[str],
     mode: str,
     schemes: Sequence[str],
+    *,
     with_baseline: bool = False,
 ) -> list[str]:
     """One line per (model, derivatives): FDE/ADE, or the NLL in nats for ``nll``."""

@@ -53,6 +53,7 @@ def score(
     model: str,
     subset: str | None,
     pred_rel_m: np.ndarray,
+    *,
     samples: SampleSet,
 ) -> EvaluationResult:
     """Mean ADE/FDE of (S, H, 2) predictions against the samples' futures."""

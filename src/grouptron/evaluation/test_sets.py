@@ -20,6 +20,7 @@ def load_test_set(
     split: str,
     config: DataConfig,
     subset: UnivN | None = None,
+    *,
     group_config: GroupConfig | None = None,
     use_cache: bool = True,
 ) -> tuple[SampleSet, SampleGroups | None]:
@@ -34,7 +35,13 @@ def load_test_set(
     groups = None
     if group_config is not None:
         groups = load_groups(
-            data_dir, split, "test", config, group_config, samples, use_cache=use_cache
+            data_dir,
+            split,
+            "test",
+            config,
+            groups=group_config,
+            samples=samples,
+            use_cache=use_cache,
         )
     if subset is not None:
         keep = univ_n_mask(samples, subset)

@@ -24,6 +24,7 @@ def load_groups(
     split: str,
     part: str,
     config: DataConfig,
+    *,
     groups: GroupConfig,
     samples: SampleSet,
     use_cache: bool = True,

@@ -56,7 +56,7 @@ def groups_per_step(
     pad = history_steps - 1
     pos, present = position_grid(scene, pad)
     for step in range(0, scene.num_steps, every):  # one clustering per step
-        found = _cluster_step(pos, present, step, pad, config)
+        found = _cluster_step(pos, present, step, pad, config=config)
         if found is not None:
             yield found
 
@@ -67,11 +67,11 @@ def groups_at_step(
     """The scene-wide groups of one step (None when nobody is present)."""
     pad = history_steps - 1
     pos, present = position_grid(scene, pad)
-    return _cluster_step(pos, present, step, pad, config)
+    return _cluster_step(pos, present, step, pad, config=config)
 
 
 def _cluster_step(
-    pos: np.ndarray, present: np.ndarray, step: int, pad: int, config: GroupConfig
+    pos: np.ndarray, present: np.ndarray, step: int, pad: int, *, config: GroupConfig
 ) -> StepGroups | None:
     tracks = np.flatnonzero(present[:, step + pad])
     if len(tracks) == 0:
@@ -89,6 +89,7 @@ def score_against_labels(
     labels: dict[int, int],
     config: GroupConfig,
     radius_m: float = PERCEPTION_RADIUS_M,
+    *,
     every: int = 1,
 ) -> dict[str, dict[str, float]]:
     """Pairwise precision/recall/F1 and Dice of detected against labelled groups.

@@ -116,6 +116,7 @@ class Predictor:
         config: ExperimentConfig,
         source: str = "",
         most_likely: MostLikely = "mixture-mode",
+        *,
         mixture: bool = True,
     ) -> None:
         if most_likely not in MOST_LIKELY_CHOICES:
@@ -136,6 +137,7 @@ class Predictor:
         checkpoints_dir: str | Path | None = None,
         threads: int | None = None,
         most_likely: MostLikely = "mixture-mode",
+        *,
         mixture: bool = True,
     ) -> Predictor:
         """Load a ``.safetensors`` checkpoint (never a pickle) by path or shipped name."""
@@ -165,6 +167,7 @@ class Predictor:
         t: int | None = None,
         num_samples: int = 0,
         seed: int = 0,
+        *,
         live: bool = True,
     ) -> Forecast:
         """Forecast every agent observed at frame ``t`` (default: the last frame) with
@@ -200,6 +203,7 @@ class Predictor:
         frame: int,
         num_samples: int,
         seed: int,
+        *,
         warn_if_central: bool = True,
     ) -> Forecast:
         if num_samples < 0:
@@ -224,7 +228,7 @@ class Predictor:
         )
         if not len(samples):
             return self._empty(frame, num_samples)
-        return self._run(scene, samples, frame, step, num_samples, seed)
+        return self._run(scene, samples, frame, step, num_samples=num_samples, seed=seed)
 
     @torch.inference_mode()
     def _run(
@@ -233,6 +237,7 @@ class Predictor:
         samples: SampleSet,
         frame: int,
         step: int,
+        *,
         num_samples: int,
         seed: int,
     ) -> Forecast:
@@ -243,7 +248,9 @@ class Predictor:
         drawn = None
         if num_samples:
             generator = torch.Generator().manual_seed(seed)
-            drawn = predict_samples(self.model, batch, H, dt, num_samples, generator)
+            drawn = predict_samples(
+                self.model, batch, H, dt, num_samples=num_samples, generator=generator
+            )
         origin = samples.pos_now_scene_m.astype(np.float64) + scene.centre_world_m  # (N, 2)
         found = groups_at_step(scene, self.config.groups, step, data.history_steps)
         group_of_track = np.full(scene.num_tracks, -1)
@@ -334,7 +341,7 @@ class StreamSession:
         return self.predictor.window_frames
 
     def update(
-        self, frame: int, ids: Any, xy: Any, num_samples: int = 0, seed: int = 0
+        self, frame: int, ids: Any, xy: Any, num_samples: int = 0, *, seed: int = 0
     ) -> Forecast:
         """Add the agents observed at ``frame`` ((N,) ids, (N, 2) positions in metres) and
         forecast every agent with enough history."""

@@ -37,6 +37,7 @@ def forecast_scene(
     config: ExperimentConfig,
     scene: Scene,
     mode: str = "ml",
+    *,
     num_samples: int = 20,
     seed: int = 0,
     batch_size: int = 256,
@@ -69,7 +70,7 @@ def forecast_scene(
     ):
         most_likely[index] = predict_most_likely(model, batch, H, data.dt_s).double().numpy()
         if K:
-            pred = predict_samples(model, batch, H, data.dt_s, K, generator)
+            pred = predict_samples(model, batch, H, data.dt_s, num_samples=K, generator=generator)
             drawn[index] = pred.double().numpy()
     origin_world = samples.pos_now_scene_m.astype(np.float64) + scene.centre_world_m  # (S, 2)
     frames = scene.first_frame + samples.step.astype(np.int64) * scene.frames_per_step

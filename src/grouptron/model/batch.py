@@ -46,6 +46,7 @@ def make_group_batch(
     groups: SampleGroups,
     index: np.ndarray,
     hist_st: np.ndarray,
+    *,
     rotation: np.ndarray | None,
 ) -> GroupBatch:
     """Flatten the nodes and groups of samples ``index`` (``hist_st`` already gathered and,
@@ -124,6 +125,7 @@ def make_batch(
     index: np.ndarray,
     config: DataConfig,
     rotation_rad: np.ndarray | None = None,
+    *,
     groups: SampleGroups | None = None,
 ) -> Batch:
     """Gather samples ``index`` into a batch, optionally rotating each sample's scene.
@@ -153,7 +155,7 @@ def make_batch(
         fut_rel_m=fut,
         fut_st=fut / config.future_scale_m,
         groups=(
-            make_group_batch(samples, groups, index, hist_st, rotation)
+            make_group_batch(samples, groups, index, hist_st, rotation=rotation)
             if groups is not None
             else None
         ),

@@ -166,6 +166,7 @@ class TrajectronCVAE(nn.Module):
         state_now_st: torch.Tensor,
         z_index: torch.Tensor | None,
         horizon: int,
+        *,
         feedback: Feedback,
         generator: torch.Generator | None = None,
         draws: torch.Tensor | None = None,
@@ -196,7 +197,7 @@ class TrajectronCVAE(nn.Module):
             corr = torch.tanh(head[:, 4]).clamp(-c.corr_max, c.corr_max)
             if feedback == "sample":
                 eps = None if draws is None else draws[:, :, k].reshape(B * M, 2)
-                action = gaussians.sample(mean, log_sigma, corr, generator, eps)
+                action = gaussians.sample(mean, log_sigma, corr, generator, eps=eps)
             else:
                 action = mean
             means.append(mean)
@@ -235,7 +236,7 @@ class TrajectronCVAE(nn.Module):
                 batch.state_now_st,
                 None,
                 batch.fut_st.shape[1],
-                "sample",
+                feedback="sample",
                 draws=None if drawn is None else drawn.decoder,
             )
         return CVAEOutput(encoding=encoding, velocity=velocity)

@@ -41,6 +41,7 @@ def sample(
     log_sigma: torch.Tensor,
     corr: torch.Tensor,
     generator: torch.Generator | None = None,
+    *,
     eps: torch.Tensor | None = None,
 ) -> torch.Tensor:
     """A reparameterised draw ``mean + L eps`` with ``L`` the Cholesky factor: (..., 2); ``eps``

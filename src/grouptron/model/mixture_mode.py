@@ -56,6 +56,7 @@ def _climb(
     log_norm: torch.Tensor,
     mean: torch.Tensor,
     precision: torch.Tensor,
+    *,
     prec_mean: torch.Tensor,
     max_iters: int,
     tol: float,
@@ -160,6 +161,7 @@ def mixture_mode(
     mean: torch.Tensor,
     cov: torch.Tensor,
     num_starts: int = 4,
+    *,
     max_iters: int = 30,
     tol: float = 1e-6,
     chunk: int = 2048,
@@ -185,8 +187,8 @@ def mixture_mode(
                 mean[i : i + chunk],
                 cov[i : i + chunk],
                 num_starts,
-                max_iters,
-                tol,
+                max_iters=max_iters,
+                tol=tol,
             )
             for i in range(0, len(log_weights), chunk)
         ]
@@ -198,6 +200,7 @@ def _mixture_mode_block(
     mean: torch.Tensor,
     cov: torch.Tensor,
     num_starts: int,
+    *,
     max_iters: int,
     tol: float,
 ) -> torch.Tensor:
@@ -221,7 +224,13 @@ def _mixture_mode_block(
     owner = torch.arange(N, device=mean.device).repeat_interleave(S)  # mixture of each start
     points = torch.gather(mean, 1, starts[..., None].expand(-1, -1, 2)).reshape(N * S, 2)
     points, score = _climb(
-        points, log_norm[owner], mean[owner], precision[owner], prec_mean[owner], max_iters, tol
+        points,
+        log_norm[owner],
+        mean[owner],
+        precision[owner],
+        prec_mean=prec_mean[owner],
+        max_iters=max_iters,
+        tol=tol,
     )
     best = score.reshape(N, S).argmax(dim=-1)
     return points.reshape(N, S, 2)[torch.arange(N, device=mean.device), best]

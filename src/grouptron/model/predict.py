@@ -33,7 +33,7 @@ def decode_every_latent(
 ) -> tuple[Encoding, VelocityGaussians]:
     """p(z|x) and the velocity Gaussians of all Z latent values, each following its means."""
     encoding = encode_prior(model, batch)
-    return encoding, model.decode(encoding.x, batch.state_now_st, None, horizon, "mean")
+    return encoding, model.decode(encoding.x, batch.state_now_st, None, horizon, feedback="mean")
 
 
 def most_likely_positions(
@@ -56,7 +56,7 @@ def predict_argmax_latent(
     """(B, H, 2): decode only the most probable latent value and follow its means."""
     encoding = encode_prior(model, batch)
     z_index = encoding.p_logits.argmax(dim=-1, keepdim=True)  # (B, 1)
-    velocity = model.decode(encoding.x, batch.state_now_st, z_index, horizon, "mean")
+    velocity = model.decode(encoding.x, batch.state_now_st, z_index, horizon, feedback="mean")
     return positions_from_velocities(velocity.mean[:, 0], dt_s)
 
 
@@ -65,6 +65,7 @@ def predict_samples(
     batch: Batch,
     horizon: int,
     dt_s: float,
+    *,
     num_samples: int,
     generator: torch.Generator | None = None,
 ) -> torch.Tensor:
@@ -73,6 +74,6 @@ def predict_samples(
     probs = torch.softmax(encoding.p_logits, dim=-1)
     z_index = torch.multinomial(probs, num_samples, replacement=True, generator=generator)
     velocity = model.decode(
-        encoding.x, batch.state_now_st, z_index, horizon, "sample", generator=generator
+        encoding.x, batch.state_now_st, z_index, horizon, feedback="sample", generator=generator
     )
     return positions_from_velocities(velocity.fed_back, dt_s)

@@ -21,6 +21,7 @@ def segment_graph_conv(
     mask: torch.Tensor,
     segment: torch.Tensor,
     num_segments: int,
+    *,
     adjacency: Adjacency,
 ) -> torch.Tensor:
     """Graph convolution on fully connected segments, per step.
@@ -88,7 +89,9 @@ class STGCNBlock(nn.Module):
         self, x: torch.Tensor, mask: torch.Tensor, segment: torch.Tensor, num_segments: int
     ) -> torch.Tensor:
         """(N, T, in) node features -> (N, T, out), zero where masked."""
-        spatial = segment_graph_conv(self.spatial(x), mask, segment, num_segments, self.adjacency)
+        spatial = segment_graph_conv(
+            self.spatial(x), mask, segment, num_segments, adjacency=self.adjacency
+        )
         spatial = self.spatial_act(spatial)
         temporal = self.temporal(spatial.transpose(1, 2)).transpose(1, 2)  # conv over T
         out = self.out_act(temporal + self.residual(x))

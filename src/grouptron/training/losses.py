@@ -80,6 +80,7 @@ def elbo_loss(
     batch: Batch,
     config: LossConfig,
     kl_weight: float,
+    *,
     dt_s: float,
     batch_mean: BatchMean = _mean_over_batch,
 ) -> LossTerms:

@@ -73,7 +73,7 @@ def setup(
         raise GrouptronError(
             f"{last} was trained with a different configuration; resume with the same options"
         )
-    extra = _restore(state, checkpoint, last, device, "cannot be resumed")
+    extra = _restore(state, checkpoint, last, device, use="cannot be resumed")
     try:
         state.rng.bit_generator.state = extra["numpy_rng"]
         if checkpoint.torch_rng_state is not None:
@@ -106,11 +106,11 @@ def _warm_start(
             f"{source} holds a {checkpoint.config.model_name} model with other settings; "
             f"--init-from needs a {config.model_name} checkpoint of the same architecture"
         )
-    _restore(state, checkpoint, source, device, "cannot start a run (--init-from)")
+    _restore(state, checkpoint, source, device, use="cannot start a run (--init-from)")
 
 
 def _restore(
-    state: TrainState, checkpoint: Checkpoint, source: Path, device: torch.device, use: str
+    state: TrainState, checkpoint: Checkpoint, source: Path, device: torch.device, *, use: str
 ) -> dict[str, Any]:
     """Weights, optimiser, scheduler and step count of a full training checkpoint; returns the
     checkpoint's extra state (RNG, best score) for a resume."""

@@ -8,7 +8,7 @@ from grouptron.config import LossConfig
 
 
 def sigmoid_anneal(
-    start: float, final: float, centre_iter: float, divisor: float, it: int
+    start: float, final: float, centre_iter: float, divisor: float, *, it: int
 ) -> float:
     """``start + (final - start) * sigmoid((it - centre) / divisor)``."""
     return start + (final - start) / (1.0 + math.exp(-(it - centre_iter) / divisor))
@@ -17,7 +17,7 @@ def sigmoid_anneal(
 def kl_weight(config: LossConfig, it: int) -> float:
     """Weight of the KL term: 0 -> 100, half-way at iteration 400."""
     return sigmoid_anneal(
-        0.0, config.kl_weight_final, config.kl_weight_centre_iter, config.kl_weight_divisor, it
+        0.0, config.kl_weight_final, config.kl_weight_centre_iter, config.kl_weight_divisor, it=it
     )
 
 
@@ -28,5 +28,5 @@ def logit_clip(config: LossConfig, it: int) -> float:
         config.logit_clip_final,
         config.logit_clip_centre_iter,
         config.logit_clip_divisor,
-        it,
+        it=it,
     )

@@ -122,6 +122,7 @@ def adopt_legacy_best(
     config: ExperimentConfig,
     out_dir: Path,
     validation: Validation,
+    *,
     device: torch.device,
 ) -> Candidates:
     """A run resumed from before candidate keeping: its best weights become a candidate,

@@ -95,7 +95,9 @@ def train_epoch(
             finished = False
             break
         index = order[start : start + size]
-        terms = _train_step(state, config, samples, index, groups, cluster, network)
+        terms = _train_step(
+            state, config, samples, index, groups=groups, cluster=cluster, network=network
+        )
         if terms is None:
             continue
         state.iteration += 1
@@ -118,6 +120,7 @@ def _train_step(
     config: ExperimentConfig,
     samples: SampleSet,
     index: np.ndarray,
+    *,
     groups: SampleGroups | None,
     cluster: Cluster,
     network: torch.nn.Module,
@@ -131,7 +134,7 @@ def _train_step(
     noise = draw_training_noise(len(index), config.model, config.data.horizon_steps)
     mine = cluster.shard(len(index))  # this process's rows of the global batch
     rotation = None if angles is None else angles[mine]
-    batch = make_batch(samples, index[mine], config.data, rotation, groups).to(device)
+    batch = make_batch(samples, index[mine], config.data, rotation, groups=groups).to(device)
     output = network(
         batch,
         noise.rows(mine).to(device),
@@ -143,7 +146,7 @@ def _train_step(
         batch,
         config.loss,
         schedules.kl_weight(config.loss, state.iteration),
-        config.data.dt_s,
+        dt_s=config.data.dt_s,
         batch_mean=functools.partial(global_mean, cluster=cluster, global_count=len(index)),
     )
     state.optimizer.zero_grad(set_to_none=True)
@@ -192,6 +195,7 @@ def _finish_epoch(
     config: ExperimentConfig,
     out_dir: Path,
     record: dict[str, Any],
+    *,
     validation: Validation,
     device: torch.device,
     writer: MetricsWriter,
@@ -224,6 +228,7 @@ def _open_run_folder(
     config: ExperimentConfig,
     out_dir: Path,
     resume: bool,
+    *,
     validation: Validation,
     device: torch.device,
 ) -> None:
@@ -236,7 +241,7 @@ def _open_run_folder(
         MetricsWriter(out_dir).truncate_after(state.epoch)
         if len(validation.samples):
             state.candidates = adopt_legacy_best(
-                state.candidates, config, out_dir, validation, device
+                state.candidates, config, out_dir, validation, device=device
             )
 
 
@@ -257,6 +262,7 @@ def _check_inputs(
     train_samples: SampleSet,
     train_groups: SampleGroups | None,
     val_groups: SampleGroups | None,
+    *,
     cluster: Cluster,
 ) -> None:
     if len(train_samples) == 0:
@@ -289,31 +295,28 @@ def train(
     writes). Grouptron needs ``train_groups`` and ``val_groups``. ``max_iterations`` stops
     after that many optimiser steps as if the process were killed there (to test ``resume``).
     """
-    _check_inputs(config, train_samples, train_groups, val_groups, cluster)
+    _check_inputs(config, train_samples, train_groups, val_groups, cluster=cluster)
     out_dir.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(config.train.threads)
-    state = setup(config, out_dir, resume, torch.device(device))
-    network = _wrapped(state.model, cluster, torch.device(device))
+    dev = torch.device(device)
+    state = setup(config, out_dir, resume, dev)
     writes = cluster.is_main
-    progress = progress and writes  # one progress bar, the main process's
+    epoch_of = functools.partial(
+        train_epoch,
+        progress=progress and writes,  # one progress bar, the main process's
+        groups=train_groups,
+        cluster=cluster,
+        network=_wrapped(state.model, cluster, dev),
+    )
     writer = MetricsWriter(out_dir)
     validation = Validation.of(val_samples, val_groups, config.train.val_subset)
     if writes:
-        _open_run_folder(state, config, out_dir, resume, validation, torch.device(device))
+        _open_run_folder(state, config, out_dir, resume, validation=validation, device=dev)
     while state.epoch < config.train.epochs:
         if max_iterations is not None and state.iteration >= max_iterations:
             break
         record: dict[str, Any] = {"epoch": state.epoch + 1, "_started": time.perf_counter()}
-        means, finished = train_epoch(
-            state,
-            config,
-            train_samples,
-            progress=progress,
-            max_iterations=max_iterations,
-            groups=train_groups,
-            cluster=cluster,
-            network=network,
-        )
+        means, finished = epoch_of(state, config, train_samples, max_iterations=max_iterations)
         record.update(means)
         if not finished:
             break  # stopped mid-epoch, as if killed: nothing of this epoch is saved
@@ -325,8 +328,10 @@ def train(
             continue
         if cluster.distributed:
             record["processes"] = cluster.world_size
-        _finish_epoch(state, config, out_dir, record, validation, torch.device(device), writer)
+        _finish_epoch(
+            state, config, out_dir, record, validation=validation, device=dev, writer=writer
+        )
         if progress:
-            tqdm.write(f"epoch {state.epoch}: {_shown(record)}")
+            tqdm.write(f"epoch {state.epoch}: {_shown(record)}")  # main process only
         cluster.barrier()
     return state

@@ -39,7 +39,13 @@ class Panel:
 
 
 def tracks_around(
-    tracks: np.ndarray, ids: np.ndarray, frame: int, frames_per_step: int, before: int, after: int
+    tracks: np.ndarray,
+    ids: np.ndarray,
+    frame: int,
+    frames_per_step: int,
+    *,
+    before: int,
+    after: int,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(N, before + 1, 2) positions up to ``frame`` and (N, after, 2) after it, NaN where the
     (R, 4) ``frame, id, x, y`` rows have none."""

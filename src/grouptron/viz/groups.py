@@ -19,6 +19,7 @@ def plot_step_groups(
     masks: np.ndarray,
     labels: np.ndarray,
     ped_ids: np.ndarray,
+    *,
     title: str,
     out: Path,
 ) -> None:
