@@ -30,6 +30,13 @@ def test_backward_matches_hand_values() -> None:
     np.testing.assert_allclose(states[4:, 4:], 0)
 
 
+def test_backward_with_the_reference_start_copies_the_next_value() -> None:
+    states = track_states(POS, TRACK, DT, "backward", backward_start="next")
+    np.testing.assert_allclose(states[:4, 2], [2, 2, 6, 10])  # v[0] = v[1], reads x[1]
+    np.testing.assert_allclose(states[:4, 4], [0, 0, 8, 8])
+    np.testing.assert_allclose(states[4:, 2:4], [[2, 4], [2, 4]])
+
+
 def test_backward_is_causal() -> None:
     for cut in range(1, 4):  # a track cut after row `cut` has the same states up to it
         short = track_states(POS[: cut + 1], TRACK[: cut + 1], DT, "backward")

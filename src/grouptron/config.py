@@ -10,7 +10,7 @@ from typing import Any, Literal, TypeVar
 
 from grouptron import constants
 from grouptron.errors import GrouptronError
-from grouptron.geometry import DERIVATIVE_SCHEMES, DerivativeScheme
+from grouptron.geometry import DERIVATIVE_SCHEMES, BackwardStart, DerivativeScheme
 from grouptron.io import write_text_atomically
 
 
@@ -19,6 +19,10 @@ class DataConfig:
     """How raw tracks become samples. Defaults are the Trajectron++ reference protocol."""
 
     derivatives: DerivativeScheme = "central"
+    backward_start: BackwardStart = "zero"
+    """How ``backward`` derivatives begin a track: ``zero`` (strictly causal) or ``next`` (the
+    reference's copy of the next value). Runs stored before this setting existed used
+    ``next`` and are read with it, so they see the inputs they were trained on."""
     dt_s: float = constants.DT_S
     frames_per_step: int = constants.FRAMES_PER_STEP
     history_steps: int = constants.HISTORY_STEPS
@@ -41,6 +45,10 @@ class DataConfig:
             raise GrouptronError(
                 f"derivatives must be one of {', '.join(DERIVATIVE_SCHEMES)}, "
                 f"not {self.derivatives!r}"
+            )
+        if self.backward_start not in ("zero", "next"):
+            raise GrouptronError(
+                f"backward_start must be zero or next, not {self.backward_start!r}"
             )
         if self.on_gap not in ("split", "error"):
             raise GrouptronError(f"on_gap must be 'split' or 'error', not {self.on_gap!r}")
@@ -208,9 +216,13 @@ class ExperimentConfig:
 
 ConfigT = TypeVar("ConfigT")
 
-STORED_DEFAULTS: dict[str, dict[str, Any]] = {"data": {"future_scale_m": 3.0}}
+STORED_DEFAULTS: dict[str, dict[str, Any]] = {
+    "data": {"future_scale_m": 3.0, "backward_start": "next"}
+}
 """Values of settings added after a run was stored, as that run used them: a stored
-experiment without the key was trained with this value, not with today's default."""
+experiment without the keys was trained with these values, not with today's defaults. Both
+keys arrived together, so a stored config that has ``future_scale_m`` without
+``backward_start`` was trained with the strictly causal start (the default)."""
 
 
 def experiment_from_stored(values: dict[str, Any]) -> ExperimentConfig:
@@ -227,7 +239,7 @@ def experiment_from_stored(values: dict[str, Any]) -> ExperimentConfig:
         upgraded["group_encoder"] = {**moved, **upgraded.get("group_encoder", {})}
     for section, defaults in STORED_DEFAULTS.items():
         stored = upgraded.get(section, {})
-        if isinstance(stored, dict):
+        if isinstance(stored, dict) and not set(defaults) & set(stored):
             upgraded[section] = {**defaults, **stored}
     return config_from_dict(ExperimentConfig, upgraded)
 

@@ -11,20 +11,27 @@ import numpy as np
 
 DerivativeScheme = Literal["central", "backward"]
 DERIVATIVE_SCHEMES: tuple[DerivativeScheme, ...] = ("central", "backward")
+BackwardStart = Literal["zero", "next"]
+"""How ``backward`` derivatives begin a track: ``zero`` (strictly causal, the default) or
+``next`` (copy the second row's value, as the reference does; it reads the next position)."""
 
 
 def track_derivative(
-    values: np.ndarray, track: np.ndarray, dt_s: float, scheme: DerivativeScheme
+    values: np.ndarray,
+    track: np.ndarray,
+    dt_s: float,
+    scheme: DerivativeScheme,
+    backward_start: BackwardStart = "zero",
 ) -> np.ndarray:
     """Time derivative of per-row values along gap-free tracks.
 
     Rows must be sorted by (track, step) with consecutive steps inside a track.
 
     ``central`` follows ``np.gradient``: ``(v[t+1] - v[t-1]) / 2dt`` inside a track, one-sided
-    first differences at both ends (it uses t+1, so it is not causal). ``backward`` is strictly
-    causal: ``(v[t] - v[t-1]) / dt``, and 0 at a track's first row, where no earlier value
-    exists (copying the second row, as the reference does, would read the next position).
-    A single-row track gets zeros.
+    first differences at both ends (it uses t+1, so it is not causal). ``backward`` is
+    ``(v[t] - v[t-1]) / dt``; at a track's first row, where no earlier value exists, it is 0
+    (``backward_start="zero"``: strictly causal) or the second row's value (``"next"``: the
+    reference's rule, which reads the next position). A single-row track gets zeros.
 
     Args:
         values: (R, D) values, e.g. positions.
@@ -50,21 +57,26 @@ def track_derivative(
         interior = (nxt - prev) / (2.0 * dt_s)
         edge = np.where(has_next, forward_diff, np.where(has_prev, backward_diff, 0.0))
         return np.where(has_prev & has_next, interior, edge)
-    return np.where(has_prev, backward_diff, 0.0)
+    first = np.where(has_next, forward_diff, 0.0) if backward_start == "next" else 0.0
+    return np.where(has_prev, backward_diff, first)
 
 
 def track_states(
-    pos_m: np.ndarray, track: np.ndarray, dt_s: float, scheme: DerivativeScheme
+    pos_m: np.ndarray,
+    track: np.ndarray,
+    dt_s: float,
+    scheme: DerivativeScheme,
+    backward_start: BackwardStart = "zero",
 ) -> np.ndarray:
     """Position, velocity and acceleration of every row: (R, 2) positions -> (R, 6) states.
 
-    Under ``backward`` a row's acceleration needs two earlier rows of its track (its velocity
-    and the previous one are both known); it is 0 on a track's first two rows, so every state
-    at step t depends only on positions at or before t.
+    Under strictly causal ``backward`` derivatives a row's acceleration needs two earlier rows
+    of its track; it is 0 on a track's first two rows, so every state at step t depends only on
+    positions at or before t. (``backward_start="next"`` gives the reference's values.)
     """
-    vel = track_derivative(pos_m, track, dt_s, scheme)
-    acc = track_derivative(vel, track, dt_s, scheme)
-    if scheme == "backward":
+    vel = track_derivative(pos_m, track, dt_s, scheme, backward_start)
+    acc = track_derivative(vel, track, dt_s, scheme, backward_start)
+    if scheme == "backward" and backward_start == "zero":
         has_two_before = np.zeros(len(track), dtype=bool)
         has_two_before[2:] = track[2:] == track[:-2]  # rows sorted, steps consecutive
         acc = np.where(has_two_before[:, None], acc, 0.0)

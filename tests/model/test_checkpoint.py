@@ -172,3 +172,15 @@ def test_every_damaged_checkpoint_is_refused_in_one_line(tmp_path: Path) -> None
         assert main([*argv, "--quiet"]) == 2, case
         assert not out.exists(), case
     assert not (tmp_path / "pwned").exists()  # the pickle's payload never ran
+
+
+def test_stored_configs_of_older_runs_keep_the_inputs_they_were_trained_on() -> None:
+    from grouptron.config import experiment_from_stored
+
+    legacy = experiment_from_stored(
+        {"data": {"derivatives": "backward"}, "model": {"group_dim": 8}}
+    )
+    assert legacy.data.future_scale_m == 3.0 and legacy.data.backward_start == "next"
+    assert legacy.group_encoder.group_dim == 8
+    newer = experiment_from_stored({"data": {"derivatives": "backward", "future_scale_m": 1.0}})
+    assert newer.data.backward_start == "zero" and newer.data.future_scale_m == 1.0

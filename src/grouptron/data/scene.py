@@ -79,7 +79,7 @@ def build_scene(table: TrackTable, config: DataConfig, name: str | None = None) 
     track = new_index[table.track[keep_row]]
     step = table.step[keep_row]
     pos_scene = table.pos_m[keep_row] - centre
-    state = track_states(pos_scene, track, config.dt_s, config.derivatives)
+    state = track_states(pos_scene, track, config.dt_s, config.derivatives, config.backward_start)
 
     num_tracks = int(keep_track.sum())
     name = name if name is not None else table.path.stem
