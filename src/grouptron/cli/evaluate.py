@@ -7,7 +7,6 @@ import dataclasses
 
 import torch
 
-from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.cli.common import (
     Formatter,
     add_data_options,
@@ -21,13 +20,17 @@ from grouptron.constants import SPLITS
 from grouptron.data.locate import resolve_data_dir
 from grouptron.data.subsets import parse_univ_n
 from grouptron.errors import GrouptronError
-from grouptron.evaluation.evaluate import MODES, ModeScores, evaluate_model
+from grouptron.evaluation.evaluate import (
+    MODES,
+    ModeScores,
+    constant_velocity_scores,
+    evaluate_model,
+)
 from grouptron.evaluation.results import (
     EvaluationResult,
     mean_over_splits,
     results_json,
     results_table,
-    score,
 )
 from grouptron.evaluation.test_sets import load_test_set
 from grouptron.model.checkpoint import load_trained_model
@@ -75,9 +78,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             data_dir, split, config, subset, group_config=group_config, use_cache=not args.no_cache
         )
         if model is None:
-            pred = constant_velocity(samples.hist_rel_m.astype("float64"), config.horizon_steps)
-            cv = score(split, "constant-velocity", args.subset, pred, samples=samples)
-            results.append(dataclasses.replace(cv, derivatives=config.derivatives))
+            baseline = constant_velocity_scores(samples, config.horizon_steps).summary()
+            template = EvaluationResult(split, "constant-velocity", args.subset, 0, 0.0, 0.0)
+            template = dataclasses.replace(template, derivatives=config.derivatives)
+            results.append(dataclasses.replace(_row(template, baseline), mode=None))
             continue
         scores = evaluate_model(
             model,

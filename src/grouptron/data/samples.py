@@ -111,8 +111,23 @@ PER_EDGE = ("nbr_track", "nbr_weight", "nbr_hist_st", "nbr_hist_mask")
 """Fields with one row per (sample, neighbour) pair, indexed through ``nbr_offsets``."""
 
 
-def _dense_grid(scene: Scene, pad_before: int, pad_after: int) -> tuple[np.ndarray, np.ndarray]:
-    """(A, pad_before + num_steps + pad_after, 6) states and the matching presence mask."""
+def ego_first_layout(num_neighbours: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The flat node layout of S samples' graphs: sample s owns the rows ``node_start[s]`` ..
+    ``node_start[s] + num_neighbours[s]``, its ego first, then its neighbours in edge order.
+
+    Returns:
+        (S,) ``node_start`` and (total nodes,) ``is_ego``.
+    """
+    nodes = num_neighbours + 1
+    node_start = np.concatenate([[0], np.cumsum(nodes)[:-1]]).astype(np.int64)
+    is_ego = np.zeros(int(nodes.sum()), dtype=bool)
+    is_ego[node_start] = True
+    return node_start, is_ego
+
+
+def dense_grid(scene: Scene, pad_before: int, pad_after: int) -> tuple[np.ndarray, np.ndarray]:
+    """(N, pad_before + num_steps + pad_after, 6) states of the N tracks on the step grid and
+    the matching (N, ...) presence mask; padding lets windows run past the ends."""
     width = pad_before + scene.num_steps + pad_after
     state = np.zeros((scene.num_tracks, width, 6))
     present = np.zeros((scene.num_tracks, width), dtype=bool)
@@ -190,7 +205,7 @@ def scene_samples(
     T, H = config.history_steps, config.horizon_steps
     scale = np.asarray(config.state_scale)
     pad_before = T - 1
-    state_grid, present_grid = _dense_grid(scene, pad_before, H)
+    state_grid, present_grid = dense_grid(scene, pad_before, H)
 
     # A row is a sample when its track has enough points before and after it.
     first, last = scene.track_first_step[scene.track], scene.track_last_step[scene.track]

@@ -9,6 +9,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import ExperimentConfig
 from grouptron.data.samples import SampleSet
 from grouptron.evaluation import metrics
@@ -144,3 +145,11 @@ def evaluate_model(
         device=device,
     )
     return [scores.summary() for scores in per_sample]
+
+
+def constant_velocity_scores(samples: SampleSet, horizon_steps: int) -> SampleScores:
+    """Per-sample ADE/FDE (metres) of constant velocity, the one baseline every table shows."""
+    pred = constant_velocity(samples.hist_rel_m.astype(np.float64), horizon_steps)
+    truth = samples.fut_rel_m.astype(np.float64)
+    nan = np.full(len(samples), np.nan)
+    return SampleScores("ml", metrics.ade(pred, truth), metrics.fde(pred, truth), nan)

@@ -20,14 +20,17 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import DataConfig
 from grouptron.constants import SPLITS, UNIV_N_PAPER
 from grouptron.data.samples import SampleSet
 from grouptron.data.subsets import UNIV_N_DEFINITIONS, UnivN, time_step_ids, univ_n_mask
 from grouptron.errors import GrouptronError
-from grouptron.evaluation import metrics
-from grouptron.evaluation.evaluate import MODES, SampleScores, score_samples
+from grouptron.evaluation.evaluate import (
+    MODES,
+    SampleScores,
+    constant_velocity_scores,
+    score_samples,
+)
 from grouptron.evaluation.report_stats import Report, build_report
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.scored import CONSTANT_VELOCITY, ReportCheckpoint, ScoredRun
@@ -231,10 +234,7 @@ def score_constant_velocity(
     runs = []
     for split in SPLITS:
         samples, _ = load_test_set(data_dir, split, config, use_cache=use_cache)
-        pred = constant_velocity(samples.hist_rel_m.astype(np.float64), config.horizon_steps)
-        truth = samples.fut_rel_m.astype(np.float64)
-        nan = np.full(len(samples), np.nan)
-        scores = SampleScores("ml", metrics.ade(pred, truth), metrics.fde(pred, truth), nan)
+        scores = constant_velocity_scores(samples, config.horizon_steps)
         masks = subset_masks(split, samples)
         entry = ReportCheckpoint(CONSTANT_VELOCITY, split, derivatives, Path())
         template = EvaluationResult(split, CONSTANT_VELOCITY, None, 0, 0.0, 0.0, "ml")

@@ -10,9 +10,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grouptron.data.samples import SampleSet
-from grouptron.evaluation.metrics import ade, fde
-
 MEAN_ROW = "mean"
 
 
@@ -46,26 +43,6 @@ class EvaluationResult:
             if row[optional] is None:
                 del row[optional]
         return {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in row.items()}
-
-
-def score(
-    split: str,
-    model: str,
-    subset: str | None,
-    pred_rel_m: np.ndarray,
-    *,
-    samples: SampleSet,
-) -> EvaluationResult:
-    """Mean ADE/FDE of (S, H, 2) predictions against the samples' futures."""
-    truth = samples.fut_rel_m.astype(np.float64)
-    return EvaluationResult(
-        split=split,
-        model=model,
-        subset=subset,
-        samples=len(samples),
-        ade=float(ade(pred_rel_m, truth).mean()) if len(samples) else math.nan,
-        fde=float(fde(pred_rel_m, truth).mean()) if len(samples) else math.nan,
-    )
 
 
 def mean_over_splits(results: Sequence[EvaluationResult]) -> EvaluationResult:

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from grouptron.config import GroupConfig
-from grouptron.data.samples import SampleSet, edge_rows
-from grouptron.groups.clustering import agglomerative_groups_batched
+from grouptron.data.samples import SampleSet, edge_rows, ego_first_layout
+from grouptron.groups.clustering import agglomerative_groups_batched, cluster_counts
 from grouptron.groups.distances import pairwise_distances
 
 MAX_DISTANCE_ELEMENTS = 4_000_000
@@ -66,9 +66,8 @@ def node_trajectories(
 def assign_groups(samples: SampleSet, config: GroupConfig, position_scale_m: float) -> SampleGroups:
     """Cluster every sample's nodes into C(N) groups on Hausdorff distances of their histories."""
     node_labels = np.zeros(len(samples) + int(samples.nbr_offsets[-1]), dtype=np.int16)
-    # Flat layout: sample s owns rows node_start[s] .. node_start[s] + n_s (ego first).
+    node_start, is_ego = ego_first_layout(samples.num_neighbours)
     counts = samples.num_neighbours + 1
-    node_start = np.concatenate([[0], np.cumsum(counts)[:-1]])
     for num_nodes in np.unique(counts):  # one vectorised block per node count
         same = np.flatnonzero(counts == num_nodes)
         if num_nodes <= 2:
@@ -82,10 +81,8 @@ def assign_groups(samples: SampleSet, config: GroupConfig, position_scale_m: flo
             labels = agglomerative_groups_batched(distances, config.linkage)  # (S, N)
             rows = node_start[index][:, None] + np.arange(num_nodes)  # (S, N)
             node_labels[rows] = labels
-    is_ego = np.zeros(len(node_labels), dtype=bool)
-    is_ego[node_start] = True
     return SampleGroups(
         ego_group=node_labels[is_ego],
         nbr_group=node_labels[~is_ego],
-        num_groups=((counts + 1) // 2).astype(np.int16),
+        num_groups=cluster_counts(counts).astype(np.int16),
     )

@@ -14,6 +14,11 @@ def cluster_count(num_nodes: int) -> int:
     """C(N) = (N + 1) // 2: the paper's (N + 1) / 2 groups, rounded down."""
     if num_nodes < 1:
         raise ValueError("need at least one node")
+    return int(cluster_counts(np.asarray([num_nodes]))[0])
+
+
+def cluster_counts(num_nodes: np.ndarray) -> np.ndarray:
+    """(S,) node counts -> (S,) C(N), the one place the paper's rule is written."""
     return (num_nodes + 1) // 2
 
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from grouptron.config import GroupConfig
 from grouptron.constants import HISTORY_STEPS, PERCEPTION_RADIUS_M
+from grouptron.data.samples import dense_grid
 from grouptron.data.scene import Scene
 from grouptron.groups.clustering import agglomerative_groups
 from grouptron.groups.distances import pairwise_distances
@@ -40,13 +41,9 @@ class StepGroups:
 
 
 def position_grid(scene: Scene, pad_before: int) -> tuple[np.ndarray, np.ndarray]:
-    """(A, pad_before + num_steps, 2) positions and presence, left-padded for windows."""
-    width = pad_before + scene.num_steps
-    pos = np.zeros((scene.num_tracks, width, 2))
-    present = np.zeros((scene.num_tracks, width), dtype=bool)
-    pos[scene.track, scene.step + pad_before] = scene.state_scene[:, :2]
-    present[scene.track, scene.step + pad_before] = True
-    return pos, present
+    """(N, pad_before + num_steps, 2) positions and presence, left-padded for windows."""
+    state, present = dense_grid(scene, pad_before, 0)
+    return state[..., :2], present
 
 
 def groups_per_step(

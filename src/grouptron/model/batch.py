@@ -10,7 +10,7 @@ import numpy as np
 import torch
 
 from grouptron.config import DataConfig, ExperimentConfig
-from grouptron.data.samples import SampleSet, edge_rows
+from grouptron.data.samples import SampleSet, edge_rows, ego_first_layout
 from grouptron.geometry import rotate_rows, rotation_matrix
 from grouptron.groups.assign import SampleGroups
 
@@ -59,11 +59,8 @@ def make_group_batch(
     ego_st = hist_st.copy()
     ego_st[..., 2:] -= hist_st[:, -1:, 2:]
     ego_st *= samples.hist_mask[index][..., None]
-    nodes_per_sample = counts + 1
-    node_start = np.concatenate([[0], np.cumsum(nodes_per_sample)[:-1]])
-    total = int(nodes_per_sample.sum())
-    is_ego = np.zeros(total, dtype=bool)
-    is_ego[node_start] = True
+    _, is_ego = ego_first_layout(counts)
+    nodes_per_sample, total = counts + 1, len(is_ego)
     node_st = np.empty((total, *hist_st.shape[1:]), dtype=np.float32)
     node_st[is_ego], node_st[~is_ego] = ego_st, nbr_st
     node_mask = np.empty((total, hist_st.shape[1]), dtype=bool)

@@ -15,12 +15,10 @@ from typing import Any
 import numpy as np
 import torch
 
-from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import ExperimentConfig
 from grouptron.data.samples import SampleSet
 from grouptron.errors import GrouptronError
-from grouptron.evaluation import metrics
-from grouptron.evaluation.evaluate import evaluate_model
+from grouptron.evaluation.evaluate import constant_velocity_scores, evaluate_model
 from grouptron.groups.assign import SampleGroups
 from grouptron.io import write_text_atomically
 from grouptron.model.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
@@ -65,13 +63,12 @@ def validate(
         groups=groups,
         device=next(model.parameters()).device,
     )
-    truth = samples.fut_rel_m.astype(np.float64)
-    baseline = constant_velocity(samples.hist_rel_m.astype(np.float64), config.data.horizon_steps)
+    baseline = constant_velocity_scores(samples, config.data.horizon_steps).summary()
     return {
         "val_ml_ade": float(scores[0].ade),
         "val_ml_fde": float(scores[0].fde),
-        "val_cv_ade": float(metrics.ade(baseline, truth).mean()),
-        "val_cv_fde": float(metrics.fde(baseline, truth).mean()),
+        "val_cv_ade": baseline.ade,
+        "val_cv_fde": baseline.fde,
     }
 
 
