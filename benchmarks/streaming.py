@@ -3,7 +3,7 @@
 Usage:
     python benchmarks/streaming.py [--checkpoint NAME_OR_PATH] [--people 10,50,100,200]
                                    [--frames 60] [--threads 2]
-                                   [--most-likely mixture-mode|argmax-latent]
+                                   [--most-likely ml|ml-argmax]
 
 A synthetic scene of N pedestrians walking in pairs and alone through a square sized for about
 one person per 4 m^2 is streamed frame by frame; the first 9 frames (before anyone has 8 steps)
@@ -46,9 +46,9 @@ def add_predictor_options(parser: argparse.ArgumentParser, most_likely: str) -> 
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument(
         "--most-likely",
-        choices=("mixture-mode", "argmax-latent"),
+        choices=("ml", "ml-argmax"),
         default=most_likely,
-        help="the Predictor's most-likely definition (argmax-latent also skips the mixture)",
+        help="the Predictor's most-likely definition (ml-argmax also skips the mixture)",
     )
 
 
@@ -57,13 +57,13 @@ def load_predictor(args: argparse.Namespace) -> Predictor:
     return Predictor.from_checkpoint(
         args.checkpoint,
         most_likely=args.most_likely,
-        mixture=args.most_likely == "mixture-mode",
+        mixture=args.most_likely == "ml",
     )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    add_predictor_options(parser, most_likely="mixture-mode")
+    add_predictor_options(parser, most_likely="ml")
     parser.add_argument("--people", default="10,50,100,200")
     parser.add_argument("--frames", type=int, default=60)
     args = parser.parse_args()

@@ -58,17 +58,17 @@ def synthetic_tracks() -> np.ndarray:
 
 
 def forecasts(name: str) -> dict[str, np.ndarray]:
-    """Forecasts at ``FORECAST_FRAME``: mixture-mode and argmax-latent most likely, a seeded
+    """Forecasts at ``FORECAST_FRAME``: the ml and ml-argmax most likely, a seeded
     sample set and the mixture parameters."""
     path = HERE / f"{name}.safetensors"
     tracks = synthetic_tracks()
     live = name.endswith("backward")  # a central model reads the recording's next two steps
     out = {}
-    for most_likely in ("mixture-mode", "argmax-latent"):
+    for most_likely in ("ml", "ml-argmax"):
         predictor = Predictor.from_checkpoint(path, most_likely=most_likely)
         forecast = predictor.predict(tracks, FORECAST_FRAME, num_samples=6, seed=3, live=live)
         out[f"{most_likely}/most_likely"] = forecast.most_likely
-        if most_likely == "mixture-mode":
+        if most_likely == "ml":
             assert forecast.samples is not None and forecast.mixture_means is not None
             out["ids"] = forecast.ids.astype(np.float64)
             out["samples"] = forecast.samples

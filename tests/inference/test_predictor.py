@@ -52,7 +52,7 @@ def test_argmax_latent_fast_path_follows_the_most_probable_latent(
 ) -> None:
     frame = int(np.median(recording[:, 0]))
     full = causal.predict(recording, t=frame)
-    fast = Predictor(causal.model, causal.config, most_likely="argmax-latent", mixture=False)
+    fast = Predictor(causal.model, causal.config, most_likely="ml-argmax", mixture=False)
     quick = fast.predict(recording, t=frame)
     assert quick.mixture_means is None and quick.mixture_log_weights is None
     best = full.mixture_log_weights.argmax(axis=1)
@@ -148,3 +148,9 @@ def test_a_recording_forecast_with_central_derivatives_matches_the_track_file_fo
         order = np.argsort(whole.ids[at_frame])
         expected = whole.most_likely[at_frame][order]
         np.testing.assert_allclose(forecast.most_likely, expected, atol=1e-5)
+
+
+def test_most_likely_older_names_are_still_accepted(tiny_checkpoints: Path) -> None:
+    path = tiny_checkpoints / "grouptron-eth-backward/best.safetensors"
+    assert Predictor.from_checkpoint(path, most_likely="argmax-latent").most_likely == "ml-argmax"  # type: ignore[arg-type]
+    assert Predictor.from_checkpoint(path, most_likely="mixture-mode").most_likely == "ml"  # type: ignore[arg-type]

@@ -48,8 +48,10 @@ log = logging.getLogger(__name__)
 CHECKPOINTS_ENV = "GROUPTRON_CHECKPOINTS"
 WEIGHTS_FILE = "best.safetensors"
 TRACK_COLUMNS = ("frame", "id", "x", "y")
-MostLikely = Literal["mixture-mode", "argmax-latent"]
-MOST_LIKELY_CHOICES = ("mixture-mode", "argmax-latent")
+MostLikely = Literal["ml", "ml-argmax"]
+MOST_LIKELY_CHOICES = ("ml", "ml-argmax")
+OLDER_NAMES = {"mixture-mode": "ml", "argmax-latent": "ml-argmax"}
+"""Names these choices had before the vocabulary was unified (still accepted)."""
 
 
 def _as_track_array(tracks: Any) -> np.ndarray:
@@ -103,9 +105,9 @@ class Predictor:
     """A trained Trajectron++ or Grouptron model ready to forecast tracks.
 
     Args:
-        most_likely: ``"mixture-mode"`` (the benchmark's most likely trajectory: per step the
+        most_likely: ``"ml"`` (the benchmark's most likely trajectory: per step the
             mode of the p(z|x)-weighted mixture over all Z latent values) or
-            ``"argmax-latent"`` (follow the means of the most probable latent value only; the
+            ``"ml-argmax"`` (follow the means of the most probable latent value only; the
             "ML-argmax" row of the evaluator, several times faster without the mixture).
         mixture: also return the mixture parameters (decodes all Z latent values).
     """
@@ -115,10 +117,11 @@ class Predictor:
         model: TrajectronCVAE,
         config: ExperimentConfig,
         source: str = "",
-        most_likely: MostLikely = "mixture-mode",
+        most_likely: MostLikely = "ml",
         *,
         mixture: bool = True,
     ) -> None:
+        most_likely = OLDER_NAMES.get(most_likely, most_likely)  # type: ignore[assignment]
         if most_likely not in MOST_LIKELY_CHOICES:
             raise GrouptronError(
                 f"most_likely must be one of {', '.join(MOST_LIKELY_CHOICES)}, not {most_likely!r}"
@@ -136,7 +139,7 @@ class Predictor:
         name_or_path: str | Path,
         checkpoints_dir: str | Path | None = None,
         threads: int | None = None,
-        most_likely: MostLikely = "mixture-mode",
+        most_likely: MostLikely = "ml",
         *,
         mixture: bool = True,
     ) -> Predictor:
@@ -278,12 +281,12 @@ class Predictor:
         """(N, H, 2) most likely offsets from now and, if asked for, the mixture: (N, Z) log
         weights, (N, Z, H, 2) position offsets, (N, Z, H, 2, 2) covariances (float64)."""
         H, dt = self.config.data.horizon_steps, self.config.data.dt_s
-        if not self.mixture and self.most_likely == "argmax-latent":
+        if not self.mixture and self.most_likely == "ml-argmax":
             fast = predict_argmax_latent(self.model, batch, H, dt)  # decodes one latent value
             return fast.double().numpy(), None, None, None
         encoding, velocity = decode_every_latent(self.model, batch, H)
         mean = positions_from_velocities(velocity.mean, dt)  # (N, Z, H, 2)
-        if self.most_likely == "mixture-mode":
+        if self.most_likely == "ml":
             most_likely = most_likely_positions(encoding, velocity, H, dt)
         else:
             best = encoding.p_logits.argmax(dim=-1)  # (N,)
