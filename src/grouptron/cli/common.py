@@ -122,3 +122,9 @@ def eval_modes(value: str) -> tuple[str, ...]:
             f"unknown mode {', '.join(unknown) or value!r}; choose from {', '.join(MODES)} or all"
         )
     return modes
+
+
+def show_progress(args: argparse.Namespace) -> bool:
+    """Progress bars only on a terminal and without --quiet: a log file gets no carriage
+    returns."""
+    return not getattr(args, "quiet", False) and sys.stderr.isatty()

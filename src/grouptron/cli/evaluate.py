@@ -12,6 +12,7 @@ from grouptron.cli.common import (
     add_data_options,
     eval_modes,
     parse_splits,
+    show_progress,
 )
 from grouptron.config import (
     DataConfig,
@@ -89,7 +90,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             samples,
             modes,
             seed=args.seed,
-            progress=not args.quiet,
+            progress=show_progress(args),
             groups=groups,
         )
         template = EvaluationResult(split, experiment.model_name, args.subset, 0, 0.0, 0.0)

@@ -15,6 +15,7 @@ from grouptron.cli.common import (
     add_gap_option,
     non_negative_int,
     positive_int,
+    show_progress,
 )
 from grouptron.data.reader import read_tracks
 from grouptron.data.scene import build_scene
@@ -46,7 +47,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
         args.mode,
         num_samples=args.samples,
         seed=args.seed,
-        progress=not args.quiet,
+        progress=show_progress(args),
     )
     header, rows, formats = forecast.table(sampled=args.mode == "samples")
     write_array_csv_atomically(Path(args.out), header, rows, formats)
@@ -80,7 +81,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     present = set(rows[:, 0].astype(np.int64).tolist())
     drawn = [
         (frame, _plot_panels(args, predictors, rows, frame, required=False))
-        for frame in tqdm(wanted, desc="forecasting", unit="frame", disable=args.quiet)
+        for frame in tqdm(wanted, desc="forecasting", unit="frame", disable=not show_progress(args))
         if frame in present
     ]
     drawn = [(frame, panels) for frame, panels in drawn if panels]

@@ -14,6 +14,7 @@ from grouptron.cli.common import (
     eval_modes,
     non_negative_int,
     positive_int,
+    show_progress,
 )
 from grouptron.data.locate import resolve_data_dir
 from grouptron.evaluation.evaluate import MODES
@@ -58,7 +59,14 @@ def cmd_report(args: argparse.Namespace) -> int:
     data_dir = resolve_data_dir(args.data_dir)
     checkpoints = find_checkpoints(Path(args.checkpoints), schemes)
     torch.set_num_threads(args.threads)
-    report = run_report(data_dir, checkpoints, schemes, settings, progress=not args.quiet)
+    report = run_report(
+        data_dir,
+        checkpoints,
+        schemes,
+        settings,
+        progress=show_progress(args),
+        announce=not args.quiet,
+    )
     if args.format == "json":
         text = report.to_json() + "\n"
     else:

@@ -15,6 +15,7 @@ from grouptron.cli.common import (
     Formatter,
     add_data_options,
     device_type,
+    show_progress,
 )
 from grouptron.config import (
     ExperimentConfig,
@@ -154,7 +155,7 @@ def cmd_train(args: argparse.Namespace) -> int:
             val_part.samples,
             out,
             resume=args.resume,
-            progress=not args.quiet,
+            progress=show_progress(args),
             train_groups=train_groups,
             val_groups=val_groups,
             device=args.device,

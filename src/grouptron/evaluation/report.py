@@ -251,13 +251,15 @@ def run_report(
     settings: ReportSettings,
     *,
     progress: bool = False,
+    announce: bool = False,
 ) -> Report:
     """Rows for every checkpoint and constant velocity, the AVG rows, intervals, paired
     differences and the seed spread.
 
     The lowest seed of each (model, split, derivatives) gives the table rows in every mode; the
-    other seeds are scored in the ``ml`` mode for the seed spread. Progress goes to standard
-    error, so that standard output can carry JSON.
+    other seeds are scored in the ``ml`` mode for the seed spread. ``announce`` names each
+    checkpoint as it starts and ``progress`` draws bars, both on standard error, so that
+    standard output can carry JSON.
     """
     runs: list[ScoredRun] = []
     baseline = score_constant_velocity(data_dir, schemes[0], settings.use_cache)
@@ -276,7 +278,7 @@ def run_report(
         first_seed.setdefault(key, entry.seed)
         primary = first_seed[key] == entry.seed
         log.info("evaluating %s", entry.path)
-        if progress:
+        if announce:
             print(
                 f"{entry.model} {entry.split} ({entry.derivatives} derivatives, seed "
                 f"{entry.seed}): {entry.path}",
