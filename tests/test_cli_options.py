@@ -62,3 +62,8 @@ def test_set_parses_values_and_refuses_bad_keys() -> None:
         parse_setting("train.seed")
     with pytest.raises(GrouptronError, match="unknown TrainConfig keys: sed"):
         experiment_from_args(_train_args("--set", "train.sed=3"))
+
+
+def test_report_by_default_scores_the_nll_on_a_capped_sample() -> None:
+    """The full NLL of every test sample takes hours; the default report takes minutes."""
+    assert build_parser().parse_args(["report"]).nll_max_samples == 300

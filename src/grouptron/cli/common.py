@@ -10,6 +10,7 @@ import sys
 import torch
 
 from grouptron.constants import SPLITS
+from grouptron.data.recording import UNITS_M, RecordingFormat, parse_columns
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import MODES
 from grouptron.geometry import DERIVATIVE_SCHEMES
@@ -128,3 +129,44 @@ def show_progress(args: argparse.Namespace) -> bool:
     """Progress bars only on a terminal and without --quiet: a log file gets no carriage
     returns."""
     return not getattr(args, "quiet", False) and sys.stderr.isatty()
+
+
+def add_recording_options(parser: argparse.ArgumentParser) -> None:
+    """How a recording of one's own is laid out (any columns, frame rate, time base, units)."""
+    parser.add_argument(
+        "--columns",
+        default="frame,id,x,y",
+        help="the columns of the files, in order, e.g. frame,id,x,y or id,frame,x,y,z or "
+        "t,id,x,y: id, x, y and one time column, 'frame' (with --fps) or 't' (seconds, e.g. "
+        "Unix time); other names (z, -) and columns past the named ones are ignored",
+    )
+    parser.add_argument(
+        "--fps",
+        type=float,
+        help="frames per second of a frame column (default: the ETH/UCY convention, 10 frames "
+        "per 0.4 s step)",
+    )
+    parser.add_argument("--units", choices=tuple(UNITS_M), default="m", help="units of x and y")
+    parser.add_argument(
+        "--max-gap",
+        type=float,
+        default=RecordingFormat().max_gap_s,
+        help="seconds without an observation after which a track is split; shorter gaps are "
+        "bridged by linear interpolation on the 0.4 s resampling grid",
+    )
+    parser.add_argument(
+        "--no-speed-check",
+        action="store_true",
+        help="read files whose median walking speed is above 3 m/s (refused otherwise: a sign "
+        "of wrong --units or --fps)",
+    )
+
+
+def recording_format(args: argparse.Namespace) -> RecordingFormat:
+    return RecordingFormat(
+        columns=parse_columns(args.columns),
+        fps=args.fps,
+        units=args.units,
+        max_gap_s=args.max_gap,
+        check_speed=not args.no_speed_check,
+    )

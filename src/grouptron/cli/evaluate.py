@@ -4,14 +4,18 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+from pathlib import Path
 
 import torch
 
 from grouptron.cli.common import (
     Formatter,
     add_data_options,
+    add_recording_options,
     eval_modes,
+    log,
     parse_splits,
+    recording_format,
     show_progress,
 )
 from grouptron.config import (
@@ -27,6 +31,7 @@ from grouptron.evaluation.evaluate import (
     constant_velocity_scores,
     evaluate_model,
 )
+from grouptron.evaluation.recordings import evaluate_recordings, training_files
 from grouptron.evaluation.results import (
     EvaluationResult,
     mean_over_splits,
@@ -34,6 +39,7 @@ from grouptron.evaluation.results import (
     results_table,
 )
 from grouptron.evaluation.test_sets import load_test_set
+from grouptron.inference.predictor import resolve_checkpoint
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.factory import uses_groups
 
@@ -49,9 +55,51 @@ def _row(template: EvaluationResult, scores: ModeScores) -> EvaluationResult:
     )
 
 
+def cmd_evaluate_tracks(args: argparse.Namespace) -> int:
+    """``evaluate --tracks``: recordings of one's own instead of the benchmark's test sets."""
+    fmt = recording_format(args)
+    files = [Path(f) for f in args.tracks]
+    if args.split or args.subset:
+        raise GrouptronError("--split and --subset choose benchmark test sets, not --tracks")
+    model, experiment = None, None
+    data = DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
+    if args.checkpoint:
+        model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
+        torch.set_num_threads(experiment.train.threads)
+        data = dataclasses.replace(experiment.data, on_gap=args.on_gap)
+        if args.derivatives and args.derivatives != data.derivatives:
+            raise GrouptronError(
+                f"{args.checkpoint} was trained with {data.derivatives} derivatives, not "
+                f"{args.derivatives}"
+            )
+        for path in training_files(files, experiment):
+            log.warning(
+                "%s is part of the data %s was trained or validated on (%s split): its scores "
+                "are not held-out scores",
+                path,
+                args.checkpoint,
+                experiment.split,
+            )
+        if data.derivatives == "central":
+            log.warning(
+                "%s uses central derivatives: each forecast reads the position one step after "
+                "the forecast time (look-ahead); use a backward checkpoint for causal scores",
+                args.checkpoint,
+            )
+    modes = tuple(m for m in eval_modes(args.mode) if m != "nll")
+    results = evaluate_recordings(
+        files, fmt, model=model, experiment=experiment, data=data, modes=modes,
+        seed=args.seed, progress=show_progress(args),
+    )  # fmt: skip
+    print(results_json(results) if args.format == "json" else results_table(results))
+    return 0
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     if (args.model is None) == (args.checkpoint is None):
         raise GrouptronError("give either --checkpoint PATH or --model constant-velocity")
+    if args.tracks:
+        return cmd_evaluate_tracks(args)
     data_dir = resolve_data_dir(args.data_dir)
     model = None
     if args.checkpoint:
@@ -121,7 +169,9 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "  grouptron evaluate --model constant-velocity --split all\n"
         "  grouptron evaluate --checkpoint runs/trajectron++-eth-central/best.safetensors\n"
         "  grouptron evaluate --checkpoint CKPT --split univ --subset univ-45 --mode all "
-        "--format json",
+        "--format json\n"
+        "  grouptron evaluate --model constant-velocity --tracks corridor.txt "
+        "--columns id,frame,x,y,z --fps 16 --units cm",
     )
     evaluate.add_argument("--checkpoint", help="a .safetensors checkpoint written by training")
     evaluate.add_argument(
@@ -144,5 +194,14 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--format", choices=("table", "json"), default="table", help="output format"
     )
     evaluate.add_argument("--quiet", action="store_true", help="no progress bars")
+    evaluate.add_argument(
+        "--tracks",
+        nargs="+",
+        metavar="FILE",
+        help="score recordings of your own instead of the benchmark: every (person, step) with "
+        "8 observed and 12 future points after resampling to 0.4 s (layout: --columns, --fps, "
+        "--units)",
+    )
+    add_recording_options(evaluate)
     add_data_options(evaluate)
     evaluate.set_defaults(handler=cmd_evaluate)

@@ -34,7 +34,7 @@ from grouptron.io import (
 def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
     """The canonical command line that regenerates this report (written into it)."""
     parts = ["grouptron report", f"--derivatives {args.derivatives}", f"--mode {','.join(modes)}"]
-    if args.nll_max_samples:
+    if args.nll_max_samples != ReportSettings().nll_max_samples:
         parts.append(f"--nll-max-samples {args.nll_max_samples}")
     if args.checkpoints != REPORT_CHECKPOINTS:
         parts.append(f"--checkpoints {args.checkpoints}")
@@ -91,7 +91,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         formatter_class=Formatter,
         epilog="examples:\n"
         "  grouptron report --mode ml                      # Tables I and II only (minutes)\n"
-        "  grouptron report --out RESULTS.md --nll-max-samples 500\n"
+        "  grouptron report --out RESULTS.md\n"
         "  grouptron report --derivatives central --format json --out results.json",
     )
     report.add_argument(
@@ -114,9 +114,9 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     report.add_argument(
         "--nll-max-samples",
         type=non_negative_int,
-        default=0,
-        help="KDE NLL on at most this many seeded random test samples per split (0: all; "
-        "the NLL decodes 2000 futures per sample and dominates the run time)",
+        default=ReportSettings().nll_max_samples,
+        help="KDE NLL on at most this many seeded random test samples per split (0: all, "
+        "hours: the NLL decodes 2000 futures per sample and dominates the run time)",
     )
     report.add_argument("--out", help="write the report here (default: standard output)")
     report.add_argument(

@@ -71,16 +71,26 @@ def _fmt(value: float | None) -> str:
 
 
 def results_table(results: Sequence[EvaluationResult]) -> str:
-    """A fixed-width text table: split, subset, model, samples, ADE, FDE (metres), NLL."""
+    """A fixed-width text table: split (or file), subset, model, samples, ADE, FDE (metres),
+    NLL, and the 95% interval of FDE where one was computed."""
     with_nll = any(r.nll is not None for r in results)
-    header = f"{'split':<7} {'subset':<9} {'model':<30} {'samples':>8} {'ADE m':>7} {'FDE m':>7}"
+    with_ci = any(r.fde_ci is not None for r in results)
+    width = max([7, *(len(r.split) for r in results)])
+    header = (
+        f"{'split':<{width}} {'subset':<9} {'model':<30} {'samples':>8} {'ADE m':>7} {'FDE m':>7}"
+    )
     header += f" {'NLL':>7}" if with_nll else ""
+    header += f" {'FDE 95% interval':>18}" if with_ci else ""
     lines = [header, "-" * len(header)]
     for r in results:
         name = r.model if r.mode is None else f"{r.model} ({r.mode})"
         line = (
-            f"{r.split:<7} {r.subset or '-':<9} {name:<30} {r.samples:>8} "
+            f"{r.split:<{width}} {r.subset or '-':<9} {name:<30} {r.samples:>8} "
             f"{_fmt(r.ade):>7} {_fmt(r.fde):>7}"
         )
-        lines.append(line + (f" {_fmt(r.nll):>7}" if with_nll else ""))
+        line += f" {_fmt(r.nll):>7}" if with_nll else ""
+        if with_ci:
+            interval = f"[{_fmt(r.fde_ci[0])}, {_fmt(r.fde_ci[1])}]" if r.fde_ci else "-"
+            line += f" {interval:>18}"
+        lines.append(line)
     return "\n".join(lines)

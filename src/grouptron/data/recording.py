@@ -1,0 +1,268 @@
+"""Recordings in their own format: any column layout, frame rate, time base and units,
+resampled onto the model's 0.4 s step.
+
+A :class:`RecordingFormat` says how a file is laid out (``--columns``, ``--fps``, ``--units``).
+:func:`read_recording` reads it into times in seconds, ids and positions in metres;
+:func:`resample` puts every track on a common grid of ``dt_s`` steps by linear interpolation
+between the track's own observations (never extrapolated; a gap longer than ``max_gap_s``
+splits the track). Rows already on the grid are kept exactly, so ETH/UCY files read with the
+defaults give the same samples as before. :func:`check_plausible` refuses speeds no pedestrian
+walks, with a hint about units and frame rate.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from grouptron.constants import DT_S, FRAMES_PER_STEP
+from grouptron.data.neighbours import ranges_to_indices
+from grouptron.data.reader import TrackTable, table_from_values
+from grouptron.errors import DataFormatError, GrouptronError
+
+UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+DEFAULT_COLUMNS = ("frame", "id", "x", "y")
+ETH_UCY_FPS = FRAMES_PER_STEP / DT_S
+"""The ETH/UCY convention: frame numbers on a 10-frame grid per 0.4 s step (25 per second)."""
+MAX_MEDIAN_SPEED_MPS = 3.0
+"""A median walking speed above this is not pedestrians in metres: wrong units or frame rate."""
+ON_GRID_TOLERANCE = 1e-6
+"""Observation times within this many steps of a grid point count as on the grid."""
+IGNORED = {"-", "_", "skip", "z"}
+
+
+@dataclass(frozen=True)
+class RecordingFormat:
+    """How a track file is laid out.
+
+    Attributes:
+        columns: the name of every column, in order: ``id``, ``x``, ``y`` and one time column,
+            ``frame`` (frame numbers, with ``fps``) or ``t`` (seconds, any floats, e.g. Unix
+            time); any other name (``z``, ``-``) marks a column that is ignored, as are
+            columns past the named ones.
+        fps: frames per second of a ``frame`` column (None: the ETH/UCY convention, 10 frames
+            per 0.4 s step).
+        units: of x and y: ``m``, ``cm`` or ``mm``.
+        max_gap_s: a track with no observation for longer than this is split in two; shorter
+            gaps are bridged by interpolation.
+        check_speed: refuse recordings whose median walking speed is implausible.
+    """
+
+    columns: tuple[str, ...] = DEFAULT_COLUMNS
+    fps: float | None = None
+    units: str = "m"
+    max_gap_s: float = 0.8
+    check_speed: bool = True
+
+    def __post_init__(self) -> None:
+        names = [c for c in self.columns if c not in IGNORED]
+        for needed in ("id", "x", "y"):
+            if names.count(needed) != 1:
+                raise GrouptronError(
+                    f"--columns {','.join(self.columns)}: needs exactly one {needed!r} column"
+                )
+        if ("frame" in names) == ("t" in names):
+            raise GrouptronError(
+                f"--columns {','.join(self.columns)}: needs one time column, 'frame' (frame "
+                "numbers, with --fps) or 't' (seconds)"
+            )
+        if self.fps is not None and "t" in names:
+            raise GrouptronError("--fps applies to a 'frame' column; a 't' column is in seconds")
+        if self.fps is not None and not (math.isfinite(self.fps) and self.fps > 0):
+            raise GrouptronError(f"--fps must be a positive number, not {self.fps}")
+        if self.units not in UNITS_M:
+            raise GrouptronError(f"--units must be one of {', '.join(UNITS_M)}, not {self.units!r}")
+        if not self.max_gap_s > 0:
+            raise GrouptronError(f"--max-gap must be positive (seconds), not {self.max_gap_s}")
+
+    @property
+    def time_column(self) -> str:
+        return "t" if "t" in self.columns else "frame"
+
+    @property
+    def seconds_per_frame(self) -> float:
+        return 1.0 / (self.fps if self.fps is not None else ETH_UCY_FPS)
+
+
+def parse_columns(text: str) -> tuple[str, ...]:
+    """``"frame,id,x,y"`` (commas or spaces) -> ``("frame", "id", "x", "y")``."""
+    names = tuple(n.strip().lower() for n in re.split(r"[,\s]+", text.strip()) if n.strip())
+    if not names:
+        raise GrouptronError("--columns is empty; e.g. --columns frame,id,x,y")
+    return names
+
+
+@dataclass(frozen=True)
+class Recording:
+    """Observations of one file: (R,) ids, (R,) times in seconds, (R, 2) positions in metres,
+    and (R,) the file line of every row (for error messages)."""
+
+    path: Path
+    ped_id: np.ndarray
+    time_s: np.ndarray
+    pos_m: np.ndarray
+    line: np.ndarray
+
+
+def _numbers(path: Path, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """(R, C) the numeric rows of a whitespace- or comma-separated file (a first line that is
+    not numbers is a header) and (R,) their line numbers."""
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DataFormatError(path, f"cannot read the file ({exc})") from None
+    fast = _parse_fast(text, width)
+    if fast is not None:
+        return fast
+    # Slow path, only to name the line at fault (or to skip a header).
+    rows: list[list[float]] = []
+    lines: list[int] = []
+    for number, raw in enumerate(text.splitlines(), start=1):
+        fields = [f for f in re.split(r"[,\s]+", raw.strip()) if f]
+        if not fields or fields[0].startswith("#"):
+            continue
+        try:
+            values = [float(f) for f in fields]
+        except ValueError:
+            if not rows:
+                continue  # a header line
+            raise DataFormatError(path, f"not a number in {raw.strip()!r}", number) from None
+        if len(values) < width:
+            raise DataFormatError(
+                path, f"{len(values)} columns, but --columns names {width}", number
+            )
+        rows.append(values[:width])
+        lines.append(number)
+    if not rows:
+        raise DataFormatError(path, "no rows of numbers")
+    return np.asarray(rows, dtype=np.float64), np.asarray(lines)
+
+
+def _parse_fast(text: str, width: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """NumPy's parser over the whole file, when every line is numbers (no header, no blank or
+    comment lines, at least ``width`` columns); None otherwise."""
+    try:
+        values = np.loadtxt(
+            io.StringIO(text.replace(",", " ")), ndmin=2, usecols=range(width), comments=None
+        )
+    except (ValueError, IndexError):
+        return None
+    if len(values) != text.count("\n") + (not text.endswith("\n")):
+        return None  # blank lines were skipped: line numbers would be off
+    return values, np.arange(1, len(values) + 1)
+
+
+def read_recording(path: Path, fmt: RecordingFormat) -> Recording:
+    """Read a file laid out as ``fmt`` says; positions in metres, times in seconds."""
+    values, lines = _numbers(Path(path), len(fmt.columns))
+    bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
+    if bad.size:
+        raise DataFormatError(path, "a value is not finite", int(lines[bad[0]]))
+    column = {name: i for i, name in enumerate(fmt.columns)}
+    ped_id = values[:, column["id"]]
+    if (ped_id != np.round(ped_id)).any():
+        row = int(np.flatnonzero(ped_id != np.round(ped_id))[0])
+        raise DataFormatError(path, f"id {ped_id[row]} is not a whole number", int(lines[row]))
+    time = values[:, column[fmt.time_column]]
+    time_s = time if fmt.time_column == "t" else time * fmt.seconds_per_frame
+    scale = UNITS_M[fmt.units]
+    pos_m = values[:, [column["x"], column["y"]]] * scale
+    return Recording(Path(path), ped_id.astype(np.int64), time_s, pos_m, lines)
+
+
+def check_plausible(recording: Recording, fmt: RecordingFormat) -> None:
+    """Refuse a recording whose median walking speed is above 3 m/s: a unit or frame-rate
+    mistake (a file in centimetres read as metres walks at 100 m/s)."""
+    order = np.lexsort((recording.time_s, recording.ped_id))
+    ids, t, pos = recording.ped_id[order], recording.time_s[order], recording.pos_m[order]
+    same = (ids[1:] == ids[:-1]) & (t[1:] > t[:-1])
+    if not same.any():
+        return
+    speed = np.linalg.norm(np.diff(pos, axis=0), axis=1)[same] / np.diff(t)[same]
+    median = float(np.median(speed))
+    if median > MAX_MEDIAN_SPEED_MPS:
+        walking = [u for u in ("cm", "mm") if 0.2 <= median * UNITS_M[u] / UNITS_M[fmt.units] < 3]
+        hints = [f"--units {u}" for u in walking]
+        raise GrouptronError(
+            f"{recording.path}: the median walking speed is {median:.3g} m/s, implausible for "
+            f"pedestrians (read with --units {fmt.units}"
+            f"{'' if fmt.time_column == 't' else f', {1 / fmt.seconds_per_frame:g} fps'}); "
+            f"check the units{' (' + ' or '.join(hints) + '?)' if hints else ''} and --fps, or "
+            "pass --no-speed-check to go on"
+        )
+
+
+def resample(recording: Recording, fmt: RecordingFormat, dt_s: float = DT_S) -> TrackTable:
+    """Every track on the grid ``t0 + k * dt_s`` (t0: the recording's first time), linearly
+    interpolated between consecutive observations of the track that are at most
+    ``fmt.max_gap_s`` apart; never extrapolated. Observations on the grid keep their values.
+
+    Returns a table in the file's own frame numbers when a step is a whole number of its
+    frames and the first frame is on it (ETH/UCY: 10, TrajNet: 12); else its "frames" are the
+    grid steps (``first_frame`` 0, ``frames_per_step`` 1).
+    """
+    order = np.lexsort((recording.time_s, recording.ped_id))
+    ids, time_s = recording.ped_id[order], recording.time_s[order]
+    pos, lines = recording.pos_m[order], recording.line[order]
+    _refuse_duplicates(recording.path, ids, time_s, lines)
+    steps = (time_s - time_s.min()) / dt_s  # (R,) time in grid steps
+    snapped = np.round(steps)
+    on_grid = np.abs(steps - snapped) < ON_GRID_TOLERANCE
+    steps = np.where(on_grid, snapped, steps)
+    # Segments between consecutive observations of one track, bridged when short enough.
+    joined = (ids[1:] == ids[:-1]) & (np.diff(time_s) <= fmt.max_gap_s + 1e-9)
+    first = np.ceil(steps[:-1]).astype(np.int64)
+    last = np.where(joined, np.ceil(steps[1:]) - 1, np.floor(steps[:-1])).astype(np.int64)
+    counts = np.where(joined, np.maximum(last - first + 1, 0), 0)
+    segment = np.repeat(np.arange(len(first)), counts)
+    grid = ranges_to_indices(first, counts)  # (G,) grid step of every new row
+    # The last observation of a piece ends no segment: add it when it is on the grid.
+    ends = np.flatnonzero(np.append(~joined, True) & (steps == np.round(steps)))
+    span = np.where(joined[segment], np.diff(steps)[segment], 1.0)
+    weight = np.where(joined[segment], (grid - steps[:-1][segment]) / span, 0.0)[:, None]
+    nxt = np.minimum(segment + 1, len(pos) - 1)
+    new_pos = pos[segment] * (1 - weight) + pos[nxt] * weight
+    all_step = np.concatenate([grid, steps[ends].astype(np.int64)])
+    all_pos = np.concatenate([new_pos, pos[ends]])
+    all_id = np.concatenate([ids[segment], ids[ends]])
+    all_line = np.concatenate([lines[segment], lines[ends]])
+    piece = np.concatenate([[0], np.cumsum(~joined)])  # (R,) piece of every observation
+    all_piece = np.concatenate([piece[segment], piece[ends]])
+    keep = np.unique(np.column_stack([all_piece, all_step]), axis=0, return_index=True)[1]
+    first_frame, per_step = _frame_base(recording, fmt, dt_s)
+    frame = first_frame + all_step[keep] * per_step
+    values = np.column_stack([frame, all_id[keep], all_pos[keep]])
+    return table_from_values(recording.path, values, all_line[keep], per_step, warn_on_gap=False)
+
+
+def _frame_base(recording: Recording, fmt: RecordingFormat, dt_s: float) -> tuple[int, int]:
+    """(first frame, frames per step) of the output: the file's own frames when a step is a
+    whole number of them (ETH/UCY: 10, TrajNet: 12), else grid steps (0, 1)."""
+    if fmt.time_column != "frame":
+        return 0, 1
+    per_step = dt_s / fmt.seconds_per_frame
+    if abs(per_step - round(per_step)) > ON_GRID_TOLERANCE or round(per_step) < 1:
+        return 0, 1
+    return round(float(recording.time_s.min()) / fmt.seconds_per_frame), round(per_step)
+
+
+def _refuse_duplicates(path: Path, ids: np.ndarray, time_s: np.ndarray, lines: np.ndarray) -> None:
+    same = np.flatnonzero((ids[1:] == ids[:-1]) & (time_s[1:] == time_s[:-1]))
+    if same.size:
+        first, second = sorted((int(lines[same[0]]), int(lines[same[0] + 1])))
+        raise DataFormatError(
+            path, f"two rows for pedestrian {ids[same[0]]} at one time (also line {first})", second
+        )
+
+
+def read_resampled(path: Path, fmt: RecordingFormat, dt_s: float = DT_S) -> TrackTable:
+    """Read, check and resample a recording: the one entry point for files of any format."""
+    recording = read_recording(path, fmt)
+    if fmt.check_speed:
+        check_plausible(recording, fmt)
+    return resample(recording, fmt, dt_s)

@@ -1,0 +1,140 @@
+"""Scores on recordings of one's own: every (agent, step) of the given files with all observed
+and future points after resampling to the model's step, one row per file and one pooled."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from grouptron.config import DataConfig, ExperimentConfig
+from grouptron.data.download import file_sha256, shipped_checksums
+from grouptron.data.recording import RecordingFormat, read_resampled
+from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
+from grouptron.data.scene import build_scene
+from grouptron.data.subsets import time_step_ids
+from grouptron.errors import GrouptronError
+from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
+from grouptron.evaluation.results import EvaluationResult
+from grouptron.evaluation.uncertainty import mean_interval
+from grouptron.groups.assign import assign_groups
+from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.factory import uses_groups
+
+POOLED = "all files"
+CONSTANT_VELOCITY = "constant-velocity"
+
+
+def recording_samples(files: Sequence[Path], fmt: RecordingFormat, config: DataConfig) -> SampleSet:
+    """The test-like samples (all ``history_steps`` observed, a full future) of every file,
+    one scene per file (``scene_index`` = the file's position in ``files``)."""
+    parts = []
+    for path in files:
+        table = read_resampled(Path(path), fmt, config.dt_s)
+        scene = build_scene(table, config, name=Path(path).name)
+        parts.append(scene_samples(scene, config, config.history_steps))  # renumbered below
+    samples = concatenate_samples(parts)
+    if not len(samples):
+        raise GrouptronError(
+            f"no pedestrian in {', '.join(str(f) for f in files)} has {config.history_steps} "
+            f"observed and {config.horizon_steps} future steps of {config.dt_s} s"
+        )
+    return samples
+
+
+def training_files(files: Sequence[Path], experiment: ExperimentConfig) -> list[str]:
+    """The given files that are (byte for byte) ETH/UCY data the checkpoint was trained or
+    validated on: a file of its split's train/val parts, or a whole recording of a location
+    other than its split's test location. Scores on them are not held-out scores."""
+    names_of: dict[str, list[str]] = {}
+    for name, digest in shipped_checksums().items():
+        names_of.setdefault(digest, []).append(name)
+    found = []
+    for path in files:
+        for name in names_of.get(file_sha256(Path(path)), []):
+            folder, part = Path(name).parts[-3:-1] if len(Path(name).parts) >= 3 else ("", "")
+            seen_in_split = folder == experiment.split and part in ("train", "val")
+            whole = Path(name).parts[-2] == "all_data" and _in_training(name, experiment.split)
+            if seen_in_split or whole:
+                found.append(str(path))
+                break
+    return found
+
+
+def _in_training(all_data_name: str, split: str) -> bool:
+    """Whether a whole recording (``all_data``) feeds the training part of ``split``: every
+    location except the split's own test location."""
+    test_files = {
+        "eth": ("biwi_eth",),
+        "hotel": ("biwi_hotel",),
+        "univ": ("students001", "students003"),
+        "zara1": ("crowds_zara01",),
+        "zara2": ("crowds_zara02",),
+    }[split]
+    return not Path(all_data_name).stem.startswith(test_files)
+
+
+def _rows(
+    files: Sequence[Path],
+    samples: SampleSet,
+    scores: SampleScores,
+    template: EvaluationResult,
+) -> list[EvaluationResult]:
+    """One row per file and the pooled row, each with 95% intervals over time steps."""
+    steps = time_step_ids(samples)
+    rows = []
+    groups = [(Path(f).name, samples.scene_index == i) for i, f in enumerate(files)]
+    for name, keep in [*groups, (POOLED, np.ones(len(samples), dtype=bool))]:
+        if not keep.any():
+            continue
+        ade, fde = (
+            mean_interval(scores.ade[keep], steps[keep]),
+            mean_interval(scores.fde[keep], steps[keep]),
+        )
+        rows.append(
+            dataclasses.replace(
+                template,
+                split=name,
+                samples=int(keep.sum()),
+                ade=ade.mean,
+                fde=fde.mean,
+                ade_ci=(ade.low, ade.high),
+                fde_ci=(fde.low, fde.high),
+            )
+        )
+    return rows
+
+
+def evaluate_recordings(
+    files: Sequence[Path],
+    fmt: RecordingFormat,
+    *,
+    model: TrajectronCVAE | None,
+    experiment: ExperimentConfig | None,
+    data: DataConfig,
+    modes: tuple[str, ...] = ("ml",),
+    seed: int = 0,
+    progress: bool = False,
+) -> list[EvaluationResult]:
+    """Constant velocity (``model`` None) or a checkpoint on the files: rows per file and mode,
+    then the pooled row. ``data`` is the checkpoint's data settings (or the baseline's)."""
+    samples = recording_samples(files, fmt, data)
+    template = EvaluationResult("", CONSTANT_VELOCITY, None, 0, 0.0, 0.0)
+    template = dataclasses.replace(template, derivatives=data.derivatives)
+    if model is None or experiment is None:
+        return _rows(
+            files, samples, constant_velocity_scores(samples, data.horizon_steps), template
+        )
+    groups = None
+    if uses_groups(experiment):
+        groups = assign_groups(samples, experiment.groups, data.position_scale_m)
+    rows = []
+    per_mode = score_samples(
+        model, experiment, samples, modes, seed=seed, progress=progress, groups=groups
+    )
+    for scores in per_mode:
+        mode_template = dataclasses.replace(template, model=experiment.model_name, mode=scores.mode)
+        rows += _rows(files, samples, scores, mode_template)
+    return rows
