@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -67,3 +68,34 @@ def test_set_parses_values_and_refuses_bad_keys() -> None:
 def test_report_by_default_scores_the_nll_on_a_capped_sample() -> None:
     """The full NLL of every test sample takes hours; the default report takes minutes."""
     assert build_parser().parse_args(["report"]).nll_max_samples == 300
+
+
+def test_config_show_prints_the_effective_settings(capsys: pytest.CaptureFixture[str]) -> None:
+    from grouptron.cli import main
+
+    assert main(["config", "show", "--model", "grouptron", "--split", "eth"]) == 0
+    shown = json.loads(capsys.readouterr().out)
+    assert shown["model_name"] == "grouptron" and shown["group_encoder"]["group_dim"] == 8
+    assert main(["config", "show", "--set", "train.seed=3", "--changes"]) == 0
+    assert "train.seed = 3" in capsys.readouterr().out.splitlines()
+
+
+@pytest.mark.parametrize(
+    ("setting", "message"),
+    [
+        ("train.epoch=3", r"unknown TrainConfig keys: epoch \(did you mean epochs\?\)"),
+        ("train.epochs=many", "TrainConfig.epochs must be int, not 'many'"),
+        ("train.rotation_augmentation=1", "must be bool"),
+        ("data.derivatives=forward", "must be one of 'central', 'backward'"),
+        ("modle.latent_modes=5", r"did you mean model\?"),
+    ],
+)
+def test_wrong_settings_are_one_line_errors(
+    setting: str, message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from grouptron.cli import main
+
+    assert main(["config", "show", "--set", setting]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1
+    assert re.search(message, err), err

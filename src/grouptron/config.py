@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import json
+import typing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, TypeVar
@@ -258,8 +260,13 @@ def config_from_dict(cls: type[ConfigT], values: dict[str, Any]) -> ConfigT:
     fields = {f.name: f for f in dataclasses.fields(cls)}
     unknown = sorted(str(k) for k in set(values) - set(fields))
     if unknown:
-        raise GrouptronError(f"unknown {cls.__name__} keys: {', '.join(unknown)}")
+        hints = [difflib.get_close_matches(k, list(fields), n=1) for k in unknown]
+        guesses = [
+            f"{k} (did you mean {h[0]}?)" if h else k for k, h in zip(unknown, hints, strict=True)
+        ]
+        raise GrouptronError(f"unknown {cls.__name__} keys: {', '.join(guesses)}")
     kwargs: dict[str, Any] = {}
+    types = typing.get_type_hints(cls)
     for name, value in values.items():
         field_type = fields[name].type
         nested = _NESTED.get(field_type) if isinstance(field_type, str) else None
@@ -267,13 +274,33 @@ def config_from_dict(cls: type[ConfigT], values: dict[str, Any]) -> ConfigT:
             if not isinstance(value, dict):
                 raise GrouptronError(f"{cls.__name__}.{name} must be a table of settings")
             value = config_from_dict(nested, value)
-        elif isinstance(value, list):
-            value = tuple(value)
+        else:
+            value = _typed(f"{cls.__name__}.{name}", types[name], value)
         kwargs[name] = value
     try:
         return cls(**kwargs)
     except TypeError as exc:
         raise GrouptronError(f"invalid {cls.__name__}: {exc}") from None
+
+
+def _typed(where: str, expected: Any, value: Any) -> Any:
+    """``value`` as the field's type (ints accepted for floats, lists for tuples), or one line
+    saying what was expected."""
+    origin = typing.get_origin(expected)
+    if origin is typing.Literal:
+        if value not in typing.get_args(expected):
+            choices = ", ".join(repr(a) for a in typing.get_args(expected))
+            raise GrouptronError(f"{where} must be one of {choices}, not {value!r}")
+        return value
+    if origin is tuple or expected is tuple:
+        if not isinstance(value, list | tuple):
+            raise GrouptronError(f"{where} must be a list, not {value!r}")
+        return tuple(value)
+    if expected is float and isinstance(value, int | float) and not isinstance(value, bool):
+        return float(value)
+    if expected in (int, bool, str) and type(value) is not expected:
+        raise GrouptronError(f"{where} must be {expected.__name__}, not {value!r}")
+    return value
 
 
 _NESTED: dict[str, type] = {
@@ -327,3 +354,19 @@ def load_config(cls: type[ConfigT], path: str | Path) -> ConfigT:
 def save_config(config: Any, path: str | Path) -> None:
     """Write a config dataclass as indented JSON (atomically)."""
     write_text_atomically(Path(path), json.dumps(config_to_dict(config), indent=2) + "\n")
+
+
+def non_default_settings(experiment: ExperimentConfig) -> dict[str, Any]:
+    """``{"section.key": value}`` for every setting that differs from ExperimentConfig's
+    defaults (split and model included), for model cards and ``config show --changes``."""
+    return _differences(config_to_dict(experiment), config_to_dict(ExperimentConfig()), "")
+
+
+def _differences(ours: dict[str, Any], base: dict[str, Any], prefix: str) -> dict[str, Any]:
+    found: dict[str, Any] = {}
+    for key, value in ours.items():
+        if isinstance(value, dict):
+            found.update(_differences(value, base.get(key, {}), f"{prefix}{key}."))
+        elif base.get(key) != value:
+            found[f"{prefix}{key}"] = value
+    return found

@@ -10,7 +10,7 @@ import sys
 from collections.abc import Callable, Sequence
 
 from grouptron import __version__
-from grouptron.cli import data, evaluate, forecast, groups, report, train
+from grouptron.cli import config, data, evaluate, forecast, groups, report, train
 from grouptron.cli.common import (
     EXIT_USAGE,
     Formatter,
@@ -36,7 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"grouptron {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log more detail")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
-    for module in (data, evaluate, report, forecast, train, groups):
+    for module in (data, evaluate, report, forecast, train, groups, config):
         module.add_parser(commands)
     _accept_global_options_everywhere(parser)
     return parser
@@ -69,7 +69,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         handler: Callable[[argparse.Namespace], int] | None = getattr(args, "handler", None)
         if handler is None:
             # A command group without an action: show its help.
-            target = {"data": "data", "groups": "groups"}.get(args.command or "")
+            target = args.command if args.command in ("data", "groups", "config") else None
             if target:
                 parser.parse_args([target, "--help"])
             parser.print_help()

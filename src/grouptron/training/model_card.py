@@ -6,6 +6,7 @@ wall time, machine) and how they did on validation, so a shipped checkpoint expl
 
 from __future__ import annotations
 
+import json
 import math
 import platform
 from pathlib import Path
@@ -13,7 +14,7 @@ from typing import Any
 
 import torch
 
-from grouptron.config import ExperimentConfig
+from grouptron.config import ExperimentConfig, non_default_settings
 from grouptron.io import write_text_atomically
 
 CARD = "README.md"
@@ -111,6 +112,13 @@ def _selection_rows(
     ]
 
 
+def _settings(config: ExperimentConfig) -> str:
+    """Every non-default setting, e.g. ``train.seed = 2``; the rest are ExperimentConfig's
+    defaults (the reference recipe)."""
+    changed = non_default_settings(config)
+    return "; ".join(f"`{k} = {json.dumps(v)}`" for k, v in changed.items()) or "none"
+
+
 def render_model_card(
     name: str,
     config: ExperimentConfig,
@@ -160,6 +168,7 @@ def render_model_card(
         ),
         ("wall time", wall),
         ("machine", devices or "not recorded"),
+        ("settings other than the defaults", _settings(config)),
     ]
     lines = [f"# {name}", "", "| | |", "|---|---|"]
     lines += [f"| {key} | {value} |" for key, value in rows]
