@@ -154,3 +154,17 @@ def test_most_likely_older_names_are_still_accepted(tiny_checkpoints: Path) -> N
     path = tiny_checkpoints / "grouptron-eth-backward/best.safetensors"
     assert Predictor.from_checkpoint(path, most_likely="argmax-latent").most_likely == "ml-argmax"  # type: ignore[arg-type]
     assert Predictor.from_checkpoint(path, most_likely="mixture-mode").most_likely == "ml"  # type: ignore[arg-type]
+
+
+def test_shipped_names_resolve_from_any_working_directory(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from grouptron.errors import GrouptronError
+    from grouptron.inference.predictor import resolve_checkpoint
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("GROUPTRON_CHECKPOINTS", raising=False)
+    found = resolve_checkpoint("grouptron-univ-backward")
+    assert found.is_file() and found.parent.name == "grouptron-univ-backward"
+    with pytest.raises(GrouptronError, match=r"no checkpoint nowhere.*GROUPTRON_CHECKPOINTS"):
+        resolve_checkpoint("nowhere")

@@ -94,3 +94,24 @@ def test_warm_start_continues_weights_and_schedule_under_another_protocol(
     )
     with pytest.raises(GrouptronError, match="weights only"):
         train(weights_only, train_set, val_set, tmp_path / "w", progress=False)
+
+
+def test_fine_tuning_a_weights_only_checkpoint_uses_a_fresh_optimiser_at_the_given_lr(
+    tiny_checkpoints: Path, synthetic_data_dir: Path, tmp_path: Path
+) -> None:
+    from grouptron.cli import main
+
+    source = tiny_checkpoints / "trajectron++-eth-central"
+    out = tmp_path / "tuned"
+    argv = ["train", "--split", "eth", "--config", str(source / "config.json"), "--epochs", "1"]
+    argv += ["--init-from", str(source / BEST), "--lr", "0.0005", "--out", str(out)]
+    argv += ["--data-dir", str(synthetic_data_dir), "--quiet", "--precision", "fp32"]
+    assert main(argv) == 0
+    (record,) = [json.loads(line) for line in (out / "metrics.jsonl").open()]
+    steps = record["iteration"]
+    assert steps < 20  # a fresh step count, not the source run's
+    assert record["learning_rate"] == pytest.approx(0.0005 * 0.9999**steps)
+    assert record["initialised_from"].startswith("weights (fresh optimiser")
+    card = (out / "README.md").read_text()
+    assert f"started from `{source / BEST}` (weights (fresh optimiser" in card
+    assert "`train.learning_rate = 0.0005`" in card

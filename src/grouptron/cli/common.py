@@ -170,3 +170,15 @@ def recording_format(args: argparse.Namespace) -> RecordingFormat:
         max_gap_s=args.max_gap,
         check_speed=not args.no_speed_check,
     )
+
+
+def warn_look_ahead(name: str, derivatives: str) -> None:
+    """Say once per command that a central checkpoint reads positions after the forecast time
+    (docs/recordings.md, "Look-ahead")."""
+    if derivatives == "central":
+        log.warning(
+            "%s was trained with central derivatives: each forecast reads the position one "
+            "step after the forecast time, which live data does not have; use a backward "
+            "checkpoint for causal forecasts",
+            name,
+        )

@@ -17,6 +17,7 @@ from grouptron.cli.common import (
     parse_splits,
     recording_format,
     show_progress,
+    warn_look_ahead,
 )
 from grouptron.config import (
     DataConfig,
@@ -80,12 +81,7 @@ def cmd_evaluate_tracks(args: argparse.Namespace) -> int:
                 args.checkpoint,
                 experiment.split,
             )
-        if data.derivatives == "central":
-            log.warning(
-                "%s uses central derivatives: each forecast reads the position one step after "
-                "the forecast time (look-ahead); use a backward checkpoint for causal scores",
-                args.checkpoint,
-            )
+        warn_look_ahead(args.checkpoint, data.derivatives)
     modes = tuple(m for m in eval_modes(args.mode) if m != "nll")
     results = evaluate_recordings(
         files, fmt, model=model, experiment=experiment, data=data, modes=modes,

@@ -16,6 +16,7 @@ from grouptron.cli.common import (
     non_negative_int,
     positive_int,
     show_progress,
+    warn_look_ahead,
 )
 from grouptron.data.reader import read_tracks
 from grouptron.data.scene import build_scene
@@ -33,6 +34,7 @@ from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tr
 def cmd_predict(args: argparse.Namespace) -> int:
     refuse_folder(Path(args.out))  # before the work, not after it
     model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
+    warn_look_ahead(args.checkpoint, experiment.data.derivatives)
     torch.set_num_threads(args.threads)
     frames_per_step = args.frames_per_step or experiment.data.frames_per_step
     data = dataclasses.replace(experiment.data, frames_per_step=frames_per_step)
@@ -65,6 +67,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
     out = Path(args.out)
     refuse_folder(out)  # before the work, not after it
     predictors = [Predictor.from_checkpoint(c) for c in (args.checkpoint, args.compare) if c]
+    for predictor in predictors:
+        warn_look_ahead(predictor.source, predictor.config.data.derivatives)
     data = predictors[0].config.data
     table = read_tracks(args.tracks, data.frames_per_step, args.on_gap)
     rows = np.column_stack([table.frame, table.ped_id, table.pos_m]).astype(np.float64)

@@ -28,6 +28,7 @@ from grouptron.data.dataset import load_part
 from grouptron.data.locate import resolve_data_dir
 from grouptron.errors import GrouptronError
 from grouptron.groups.cache import load_groups
+from grouptron.inference.predictor import resolve_checkpoint
 from grouptron.model.checkpoint import load_checkpoint
 from grouptron.model.factory import MODEL_NAMES, uses_groups
 from grouptron.training import distributed
@@ -78,7 +79,7 @@ def experiment_from_args(args: argparse.Namespace) -> ExperimentConfig:
         "batch_size": args.batch_size,
         "learning_rate": args.lr,
         "threads": args.threads,
-        "init_from": args.init_from,
+        "init_from": str(resolve_checkpoint(args.init_from)) if args.init_from else None,
     }
     train_values = {k: v for k, v in flags.items() if v is not None}
     if args.precision is not None or "bf16" not in values.get("train", {}):
@@ -208,8 +209,10 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     )
     train_cmd.add_argument(
         "--init-from",
-        help="warm start from another run's last.safetensors (same model): its weights, "
-        "optimiser state and step count, e.g. to move a central run to backward derivatives",
+        help="start from another checkpoint of the same architecture: a weights-only file "
+        "(best.safetensors or a shipped name) fine-tunes with a fresh optimiser at --lr; a "
+        "last.safetensors continues its optimiser and step count (e.g. to move a central run "
+        "to backward derivatives), at --lr when given",
     )
     _add_settings_options(train_cmd)
     add_data_options(train_cmd)

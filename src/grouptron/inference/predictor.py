@@ -47,6 +47,8 @@ log = logging.getLogger(__name__)
 
 CHECKPOINTS_ENV = "GROUPTRON_CHECKPOINTS"
 WEIGHTS_FILE = "best.safetensors"
+SOURCE_CHECKPOINTS = Path(__file__).resolve().parents[3] / "checkpoints"
+"""The shipped checkpoints of the source tree this package runs from (src/ layout)."""
 TRACK_COLUMNS = ("frame", "id", "x", "y")
 MostLikely = Literal["ml", "ml-argmax"]
 MOST_LIKELY_CHOICES = ("ml", "ml-argmax")
@@ -78,7 +80,9 @@ def _as_track_array(tracks: Any) -> np.ndarray:
 def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | None = None) -> Path:
     """A checkpoint file from a path or a shipped name such as ``"grouptron-univ-backward"``.
 
-    Names are looked up in ``checkpoints_dir``, ``$GROUPTRON_CHECKPOINTS`` and ``./checkpoints``.
+    Names are looked up in ``checkpoints_dir``, ``$GROUPTRON_CHECKPOINTS``, ``./checkpoints`` and
+    the ``checkpoints/`` folder of the source tree grouptron is installed from, so shipped names
+    resolve from any working directory.
     """
     path = Path(name_or_path)
     if path.is_file():
@@ -86,7 +90,7 @@ def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | N
     if path.is_dir() and (path / WEIGHTS_FILE).is_file():
         return path / WEIGHTS_FILE
     folders = [Path(d) for d in (checkpoints_dir, os.environ.get(CHECKPOINTS_ENV)) if d]
-    folders.append(Path("checkpoints"))
+    folders += [Path("checkpoints"), SOURCE_CHECKPOINTS]
     for folder in folders:
         candidate = folder / str(name_or_path) / WEIGHTS_FILE
         if candidate.is_file():
@@ -97,7 +101,8 @@ def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | N
     hint = f"; known names: {', '.join(known)}" if known else ""
     raise GrouptronError(
         f"no checkpoint {name_or_path!s}: not a file, and no {WEIGHTS_FILE} under "
-        f"{', '.join(str(f) for f in folders)}{hint}"
+        f"{', '.join(str(f) for f in dict.fromkeys(folders))}{hint} (set ${CHECKPOINTS_ENV} to "
+        "a folder of <name>/best.safetensors)"
     )
 
 

@@ -149,7 +149,9 @@ def render_model_card(
         f"seed {train.seed}; {train.epochs} epochs scheduled"
     )
     if train.init_from:
-        recipe += f"; warm start from `{train.init_from}` (its weights, optimiser and step count)"
+        kind = next((r["initialised_from"] for r in records if "initialised_from" in r), "")
+        what = kind or "its weights, optimiser and step count"
+        recipe += f"; started from `{train.init_from}` ({what})"
     rows = [
         ("model", DISPLAY_NAMES.get(config.model_name, config.model_name)),
         (

@@ -35,6 +35,8 @@ class TrainState:
     nonfinite_steps: int = 0
     """Steps skipped because the loss or a gradient was NaN/inf (over the whole run)."""
     history: list[dict[str, Any]] = field(default_factory=list)
+    init_kind: str = ""
+    """What ``train.init_from`` gave this run: weights only or a whole training state."""
     candidates: list[tuple[int, float]] = field(default_factory=list)
     """(epoch, validation-subset ML FDE) of the kept candidate epochs."""
 
@@ -92,21 +94,38 @@ def setup(
 def _warm_start(
     state: TrainState, config: ExperimentConfig, source: Path, device: torch.device
 ) -> None:
-    """Start from another run's weights, optimiser state and step count (not its epochs).
+    """Start from another run's checkpoint (not its epochs).
 
-    Used to move a trained model to other derivatives (e.g. central -> backward):
-    the step count keeps the KL and logit-clip schedules and the learning-rate decay where
-    the source run left them instead of re-annealing a trained model.
+    A weights-only file (``best.safetensors``, a shipped model) fine-tunes: its weights, a fresh
+    optimiser at this run's learning rate, schedules from step 0. A full training state
+    (``last.safetensors``) continues: its optimiser moments and step count keep the KL and
+    logit-clip schedules and the learning-rate decay where the source run left them (used to
+    move a trained model to other derivatives); a learning rate other than the source run's is
+    applied from the first step on.
     """
     checkpoint = load_checkpoint(source)
-    if checkpoint.config.model_name != config.model_name or (
-        checkpoint.config.model != config.model
-    ):
+    source_config = checkpoint.config
+    same_architecture = (source_config.model_name, source_config.model) == (
+        config.model_name,
+        config.model,
+    ) and (config.model_name != "grouptron" or source_config.group_encoder == config.group_encoder)
+    if not same_architecture:
         raise GrouptronError(
-            f"{source} holds a {checkpoint.config.model_name} model with other settings; "
+            f"{source} holds a {source_config.model_name} model with other settings; "
             f"--init-from needs a {config.model_name} checkpoint of the same architecture"
         )
+    if checkpoint.optimizer_state is None:
+        weights = {k: v.to(device) for k, v in checkpoint.model_state.items()}
+        load_weights(state.model, weights, str(source))
+        state.init_kind = "weights (fresh optimiser, schedules from step 0)"
+        return
     _restore(state, checkpoint, source, device, use="cannot start a run (--init-from)")
+    state.init_kind = "training state (its optimiser and step count continue)"
+    if config.train.learning_rate != source_config.train.learning_rate:
+        for group in state.optimizer.param_groups:
+            group["lr"] = config.train.learning_rate
+        state.scheduler.base_lrs = [config.train.learning_rate] * len(state.scheduler.base_lrs)
+        state.scheduler._last_lr = [config.train.learning_rate] * len(state.scheduler.base_lrs)
 
 
 def _restore(

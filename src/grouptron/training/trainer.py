@@ -202,6 +202,8 @@ def _finish_epoch(
 ) -> None:
     """Validate, log, keep candidates, select at the end of the schedule, checkpoint, card."""
     record["precision"] = precision_name(config.train.bf16)
+    if state.init_kind:
+        record["initialised_from"] = state.init_kind
     if len(validation.samples):
         record.update(validate(state.model, config, validation.subset, validation.subset_groups))
         record["val_samples"] = len(validation.subset)
