@@ -207,7 +207,11 @@ class ExperimentConfig:
     """Everything a training run needs; stored in every checkpoint as JSON."""
 
     split: str = "eth"
+    """The ETH/UCY split, or the name of a dataset of one's own (see ``dataset``)."""
     model_name: str = "trajectron++"
+    dataset: str = ""
+    """Empty for the ETH/UCY benchmark; else the description file of a dataset of one's own
+    (``grouptron train --dataset``), which never gets the benchmark's presets."""
     data: DataConfig = dataclasses.field(default_factory=DataConfig)
     groups: GroupConfig = dataclasses.field(default_factory=GroupConfig)
     model: ModelConfig = dataclasses.field(default_factory=ModelConfig)
@@ -321,9 +325,11 @@ ST-GCNs to 8 on eth, whose test recording rarely has 5 or more people in view. N
 (no other model, no dataset of one's own) gets a preset."""
 
 
-def preset_values(split: str, model_name: str) -> dict[str, Any]:
-    """The preset of a (model, split) as nested settings (empty where there is none)."""
-    return {"split": split, "model_name": model_name, **SPLIT_PRESETS.get((model_name, split), {})}
+def preset_values(split: str, model_name: str, dataset: str = "") -> dict[str, Any]:
+    """The preset of a (model, ETH/UCY split) as nested settings; a dataset of one's own
+    (``dataset`` given) gets none, whatever its name."""
+    preset = {} if dataset else SPLIT_PRESETS.get((model_name, split), {})
+    return {"split": split, "model_name": model_name, "dataset": dataset, **preset}
 
 
 def experiment_preset(split: str, model_name: str = "trajectron++") -> ExperimentConfig:

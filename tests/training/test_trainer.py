@@ -80,11 +80,12 @@ def test_warm_start_continues_weights_and_schedule_under_another_protocol(
     assert moved.optimizer.param_groups[0]["lr"] < source.optimizer.param_groups[0]["lr"]
     assert load_config(ExperimentConfig, tmp_path / "b" / "config.json") == backward
     card = (tmp_path / "b" / "README.md").read_text()
-    assert "backward derivatives (causal)" in card and "warm start from" in card
+    assert "backward derivatives (causal)" in card and "started from" in card
+    assert "training state (its optimiser and step count continue)" in card
     assert "| epochs trained | 1 (" in card and "cpu:" in card
     records = [json.loads(line) for line in (tmp_path / "b/metrics.jsonl").open()]
     assert records[0]["epoch_seconds"] >= records[0]["train_seconds"] > 0
-    # The source must be a full training state of the same architecture.
+    # The source must be of the same architecture.
     wrong = dataclasses.replace(backward, model=dataclasses.replace(backward.model, latent_modes=3))
     with pytest.raises(GrouptronError, match="same architecture"):
         train(wrong, train_set, val_set, tmp_path / "g", progress=False)
@@ -92,8 +93,14 @@ def test_warm_start_continues_weights_and_schedule_under_another_protocol(
         backward,
         train=dataclasses.replace(backward.train, init_from=str(tmp_path / "central" / BEST)),
     )
-    with pytest.raises(GrouptronError, match="weights only"):
-        train(weights_only, train_set, val_set, tmp_path / "w", progress=False)
+    # Weights only: a fine-tune with a fresh optimiser and step count.
+    tuned = train(
+        weights_only, *parts(synthetic_data_dir, backward), tmp_path / "w", progress=False
+    )
+    assert tuned.iteration == source.iteration
+    assert tuned.optimizer.param_groups[0]["lr"] == pytest.approx(
+        one.train.learning_rate * one.train.lr_decay_per_iter**tuned.iteration
+    )
 
 
 def test_fine_tuning_a_weights_only_checkpoint_uses_a_fresh_optimiser_at_the_given_lr(

@@ -18,6 +18,8 @@ from grouptron.model.factory import MODEL_NAMES
 def cmd_config_show(args: argparse.Namespace) -> int:
     run_flags = ("epochs", "seed", "batch_size", "lr", "threads", "init_from", "precision")
     full = argparse.Namespace(**vars(args), **dict.fromkeys(run_flags), on_gap="split")
+    if full.split is None and full.dataset is None:
+        full.split = "eth"
     full.device = torch.device("cpu")
     experiment = experiment_from_args(full)
     if args.changes:
@@ -48,7 +50,8 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--changes only the settings that differ from the defaults.",
         formatter_class=Formatter,
     )
-    show.add_argument("--split", choices=SPLITS, default="eth", help="the split")
+    show.add_argument("--split", choices=SPLITS, help="the ETH/UCY split (default: eth)")
+    show.add_argument("--dataset", metavar="FILE", help="a dataset of your own instead")
     show.add_argument(
         "--model", choices=MODEL_NAMES, help="the model (default: --config's, else trajectron++)"
     )

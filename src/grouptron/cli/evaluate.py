@@ -23,6 +23,7 @@ from grouptron.config import (
     DataConfig,
 )
 from grouptron.constants import SPLITS
+from grouptron.data.custom import load_dataset_part, read_dataset
 from grouptron.data.locate import resolve_data_dir
 from grouptron.data.subsets import parse_univ_n
 from grouptron.errors import GrouptronError
@@ -40,6 +41,7 @@ from grouptron.evaluation.results import (
     results_table,
 )
 from grouptron.evaluation.test_sets import load_test_set
+from grouptron.groups.assign import assign_groups
 from grouptron.inference.predictor import resolve_checkpoint
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.factory import uses_groups
@@ -91,11 +93,47 @@ def cmd_evaluate_tracks(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_evaluate_dataset(args: argparse.Namespace) -> int:
+    """``evaluate --dataset``: the test part of a dataset of one's own."""
+    dataset = read_dataset(args.dataset)
+    model, experiment = None, None
+    data = DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
+    if args.checkpoint:
+        model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
+        torch.set_num_threads(experiment.train.threads)
+        data = experiment.data
+    part = load_dataset_part(dataset, "test", data, use_cache=not args.no_cache)
+    template = EvaluationResult(dataset.name, "constant-velocity", None, 0, 0.0, 0.0)
+    template = dataclasses.replace(template, derivatives=data.derivatives)
+    if model is None or experiment is None:
+        baseline = constant_velocity_scores(part.samples, data.horizon_steps).summary()
+        results = [dataclasses.replace(_row(template, baseline), mode=None)]
+    else:
+        groups = None
+        if uses_groups(experiment):
+            groups = assign_groups(part.samples, experiment.groups, data.position_scale_m)
+        modes = eval_modes(args.mode)
+        scores = evaluate_model(
+            model, experiment, part.samples, modes, seed=args.seed,
+            progress=show_progress(args), groups=groups,
+        )  # fmt: skip
+        template = dataclasses.replace(
+            template, model=experiment.model_name, checkpoint=str(args.checkpoint)
+        )
+        results = [_row(template, s) for s in scores]
+    print(results_json(results) if args.format == "json" else results_table(results))
+    return 0
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     if (args.model is None) == (args.checkpoint is None):
         raise GrouptronError("give either --checkpoint PATH or --model constant-velocity")
+    if args.tracks and args.dataset:
+        raise GrouptronError("give either --tracks or --dataset, not both")
     if args.tracks:
         return cmd_evaluate_tracks(args)
+    if args.dataset:
+        return cmd_evaluate_dataset(args)
     data_dir = resolve_data_dir(args.data_dir)
     model = None
     if args.checkpoint:
@@ -197,6 +235,11 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         help="score recordings of your own instead of the benchmark: every (person, step) with "
         "8 observed and 12 future points after resampling to 0.4 s (layout: --columns, --fps, "
         "--units)",
+    )
+    evaluate.add_argument(
+        "--dataset",
+        metavar="FILE",
+        help="score the test part of a dataset of your own (its description file)",
     )
     add_recording_options(evaluate)
     add_data_options(evaluate)

@@ -18,9 +18,12 @@ from grouptron.cli.common import (
     show_progress,
     warn_look_ahead,
 )
-from grouptron.data.reader import read_tracks
+from grouptron.data.ndjson import write_forecast_ndjson
+from grouptron.data.reader import TrackTable, read_tracks
+from grouptron.data.recording import RecordingFormat, read_resampled
 from grouptron.data.scene import build_scene
 from grouptron.errors import GrouptronError
+from grouptron.inference.forecast import Forecast
 from grouptron.inference.predictor import Predictor, resolve_checkpoint
 from grouptron.inference.tracks import FORECAST_MODES, forecast_scene
 from grouptron.io import (
@@ -31,17 +34,36 @@ from grouptron.model.checkpoint import load_trained_model
 from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tracks_around
 
 
+def _write_trajnet(path: Path, forecast: Forecast, table: TrackTable, *, sampled: bool) -> None:
+    """Forecasts as TrajNet++ predictions, each scene with the pedestrian's observed rows."""
+    rows = zip(table.ped_id.tolist(), table.frame.tolist(), table.pos_m, strict=True)
+    position = {(p, f): xy for p, f, xy in rows}
+    step = table.frames_per_step
+    history = []
+    for p, f in zip(forecast.ids.tolist(), forecast.frames.tolist(), strict=True):
+        keys = [(int(p), int(f) - k * step) for k in range(7, -1, -1)]
+        history.append(np.asarray([position[key] for key in keys if key in position]))
+    positions = forecast.samples if sampled else forecast.most_likely[:, None]
+    assert positions is not None
+    write_forecast_ndjson(
+        path, forecast.frames, forecast.ids, positions, history, frames_per_step=step
+    )
+
+
 def cmd_predict(args: argparse.Namespace) -> int:
     refuse_folder(Path(args.out))  # before the work, not after it
     model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
     warn_look_ahead(args.checkpoint, experiment.data.derivatives)
     torch.set_num_threads(args.threads)
-    frames_per_step = args.frames_per_step or experiment.data.frames_per_step
+    if Path(args.tracks).suffix == ".ndjson":  # TrajNet++: its own layout and rate
+        table = read_resampled(Path(args.tracks), RecordingFormat(), experiment.data.dt_s)
+        frames_per_step = table.frames_per_step
+    else:
+        frames_per_step = args.frames_per_step or experiment.data.frames_per_step
+        table = read_tracks(args.tracks, frames_per_step, args.on_gap)
     data = dataclasses.replace(experiment.data, frames_per_step=frames_per_step)
     experiment = dataclasses.replace(experiment, data=data)
-    scene = build_scene(
-        read_tracks(args.tracks, frames_per_step, args.on_gap), data, name=str(args.tracks)
-    )
+    scene = build_scene(table, data, name=str(args.tracks))
     forecast = forecast_scene(
         model,
         experiment,
@@ -51,10 +73,15 @@ def cmd_predict(args: argparse.Namespace) -> int:
         seed=args.seed,
         progress=show_progress(args),
     )
-    header, rows, formats = forecast.table(sampled=args.mode == "samples")
-    write_array_csv_atomically(Path(args.out), header, rows, formats)
+    if Path(args.out).suffix == ".ndjson":
+        _write_trajnet(Path(args.out), forecast, table, sampled=args.mode == "samples")
+        count = len(forecast) * data.horizon_steps * (args.samples if args.mode == "samples" else 1)
+    else:
+        header, rows, formats = forecast.table(sampled=args.mode == "samples")
+        write_array_csv_atomically(Path(args.out), header, rows, formats)
+        count = len(rows)
     print(
-        f"wrote {len(rows)} rows for {len(forecast)} (pedestrian, frame) pairs "
+        f"wrote {count} rows for {len(forecast)} (pedestrian, frame) pairs "
         f"({experiment.model_name}, {data.derivatives} derivatives, {args.mode}) to {args.out}"
     )
     return 0
@@ -154,8 +181,16 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         required=True,
         help="a .safetensors checkpoint or a shipped name (grouptron-univ-backward)",
     )
-    predict.add_argument("--tracks", required=True, help="a 'frame id x y' track file")
-    predict.add_argument("--out", required=True, help="CSV file to write")
+    predict.add_argument(
+        "--tracks",
+        required=True,
+        help="a 'frame id x y' track file, or a TrajNet++ .ndjson file",
+    )
+    predict.add_argument(
+        "--out",
+        required=True,
+        help="CSV file to write, or a .ndjson file of TrajNet++ predictions (its tools score it)",
+    )
     predict.add_argument(
         "--mode",
         choices=FORECAST_MODES,

@@ -24,9 +24,11 @@ from grouptron.config import (
     preset_values,
 )
 from grouptron.constants import SPLITS
-from grouptron.data.dataset import load_part
+from grouptron.data.custom import load_dataset_part, read_dataset
+from grouptron.data.dataset import PartData, load_part
 from grouptron.data.locate import resolve_data_dir
 from grouptron.errors import GrouptronError
+from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.groups.cache import load_groups
 from grouptron.inference.predictor import resolve_checkpoint
 from grouptron.model.checkpoint import load_checkpoint
@@ -64,15 +66,60 @@ def parse_setting(text: str) -> dict[str, Any]:
     return value
 
 
+def _split_or_dataset(args: argparse.Namespace) -> tuple[str, str]:
+    """(split, dataset): an ETH/UCY split, or a dataset of one's own named by its file."""
+    dataset = getattr(args, "dataset", None)
+    if (args.split is None) == (dataset is None):
+        raise GrouptronError("give either --split (ETH/UCY) or --dataset FILE (your own)")
+    if dataset is None:
+        return args.split, ""
+    description = read_dataset(dataset)
+    return description.name, str(description.source)
+
+
+def _parts(
+    args: argparse.Namespace, experiment: ExperimentConfig
+) -> tuple[PartData, PartData, SampleGroups | None, SampleGroups | None]:
+    """Training and validation samples (and their groups for Grouptron)."""
+    data, cached = experiment.data, not args.no_cache
+    if experiment.dataset:
+        dataset = read_dataset(experiment.dataset)
+        parts = [load_dataset_part(dataset, p, data, use_cache=cached) for p in ("train", "val")]
+    else:
+        data_dir = resolve_data_dir(args.data_dir)
+        split = experiment.split
+        parts = [load_part(data_dir, split, p, data, use_cache=cached) for p in ("train", "val")]
+    if not uses_groups(experiment):
+        return parts[0], parts[1], None, None
+    print("clustering every sample's neighbours into groups (cached after the first run)")
+    if experiment.dataset:
+        found = [assign_groups(p.samples, experiment.groups, data.position_scale_m) for p in parts]
+    else:
+        found = [
+            load_groups(
+                data_dir,
+                experiment.split,
+                name,
+                data,
+                groups=experiment.groups,
+                samples=part.samples,
+                use_cache=cached,
+            )
+            for name, part in zip(("train", "val"), parts, strict=True)
+        ]
+    return parts[0], parts[1], found[0], found[1]
+
+
 def experiment_from_args(args: argparse.Namespace) -> ExperimentConfig:
     """The run's configuration: the model's preset on the split, then the --config file, then
     each --set, then the explicit flags (a later source wins)."""
     file_values = _settings_file(args.config) if args.config else {}
     model = args.model or file_values.get("model_name") or "trajectron++"
-    values = merge_settings(preset_values(args.split, model), file_values)
+    split, dataset = _split_or_dataset(args)
+    values = merge_settings(preset_values(split, model, dataset), file_values)
     for text in args.set or []:
         values = merge_settings(values, parse_setting(text))
-    values = merge_settings(values, {"split": args.split, "model_name": model})
+    values = merge_settings(values, {"split": split, "model_name": model, "dataset": dataset})
     flags = {
         "epochs": args.epochs,
         "seed": args.seed,
@@ -119,33 +166,18 @@ def _resumed(args: argparse.Namespace, out: Path, asked: ExperimentConfig) -> Ex
 def cmd_train(args: argparse.Namespace) -> int:
     experiment = experiment_from_args(args)
     data = experiment.data
-    out = Path(args.out or f"runs/{experiment.model_name}-{args.split}-{data.derivatives}")
+    name = f"{experiment.model_name}-{experiment.split}-{data.derivatives}"
+    out = Path(args.out or f"runs/{name}")
     if args.resume and (out / LAST).exists():
         experiment = _resumed(args, out, experiment)
         data = experiment.data
-    data_dir = resolve_data_dir(args.data_dir)
-    train_part = load_part(data_dir, args.split, "train", data, use_cache=not args.no_cache)
-    val_part = load_part(data_dir, args.split, "val", data, use_cache=not args.no_cache)
-    train_groups = val_groups = None
-    if uses_groups(experiment):
-        print("clustering every sample's neighbours into groups (cached after the first run)")
-        train_groups, val_groups = (
-            load_groups(
-                data_dir,
-                args.split,
-                name,
-                data,
-                groups=experiment.groups,
-                samples=part.samples,
-                use_cache=not args.no_cache,
-            )
-            for name, part in (("train", train_part), ("val", val_part))
-        )
+    train_part, val_part, train_groups, val_groups = _parts(args, experiment)
     cluster = distributed.start(torch.device(args.device))
     if cluster.is_main:
         processes = f", {cluster.world_size} processes" if cluster.distributed else ""
         print(
-            f"training {experiment.model_name} on {args.split} ({data.derivatives} derivatives): "
+            f"training {experiment.model_name} on {experiment.split} ({data.derivatives} "
+            "derivatives): "
             f"{len(train_part.samples)} training / {len(val_part.samples)} validation samples, "
             f"{experiment.train.epochs} epochs{processes} -> {out}"
         )
@@ -193,7 +225,13 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "      --init-from runs/trajectron++-eth-central/last.safetensors",
     )
     train_cmd.add_argument(
-        "--split", required=True, choices=SPLITS, help="the split (its location is held out)"
+        "--split", choices=SPLITS, help="the ETH/UCY split (its location is held out)"
+    )
+    train_cmd.add_argument(
+        "--dataset",
+        metavar="FILE",
+        help="train on a dataset of your own instead: a TOML or JSON description of its train, "
+        "val and test files and their format (docs/recordings.md); no ETH/UCY presets apply",
     )
     train_cmd.add_argument(
         "--model",

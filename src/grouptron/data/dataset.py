@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import logging
@@ -14,6 +15,7 @@ import numpy as np
 from grouptron.config import DataConfig, config_to_dict
 from grouptron.data.locate import preprocessed_cache_dir, split_files
 from grouptron.data.reader import read_tracks
+from grouptron.data.recording import RecordingFormat, read_resampled
 from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
 from grouptron.data.scene import Scene, build_scene
 from grouptron.io import save_atomically
@@ -47,16 +49,26 @@ def min_history_for(part: str, config: DataConfig) -> int:
     return config.history_steps if part == "test" else config.min_history_train
 
 
-def load_scenes(files: list[Path], config: DataConfig) -> list[Scene]:
-    """Read and build the scenes of a list of track files."""
-    return [
-        build_scene(read_tracks(f, config.frames_per_step, config.on_gap), config) for f in files
-    ]
+def load_scenes(
+    files: list[Path], config: DataConfig, recording: RecordingFormat | None = None
+) -> list[Scene]:
+    """Read and build the scenes of a list of track files: ETH/UCY ``frame id x y`` files, or
+    recordings laid out as ``recording`` says (resampled to the step)."""
+    if recording is None:
+        tables = [read_tracks(f, config.frames_per_step, config.on_gap) for f in files]
+    else:
+        tables = [read_resampled(f, recording, config.dt_s) for f in files]
+    return [build_scene(table, config) for table in tables]
 
 
-def build_part(files: list[Path], config: DataConfig, min_history: int) -> PartData:
+def build_part(
+    files: list[Path],
+    config: DataConfig,
+    min_history: int,
+    recording: RecordingFormat | None = None,
+) -> PartData:
     """Samples of several scene files, uncached."""
-    scenes = load_scenes(files, config)
+    scenes = load_scenes(files, config, recording)
     samples = concatenate_samples(
         [scene_samples(s, config, min_history, index) for index, s in enumerate(scenes)]
     )
@@ -71,14 +83,22 @@ def _file_digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def cache_key(files: list[Path], config: DataConfig, min_history: int) -> str:
-    """Hash of the input files' contents, the protocol and the cache format."""
-    payload = {
+def cache_key(
+    files: list[Path],
+    config: DataConfig,
+    min_history: int,
+    recording: RecordingFormat | None = None,
+) -> str:
+    """Hash of the input files' contents, their layout, the data settings and the cache
+    format."""
+    payload: dict[str, object] = {
         "format": CACHE_FORMAT_VERSION,
         "config": config_to_dict(config),
         "min_history": min_history,
         "files": [[f.name, _file_digest(f)] for f in files],
     }
+    if recording is not None:
+        payload["recording"] = dataclasses.asdict(recording)
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:32]
 
 
@@ -121,23 +141,36 @@ def cache_path(split: str, part: str, config: DataConfig, key: str) -> Path:
 def load_part(
     data_dir: Path, split: str, part: str, config: DataConfig, *, use_cache: bool = True
 ) -> PartData:
-    """Samples of one part of a split, from the on-disk cache when it is there.
+    """Samples of one part of an ETH/UCY split, from the on-disk cache when it is there.
 
     The cache key hashes the files' contents and the config, so edited files or a different
     derivative scheme never reuse stale samples. Cache files are ``.npz`` read without pickle.
     """
     files = split_files(data_dir, split, part)
+    return load_files_part(files, split, part, config, use_cache=use_cache)
+
+
+def load_files_part(
+    files: list[Path],
+    name: str,
+    part: str,
+    config: DataConfig,
+    *,
+    recording: RecordingFormat | None = None,
+    use_cache: bool = True,
+) -> PartData:
+    """Samples of a part made of ``files`` (cached under ``name``), see :func:`load_part`."""
     min_history = min_history_for(part, config)
     if not use_cache:
-        return build_part(files, config, min_history)
-    key = cache_key(files, config, min_history)
-    path = cache_path(split, part, config, key)
+        return build_part(files, config, min_history, recording)
+    key = cache_key(files, config, min_history, recording)
+    path = cache_path(name, part, config, key)
     if path.exists():
         try:
             return _load_part(path)
         except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
             log.warning("ignoring unreadable cache file %s (%s); rebuilding", path, exc)
-    data = build_part(files, config, min_history)
+    data = build_part(files, config, min_history, recording)
     try:
         _save_part(path, data)
     except OSError as exc:  # a read-only or full cache folder only costs speed

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from grouptron.constants import DT_S, FRAMES_PER_STEP
+from grouptron.data.ndjson import read_ndjson
 from grouptron.data.neighbours import ranges_to_indices
 from grouptron.data.reader import TrackTable, table_from_values
 from grouptron.errors import DataFormatError, GrouptronError
@@ -100,13 +101,15 @@ def parse_columns(text: str) -> tuple[str, ...]:
 @dataclass(frozen=True)
 class Recording:
     """Observations of one file: (R,) ids, (R,) times in seconds, (R, 2) positions in metres,
-    and (R,) the file line of every row (for error messages)."""
+    (R,) the file line of every row (for error messages), and the seconds per frame number
+    when times came from frame numbers (None for seconds)."""
 
     path: Path
     ped_id: np.ndarray
     time_s: np.ndarray
     pos_m: np.ndarray
     line: np.ndarray
+    seconds_per_frame: float | None = None
 
 
 def _numbers(path: Path, width: int) -> tuple[np.ndarray, np.ndarray]:
@@ -158,7 +161,18 @@ def _parse_fast(text: str, width: int) -> tuple[np.ndarray, np.ndarray] | None:
 
 
 def read_recording(path: Path, fmt: RecordingFormat) -> Recording:
-    """Read a file laid out as ``fmt`` says; positions in metres, times in seconds."""
+    """Read a file laid out as ``fmt`` says (a TrajNet++ ``.ndjson`` file brings its own
+    layout); positions in metres, times in seconds."""
+    if Path(path).suffix == ".ndjson":
+        rows, seconds_per_frame = read_ndjson(Path(path))
+        return Recording(
+            Path(path),
+            rows[:, 1].astype(np.int64),
+            rows[:, 0] * seconds_per_frame,
+            rows[:, 2:4] * UNITS_M[fmt.units],
+            np.arange(1, len(rows) + 1),
+            seconds_per_frame,
+        )
     values, lines = _numbers(Path(path), len(fmt.columns))
     bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
     if bad.size:
@@ -172,7 +186,8 @@ def read_recording(path: Path, fmt: RecordingFormat) -> Recording:
     time_s = time if fmt.time_column == "t" else time * fmt.seconds_per_frame
     scale = UNITS_M[fmt.units]
     pos_m = values[:, [column["x"], column["y"]]] * scale
-    return Recording(Path(path), ped_id.astype(np.int64), time_s, pos_m, lines)
+    per_frame = fmt.seconds_per_frame if fmt.time_column == "frame" else None
+    return Recording(Path(path), ped_id.astype(np.int64), time_s, pos_m, lines, per_frame)
 
 
 def check_plausible(recording: Recording, fmt: RecordingFormat) -> None:
@@ -234,21 +249,22 @@ def resample(recording: Recording, fmt: RecordingFormat, dt_s: float = DT_S) -> 
     piece = np.concatenate([[0], np.cumsum(~joined)])  # (R,) piece of every observation
     all_piece = np.concatenate([piece[segment], piece[ends]])
     keep = np.unique(np.column_stack([all_piece, all_step]), axis=0, return_index=True)[1]
-    first_frame, per_step = _frame_base(recording, fmt, dt_s)
+    first_frame, per_step = _frame_base(recording, dt_s)
     frame = first_frame + all_step[keep] * per_step
     values = np.column_stack([frame, all_id[keep], all_pos[keep]])
     return table_from_values(recording.path, values, all_line[keep], per_step, warn_on_gap=False)
 
 
-def _frame_base(recording: Recording, fmt: RecordingFormat, dt_s: float) -> tuple[int, int]:
+def _frame_base(recording: Recording, dt_s: float) -> tuple[int, int]:
     """(first frame, frames per step) of the output: the file's own frames when a step is a
     whole number of them (ETH/UCY: 10, TrajNet: 12), else grid steps (0, 1)."""
-    if fmt.time_column != "frame":
+    per_frame = recording.seconds_per_frame
+    if per_frame is None:
         return 0, 1
-    per_step = dt_s / fmt.seconds_per_frame
+    per_step = dt_s / per_frame
     if abs(per_step - round(per_step)) > ON_GRID_TOLERANCE or round(per_step) < 1:
         return 0, 1
-    return round(float(recording.time_s.min()) / fmt.seconds_per_frame), round(per_step)
+    return round(float(recording.time_s.min()) / per_frame), round(per_step)
 
 
 def _refuse_duplicates(path: Path, ids: np.ndarray, time_s: np.ndarray, lines: np.ndarray) -> None:

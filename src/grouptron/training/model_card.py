@@ -119,6 +119,35 @@ def _settings(config: ExperimentConfig) -> str:
     return "; ".join(f"`{k} = {json.dumps(v)}`" for k, v in changed.items()) or "none"
 
 
+def _wall_time(records: list[dict[str, Any]]) -> str:
+    timed = [r["epoch_seconds"] for r in records if "epoch_seconds" in r]
+    untimed = [r.get("train_seconds", 0.0) for r in records if "epoch_seconds" not in r]
+    parts = []
+    if timed:
+        parts.append(f"{_minutes(sum(timed))} for {len(timed)} epochs (training and validation)")
+    if untimed:
+        parts.append(
+            f"{_minutes(sum(untimed))} of optimiser steps for {len(untimed)} epochs whose "
+            "whole-epoch time was not logged"
+        )
+    return "; ".join(parts) or "-"
+
+
+def _recipe(config: ExperimentConfig, records: list[dict[str, Any]]) -> str:
+    train = config.train
+    augmentation = "24-angle rotation augmentation, " if train.rotation_augmentation else ""
+    recipe = (
+        f"Adam {train.learning_rate:g}, decay {train.lr_decay_per_iter:g} per step, batch "
+        f"{train.batch_size}, {augmentation}value clipping {train.grad_clip_value:g}, "
+        f"seed {train.seed}; {train.epochs} epochs scheduled"
+    )
+    if train.init_from:
+        kind = next((r["initialised_from"] for r in records if "initialised_from" in r), "")
+        what = kind or "its weights, optimiser and step count"
+        recipe += f"; started from `{train.init_from}` ({what})"
+    return recipe
+
+
 def render_model_card(
     name: str,
     config: ExperimentConfig,
@@ -130,37 +159,18 @@ def render_model_card(
     train = config.train
     scored = [r for r in records if not math.isnan(r.get("val_ml_fde", math.nan))]
     last = records[-1] if records else {}
-    timed = [r["epoch_seconds"] for r in records if "epoch_seconds" in r]
-    untimed = [r.get("train_seconds", 0.0) for r in records if "epoch_seconds" not in r]
-    parts = []
-    if timed:
-        parts.append(f"{_minutes(sum(timed))} for {len(timed)} epochs (training and validation)")
-    if untimed:
-        parts.append(
-            f"{_minutes(sum(untimed))} of optimiser steps for {len(untimed)} epochs whose "
-            "whole-epoch time was not logged"
-        )
-    wall = "; ".join(parts) or "-"
     devices = ", ".join(dict.fromkeys(str(r["device"]) for r in records if "device" in r))
-    augmentation = "24-angle rotation augmentation, " if train.rotation_augmentation else ""
-    recipe = (
-        f"Adam {train.learning_rate:g}, decay {train.lr_decay_per_iter:g} per step, batch "
-        f"{train.batch_size}, {augmentation}value clipping {train.grad_clip_value:g}, "
-        f"seed {train.seed}; {train.epochs} epochs scheduled"
+    data = (
+        f"{config.split} (a dataset of your own, `{config.dataset}`)"
+        if config.dataset
+        else f"{config.split} (trained on the train parts of the other four locations, "
+        "validated on their val parts)"
     )
-    if train.init_from:
-        kind = next((r["initialised_from"] for r in records if "initialised_from" in r), "")
-        what = kind or "its weights, optimiser and step count"
-        recipe += f"; started from `{train.init_from}` ({what})"
     rows = [
         ("model", DISPLAY_NAMES.get(config.model_name, config.model_name)),
-        (
-            "split",
-            f"{config.split} (trained on the train parts of the other four locations, "
-            "validated on their val parts)",
-        ),
+        ("split" if not config.dataset else "dataset", data),
         ("derivatives", DERIVATIVES_NOTES.get(config.data.derivatives, config.data.derivatives)),
-        ("recipe", recipe),
+        ("recipe", _recipe(config, records)),
         ("epochs trained", _epochs_trained(last, bool(train.init_from))),
         *_selection_rows(scored, selection),
         ("precision", _precision_ranges(records) if records else "-"),
@@ -168,7 +178,7 @@ def render_model_card(
             "future encoder input",
             f"future positions relative to now / {config.data.future_scale_m:g} m",
         ),
-        ("wall time", wall),
+        ("wall time", _wall_time(records)),
         ("machine", devices or "not recorded"),
         ("settings other than the defaults", _settings(config)),
     ]

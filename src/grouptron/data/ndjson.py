@@ -1,0 +1,95 @@
+"""The TrajNet++ ``.ndjson`` format: read its tracks, write forecasts its tools can score.
+
+Every line is one JSON object: a scene ``{"scene": {"id", "p", "s", "e", "fps", "tag"}}``
+(an interval of frames around a primary pedestrian ``p``) or a track row ``{"track": {"f",
+"p", "x", "y"}}`` (frame, pedestrian, metres). Forecasts are track rows with
+``prediction_number`` and ``scene_id``. Frame numbers are the source's; ``fps`` is rows per
+second (2.5 for the 0.4 s step).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from grouptron.errors import DataFormatError
+from grouptron.io import write_text_atomically
+
+ROWS_PER_SECOND = 2.5  # TrajNet++'s resampling: one row per 0.4 s
+
+
+def read_ndjson(path: Path) -> tuple[np.ndarray, float]:
+    """(R, 4) ``frame, id, x, y`` rows of the file's tracks (each (frame, id) once) and the
+    seconds per frame number, from the scenes' ``fps`` (rows per second) and the tracks' most
+    common frame step."""
+    rows, fps = [], []
+    try:
+        lines = Path(path).read_text().splitlines()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DataFormatError(path, f"cannot read the file ({exc})") from None
+    for number, line in enumerate(lines, start=1):
+        if not line.strip():
+            continue
+        try:
+            entry = json.loads(line)
+            if "track" in entry:
+                t = entry["track"]
+                rows.append((float(t["f"]), float(t["p"]), float(t["x"]), float(t["y"])))
+            elif "scene" in entry and "fps" in entry["scene"]:
+                fps.append(float(entry["scene"]["fps"]))
+        except (ValueError, KeyError, TypeError) as exc:
+            raise DataFormatError(path, f"not a TrajNet++ scene or track ({exc})", number) from None
+    if not rows:
+        raise DataFormatError(path, "no track rows")
+    table = np.unique(np.asarray(rows), axis=0)  # scenes repeat rows: keep each once
+    order = np.lexsort((table[:, 0], table[:, 1]))
+    table = table[order]
+    same = table[1:, 1] == table[:-1, 1]
+    steps = np.diff(table[:, 0])[same]
+    step = float(np.median(steps[steps > 0])) if (steps > 0).any() else 1.0
+    rows_per_second = float(np.median(fps)) if fps else ROWS_PER_SECOND
+    return table, 1.0 / (rows_per_second * step)
+
+
+def write_forecast_ndjson(
+    path: Path,
+    frames: np.ndarray,
+    ids: np.ndarray,
+    positions: np.ndarray,
+    history: Sequence[np.ndarray],
+    *,
+    frames_per_step: int,
+) -> None:
+    """Write forecasts as TrajNet++ predictions: one scene per (pedestrian, frame) with its
+    observed rows and, per predicted future k, rows with ``prediction_number`` k.
+
+    Args:
+        frames: (N,) the frame each forecast starts from.
+        ids: (N,) pedestrian ids.
+        positions: (N, K, H, 2) predicted positions (K = 1 for the most likely).
+        history: N arrays (T_i, 2) of the observed positions up to and including ``frame``.
+        frames_per_step: frames between rows.
+    """
+    lines = []
+    N, K, H, _ = positions.shape
+    for scene_id in range(N):
+        frame, ped = int(frames[scene_id]), int(ids[scene_id])
+        observed = history[scene_id]
+        first = frame - (len(observed) - 1) * frames_per_step
+        last = frame + H * frames_per_step
+        scene = {"id": scene_id, "p": ped, "s": first, "e": last, "fps": ROWS_PER_SECOND}
+        lines.append(json.dumps({"scene": scene}))
+        for i, (x, y) in enumerate(observed):
+            row = {"f": first + i * frames_per_step, "p": ped, "x": round(float(x), 4)}
+            lines.append(json.dumps({"track": {**row, "y": round(float(y), 4)}}))
+        for k in range(K):
+            for h in range(H):
+                x, y = positions[scene_id, k, h]
+                row = {"f": frame + (h + 1) * frames_per_step, "p": ped}
+                row |= {"x": round(float(x), 4), "y": round(float(y), 4)}
+                row |= {"prediction_number": k, "scene_id": scene_id}
+                lines.append(json.dumps({"track": row}))
+    write_text_atomically(Path(path), "\n".join(lines) + "\n")
