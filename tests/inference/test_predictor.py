@@ -168,3 +168,33 @@ def test_shipped_names_resolve_from_any_working_directory(
     assert found.is_file() and found.parent.name == "grouptron-univ-backward"
     with pytest.raises(GrouptronError, match=r"no checkpoint nowhere.*GROUPTRON_CHECKPOINTS"):
         resolve_checkpoint("nowhere")
+
+
+def test_centimetres_given_as_metres_are_refused_by_the_api(tiny_checkpoints: Path) -> None:
+    from grouptron.errors import GrouptronError
+
+    predictor = Predictor.from_checkpoint(tiny_checkpoints / "grouptron-eth-backward")
+    steps = np.arange(12)
+    walkers = [(s * 10, p, 120.0 * 0.4 * s + 300 * p, 50.0 * p) for p in range(3) for s in steps]
+    rows = np.asarray(walkers, dtype=float)  # 1.2 m/s written in centimetres
+    with pytest.raises(GrouptronError, match=r"median walking speed is 120 m/s"):
+        predictor.predict(rows)
+    metres = rows.copy()
+    metres[:, 2:] /= 100.0
+    assert len(predictor.predict(metres)) == 3
+    unchecked = Predictor.from_checkpoint(
+        tiny_checkpoints / "grouptron-eth-backward", check_speed=False
+    )
+    assert len(unchecked.predict(rows)) == 3
+
+
+def test_a_stream_in_centimetres_is_refused_once_it_can_be_judged(tiny_checkpoints: Path) -> None:
+    from grouptron.errors import GrouptronError
+
+    session = Predictor.from_checkpoint(tiny_checkpoints / "grouptron-eth-backward").stream()
+    ids = np.arange(5)
+    with pytest.raises(GrouptronError, match="median walking speed"):
+        for step in range(20):  # 1.2 m/s in centimetres
+            xy = np.column_stack([120.0 * 0.4 * step + 300 * ids, 50.0 * ids])
+            session.update(step * 10, ids, xy)
+    assert step >= 6  # judged only once 30 consecutive observations were in the window

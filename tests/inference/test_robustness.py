@@ -40,6 +40,7 @@ def _assert_finite(forecast: object) -> None:
 @pytest.mark.parametrize("kind", ["standing still", "10 m/s", "coincident"])
 def test_forecasts_are_finite_at_the_edges(predictor: Predictor, kind: str) -> None:
     rows = _scene(kind)
+    predictor.check_speed = kind != "10 m/s"  # runners: past the pedestrian plausibility check
     forecast = predictor.predict(rows, num_samples=5)
     assert len(forecast) == 6
     _assert_finite(forecast)

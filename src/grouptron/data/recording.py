@@ -190,16 +190,22 @@ def read_recording(path: Path, fmt: RecordingFormat) -> Recording:
     return Recording(Path(path), ped_id.astype(np.int64), time_s, pos_m, lines, per_frame)
 
 
+def median_speed_mps(ped_id: np.ndarray, time_s: np.ndarray, pos_m: np.ndarray) -> float:
+    """The median speed between consecutive observations of the same person (NaN when no
+    person is seen twice): (R,) ids, (R,) seconds, (R, 2) metres."""
+    order = np.lexsort((time_s, ped_id))
+    ids, t, pos = ped_id[order], time_s[order], pos_m[order]
+    same = (ids[1:] == ids[:-1]) & (t[1:] > t[:-1])
+    if not same.any():
+        return float("nan")
+    speed = np.linalg.norm(np.diff(pos, axis=0), axis=1)[same] / np.diff(t)[same]
+    return float(np.median(speed))
+
+
 def check_plausible(recording: Recording, fmt: RecordingFormat) -> None:
     """Refuse a recording whose median walking speed is above 3 m/s: a unit or frame-rate
     mistake (a file in centimetres read as metres walks at 100 m/s)."""
-    order = np.lexsort((recording.time_s, recording.ped_id))
-    ids, t, pos = recording.ped_id[order], recording.time_s[order], recording.pos_m[order]
-    same = (ids[1:] == ids[:-1]) & (t[1:] > t[:-1])
-    if not same.any():
-        return
-    speed = np.linalg.norm(np.diff(pos, axis=0), axis=1)[same] / np.diff(t)[same]
-    median = float(np.median(speed))
+    median = median_speed_mps(recording.ped_id, recording.time_s, recording.pos_m)
     if median > MAX_MEDIAN_SPEED_MPS:
         walking = [u for u in ("cm", "mm") if 0.2 <= median * UNITS_M[u] / UNITS_M[fmt.units] < 3]
         hints = [f"--units {u}" for u in walking]

@@ -22,6 +22,7 @@ import torch
 
 from grouptron.config import ExperimentConfig
 from grouptron.data.reader import table_from_values
+from grouptron.data.recording import MAX_MEDIAN_SPEED_MPS, median_speed_mps
 from grouptron.data.samples import SampleSet, scene_samples
 from grouptron.data.scene import Scene, build_scene
 from grouptron.errors import GrouptronError
@@ -52,6 +53,8 @@ SOURCE_CHECKPOINTS = Path(__file__).resolve().parents[3] / "checkpoints"
 TRACK_COLUMNS = ("frame", "id", "x", "y")
 MostLikely = Literal["ml", "ml-argmax"]
 MOST_LIKELY_CHOICES = ("ml", "ml-argmax")
+STREAM_MIN_PAIRS = 30
+"""A stream's speeds are judged once it holds this many consecutive observations."""
 OLDER_NAMES = {"mixture-mode": "ml", "argmax-latent": "ml-argmax"}
 """Names these choices had before the vocabulary was unified (still accepted)."""
 
@@ -125,6 +128,7 @@ class Predictor:
         most_likely: MostLikely = "ml",
         *,
         mixture: bool = True,
+        check_speed: bool = True,
     ) -> None:
         most_likely = OLDER_NAMES.get(most_likely, most_likely)  # type: ignore[assignment]
         if most_likely not in MOST_LIKELY_CHOICES:
@@ -136,6 +140,7 @@ class Predictor:
         self.source = source
         self.most_likely = most_likely
         self.mixture = mixture
+        self.check_speed = check_speed
         self._warned_central = False
 
     @classmethod
@@ -147,13 +152,21 @@ class Predictor:
         most_likely: MostLikely = "ml",
         *,
         mixture: bool = True,
+        check_speed: bool = True,
     ) -> Predictor:
         """Load a ``.safetensors`` checkpoint (never a pickle) by path or shipped name."""
         path = resolve_checkpoint(name_or_path, checkpoints_dir)
         model, config = load_trained_model(path)
         if threads is not None:
             torch.set_num_threads(threads)
-        return cls(model, config, str(path), most_likely=most_likely, mixture=mixture)
+        return cls(
+            model,
+            config,
+            str(path),
+            most_likely=most_likely,
+            mixture=mixture,
+            check_speed=check_speed,
+        )
 
     @property
     def history_steps(self) -> int:
@@ -194,6 +207,7 @@ class Predictor:
         values = _as_track_array(tracks)
         if len(values) == 0:
             raise GrouptronError("tracks are empty: no frame, id, x, y rows")
+        self.check_plausible(values)
         frame = int(values[:, 0].max()) if t is None else int(t)
         # Only the rows a forecast at ``frame`` reads, so that a long recording is not turned
         # into a scene for every frame asked about (central derivatives read two steps ahead).
@@ -306,6 +320,26 @@ class Predictor:
             covariance_matrices(cov).double().numpy(),
         )
 
+    def check_plausible(self, values: np.ndarray, min_pairs: int = 1) -> bool:
+        """Refuse (R, 4) tracks whose median speed no pedestrian walks (wrong units or frame
+        grid); returns whether there were ``min_pairs`` consecutive observations to judge."""
+        if not self.check_speed:
+            return True
+        seconds_per_frame = self.config.data.dt_s / self.frames_per_step
+        time_s = values[:, 0] * seconds_per_frame
+        pairs = len(values) - len(np.unique(values[:, 1]))
+        if pairs < min_pairs:
+            return False
+        median = median_speed_mps(values[:, 1], time_s, values[:, 2:4])
+        if median > MAX_MEDIAN_SPEED_MPS:
+            raise GrouptronError(
+                f"the tracks' median walking speed is {median:.3g} m/s with frames "
+                f"{self.frames_per_step} apart per {self.config.data.dt_s} s step: positions "
+                "must be metres (convert centimetres or millimetres) and frames on that grid; "
+                "Predictor(check_speed=False) goes on anyway"
+            )
+        return True
+
     def _empty(self, frame: int, num_samples: int) -> Forecast:
         H, Z = self.config.data.horizon_steps, self.config.model.latent_modes
         return Forecast(
@@ -343,6 +377,7 @@ class StreamSession:
         self.predictor = predictor
         self._rows = np.zeros((0, 4))
         self._last_frame: int | None = None
+        self._judged = False  # units and frame grid judged plausible once (they do not change)
 
     @property
     def window_frames(self) -> int:
@@ -374,4 +409,6 @@ class StreamSession:
         rows = np.concatenate([self._rows, new])
         self._rows = rows[rows[:, 0] >= frame - self.window_frames]
         self._last_frame = frame
+        if not self._judged:
+            self._judged = self.predictor.check_plausible(self._rows, min_pairs=STREAM_MIN_PAIRS)
         return self.predictor._forecast(self._rows, frame, num_samples, seed)
