@@ -25,13 +25,14 @@ from grouptron.config import (
 from grouptron.constants import SPLITS
 from grouptron.data.custom import load_dataset_part, read_dataset
 from grouptron.data.locate import resolve_data_dir
-from grouptron.data.subsets import parse_univ_n
+from grouptron.data.subsets import density_masks, parse_univ_n
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import (
     MODES,
     ModeScores,
     constant_velocity_scores,
     evaluate_model,
+    score_samples,
 )
 from grouptron.evaluation.recordings import evaluate_recordings, training_files
 from grouptron.evaluation.results import (
@@ -45,6 +46,7 @@ from grouptron.groups.assign import assign_groups
 from grouptron.inference.predictor import resolve_checkpoint
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.factory import uses_groups
+from grouptron.model.predict import ABLATIONS
 
 
 def _row(template: EvaluationResult, scores: ModeScores) -> EvaluationResult:
@@ -125,6 +127,18 @@ def cmd_evaluate_dataset(args: argparse.Namespace) -> int:
     return 0
 
 
+def _ablations(args: argparse.Namespace, has_scene: bool) -> tuple[str, ...]:
+    ablate = tuple(a.strip() for a in (args.ablate or "").split(",") if a.strip())
+    unknown = sorted(set(ablate) - set(ABLATIONS))
+    if unknown:
+        raise GrouptronError(f"unknown --ablate {', '.join(unknown)}; choose from {ABLATIONS}")
+    if ablate and not args.checkpoint:
+        raise GrouptronError("--ablate takes inputs away from a checkpoint's model")
+    if "scene" in ablate and not has_scene:
+        raise GrouptronError("--ablate scene needs a Grouptron checkpoint (a scene encoding)")
+    return ablate
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     if (args.model is None) == (args.checkpoint is None):
         raise GrouptronError("give either --checkpoint PATH or --model constant-velocity")
@@ -137,7 +151,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     data_dir = resolve_data_dir(args.data_dir)
     model = None
     if args.checkpoint:
-        model, experiment = load_trained_model(args.checkpoint)
+        model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
         torch.set_num_threads(experiment.train.threads)
         config = experiment.data
         if args.derivatives and args.derivatives != config.derivatives:
@@ -154,33 +168,34 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if args.subset and splits != ["univ"]:
         raise GrouptronError("--subset univ-N needs --split univ")
     modes = eval_modes(args.mode)
+    ablate = _ablations(args, model is not None and uses_groups(experiment))
     results: list[EvaluationResult] = []
     group_config = experiment.groups if model is not None and uses_groups(experiment) else None
     for split in splits:
         samples, groups = load_test_set(
             data_dir, split, config, subset, group_config=group_config, use_cache=not args.no_cache
         )
+        masks = {args.subset: None, **(density_masks(samples) if args.by_density else {})}
         if model is None:
-            baseline = constant_velocity_scores(samples, config.horizon_steps).summary()
-            template = EvaluationResult(split, "constant-velocity", args.subset, 0, 0.0, 0.0)
-            template = dataclasses.replace(template, derivatives=config.derivatives)
-            results.append(dataclasses.replace(_row(template, baseline), mode=None))
-            continue
-        scores = evaluate_model(
-            model,
-            experiment,
-            samples,
-            modes,
-            seed=args.seed,
-            progress=show_progress(args),
-            groups=groups,
-        )
-        template = EvaluationResult(split, experiment.model_name, args.subset, 0, 0.0, 0.0)
+            per_sample = [constant_velocity_scores(samples, config.horizon_steps)]
+            name, checkpoint = "constant-velocity", None
+        else:
+            per_sample = score_samples(
+                model, experiment, samples, modes, seed=args.seed,
+                progress=show_progress(args), groups=groups, ablate=ablate,
+            )  # fmt: skip
+            suffix = f" without {' and '.join(ablate)}" if ablate else ""
+            name, checkpoint = experiment.model_name + suffix, str(args.checkpoint)
+        template = EvaluationResult(split, name, None, 0, 0.0, 0.0)
         template = dataclasses.replace(
-            template, checkpoint=str(args.checkpoint), derivatives=config.derivatives
+            template, checkpoint=checkpoint, derivatives=config.derivatives
         )
-        results += [_row(template, s) for s in scores]
-    if len(splits) == len(SPLITS):
+        for scores in per_sample:
+            for subset_name, keep in masks.items():
+                row = dataclasses.replace(_row(template, scores.summary(keep)), subset=subset_name)
+                results.append(row if model is not None else dataclasses.replace(row, mode=None))
+    results = [r for r in results if r.samples or r.subset is None]
+    if len(splits) == len(SPLITS) and not args.by_density:
         for mode in dict.fromkeys(r.mode for r in results):
             results.append(mean_over_splits([r for r in results if r.mode == mode]))
     print(results_json(results) if args.format == "json" else results_table(results))
@@ -235,6 +250,18 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         help="score recordings of your own instead of the benchmark: every (person, step) with "
         "8 observed and 12 future points after resampling to 0.4 s (layout: --columns, --fps, "
         "--units)",
+    )
+    evaluate.add_argument(
+        "--by-density",
+        action="store_true",
+        help="also score by density: neighbours within 3 m at the forecast step (0, 1-2, 3-5, "
+        "6-9, 10-24, 25+)",
+    )
+    evaluate.add_argument(
+        "--ablate",
+        metavar="INPUTS",
+        help="take inputs away to see what a model uses: 'edges' zeroes the edge encoder's "
+        "neighbour input, 'scene' zeroes Grouptron's E_scene (comma-separated)",
     )
     evaluate.add_argument(
         "--dataset",

@@ -68,3 +68,25 @@ def univ_n_mask(samples: SampleSet, subset: UnivN) -> np.ndarray:
     if subset.definition == "present":
         return samples.num_present >= subset.min_agents
     return agents_predicted(samples) >= subset.min_agents
+
+
+DENSITY_BINS: tuple[tuple[int, int | None], ...] = (
+    (0, 0),
+    (1, 2),
+    (3, 5),
+    (6, 9),
+    (10, 24),
+    (25, None),
+)
+"""Neighbours within the perception radius (3 m) at t: the density bins of the diagnostics."""
+
+
+def density_masks(samples: SampleSet) -> dict[str, np.ndarray]:
+    """``{"neighbours 3-5": (S,) mask, ...}`` for every density bin, in order."""
+    count = samples.num_neighbours
+    masks = {}
+    for low, high in DENSITY_BINS:
+        name = f"{low}" if low == high else f"{low}+" if high is None else f"{low}-{high}"
+        upper = count <= high if high is not None else np.ones(len(count), dtype=bool)
+        masks[f"neighbours {name}"] = (count >= low) & upper
+    return masks

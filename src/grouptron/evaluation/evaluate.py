@@ -17,6 +17,7 @@ from grouptron.groups.assign import SampleGroups
 from grouptron.model.batch import batches
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.predict import (
+    Ablation,
     predict_argmax_latent,
     predict_most_likely,
     predict_samples,
@@ -76,6 +77,7 @@ def score_samples(
     progress: bool = False,
     groups: SampleGroups | None = None,
     device: torch.device | str = "cpu",
+    ablate: Ablation = (),
 ) -> list[SampleScores]:
     """Per-sample ADE/FDE (metres) of each requested mode, and the KDE NLL for ``"nll"``.
 
@@ -105,11 +107,13 @@ def score_samples(
             truth = batch.fut_rel_m.double().cpu().numpy()  # (B, H, 2)
             if mode in ("ml", "ml-argmax"):
                 predict = predict_most_likely if mode == "ml" else predict_argmax_latent
-                pred = predict(model, batch, horizon, dt).double().cpu().numpy()
+                pred = predict(model, batch, horizon, dt, ablate).double().cpu().numpy()
                 ade[index], fde[index] = metrics.ade(pred, truth), metrics.fde(pred, truth)
                 continue
             k = BEST_OF if mode == "best-of-20" else NLL_SAMPLES
-            draws = predict_samples(model, batch, horizon, dt, num_samples=k, generator=generator)
+            draws = predict_samples(
+                model, batch, horizon, dt, num_samples=k, generator=generator, ablate=ablate
+            )
             draws_np = draws.double().cpu().numpy()  # (B, K, H, 2)
             if mode == "best-of-20":
                 ade[index] = metrics.min_ade_k(draws_np, truth)
@@ -131,6 +135,7 @@ def evaluate_model(
     progress: bool = False,
     groups: SampleGroups | None = None,
     device: torch.device | str = "cpu",
+    ablate: Ablation = (),
 ) -> list[ModeScores]:
     """Mean ADE/FDE (metres) of each requested mode over ``samples`` (see ``score_samples``)."""
     per_sample = score_samples(
@@ -143,6 +148,7 @@ def evaluate_model(
         progress=progress,
         groups=groups,
         device=device,
+        ablate=ablate,
     )
     return [scores.summary() for scores in per_sample]
 

@@ -76,8 +76,11 @@ def results_table(results: Sequence[EvaluationResult]) -> str:
     with_nll = any(r.nll is not None for r in results)
     with_ci = any(r.fde_ci is not None for r in results)
     width = max([7, *(len(r.split) for r in results)])
+    sub = max([9, *(len(r.subset or "") for r in results)])
+    model = max([30, *(len(r.model) + len(r.mode or "") + 3 for r in results)])
     header = (
-        f"{'split':<{width}} {'subset':<9} {'model':<30} {'samples':>8} {'ADE m':>7} {'FDE m':>7}"
+        f"{'split':<{width}} {'subset':<{sub}} {'model':<{model}} {'samples':>8} {'ADE m':>7} "
+        f"{'FDE m':>7}"
     )
     header += f" {'NLL':>7}" if with_nll else ""
     header += f" {'FDE 95% interval':>18}" if with_ci else ""
@@ -85,7 +88,7 @@ def results_table(results: Sequence[EvaluationResult]) -> str:
     for r in results:
         name = r.model if r.mode is None else f"{r.model} ({r.mode})"
         line = (
-            f"{r.split:<{width}} {r.subset or '-':<9} {name:<30} {r.samples:>8} "
+            f"{r.split:<{width}} {r.subset or '-':<{sub}} {name:<{model}} {r.samples:>8} "
             f"{_fmt(r.ade):>7} {_fmt(r.fde):>7}"
         )
         line += f" {_fmt(r.nll):>7}" if with_nll else ""

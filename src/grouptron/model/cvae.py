@@ -83,6 +83,7 @@ class TrajectronCVAE(nn.Module):
         self.history_encoder = nn.LSTMCell(c.state_dim, c.history_hidden)
         self.edge_encoder = nn.LSTMCell(2 * c.state_dim, c.edge_hidden) if c.use_edges else None
         self.condition_dim = c.history_hidden + (c.edge_hidden if c.use_edges else 0)
+        self.base_condition_dim = self.condition_dim  # Trajectron++'s [edge; history]
         self.condition_dim += extra_condition_dim
         self.future_encoder = nn.LSTM(
             c.action_dim, c.future_hidden, batch_first=True, bidirectional=True

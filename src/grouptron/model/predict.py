@@ -2,37 +2,56 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import torch
 
+from grouptron.errors import GrouptronError
 from grouptron.model.batch import Batch
 from grouptron.model.cvae import Encoding, TrajectronCVAE, VelocityGaussians
 from grouptron.model.gaussians import positions_from_velocities
 from grouptron.model.mixture_mode import mixture_mode
 
+ABLATIONS = ("edges", "scene")
+"""Inputs an evaluation can take away to see what a model uses: ``edges`` zeroes the
+neighbour input of the edge encoder, ``scene`` zeroes Grouptron's scene encoding E_scene."""
+Ablation = tuple[str, ...]
 
-def encode_prior(model: TrajectronCVAE, batch: Batch) -> Encoding:
-    """Condition and p(z|x) logits (no posterior, no clipping)."""
-    x = model.encode_condition(batch)
+
+def encode_prior(model: TrajectronCVAE, batch: Batch, ablate: Ablation = ()) -> Encoding:
+    """Condition and p(z|x) logits (no posterior, no clipping), with ``ablate``'s inputs
+    zeroed."""
+    unknown = sorted(set(ablate) - set(ABLATIONS))
+    if unknown:
+        raise GrouptronError(f"unknown ablation {', '.join(unknown)}; choose from {ABLATIONS}")
+    if "edges" in ablate:
+        batch = dataclasses.replace(batch, nbr_sum_st=torch.zeros_like(batch.nbr_sum_st))
+    x = model.encode_condition(batch)  # (B, Dx)
+    if "scene" in ablate:
+        width = model.condition_dim - model.base_condition_dim  # E_scene's, last in x
+        if width == 0:
+            raise GrouptronError("--ablate scene needs a model with a scene encoding (Grouptron)")
+        x = torch.cat([x[:, :-width], torch.zeros_like(x[:, -width:])], dim=-1)
     return model.encode(batch, x, with_future=False, logit_clip=None)
 
 
 def predict_most_likely(
-    model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float
+    model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float, ablate: Ablation = ()
 ) -> torch.Tensor:
     """The reference's most-likely prediction, (B, H, 2) positions relative to ``t``.
 
     Every latent value is decoded feeding back its mean; at each step the velocity is the mode
     of the Z-component mixture weighted by p(z|x); velocities are integrated to positions.
     """
-    encoding, velocity = decode_every_latent(model, batch, horizon)
+    encoding, velocity = decode_every_latent(model, batch, horizon, ablate)
     return most_likely_positions(encoding, velocity, horizon, dt_s)
 
 
 def decode_every_latent(
-    model: TrajectronCVAE, batch: Batch, horizon: int
+    model: TrajectronCVAE, batch: Batch, horizon: int, ablate: Ablation = ()
 ) -> tuple[Encoding, VelocityGaussians]:
     """p(z|x) and the velocity Gaussians of all Z latent values, each following its means."""
-    encoding = encode_prior(model, batch)
+    encoding = encode_prior(model, batch, ablate)
     return encoding, model.decode(encoding.x, batch.state_now_st, None, horizon, feedback="mean")
 
 
@@ -51,10 +70,10 @@ def most_likely_positions(
 
 
 def predict_argmax_latent(
-    model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float
+    model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float, ablate: Ablation = ()
 ) -> torch.Tensor:
     """(B, H, 2): decode only the most probable latent value and follow its means."""
-    encoding = encode_prior(model, batch)
+    encoding = encode_prior(model, batch, ablate)
     z_index = encoding.p_logits.argmax(dim=-1, keepdim=True)  # (B, 1)
     velocity = model.decode(encoding.x, batch.state_now_st, z_index, horizon, feedback="mean")
     return positions_from_velocities(velocity.mean[:, 0], dt_s)
@@ -68,9 +87,10 @@ def predict_samples(
     *,
     num_samples: int,
     generator: torch.Generator | None = None,
+    ablate: Ablation = (),
 ) -> torch.Tensor:
     """(B, K, H, 2) futures with z ~ p(z|x) and a velocity sample drawn (and fed back) per step."""
-    encoding = encode_prior(model, batch)
+    encoding = encode_prior(model, batch, ablate)
     probs = torch.softmax(encoding.p_logits, dim=-1)
     z_index = torch.multinomial(probs, num_samples, replacement=True, generator=generator)
     velocity = model.decode(
