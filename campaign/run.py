@@ -8,16 +8,17 @@ recipe) and is skipped once finished (its ``selection.json`` exists). A run that
 resumes from its ``last.safetensors``, so the script can be killed at any time and started
 again, in another session or on another machine.
 
-Precision: every invocation asks for bf16 where this machine computes it natively and fp32
-elsewhere (``grouptron.training.precision``); a run that changes machines records each
-epoch's precision. The one exception is the fp32 half of the precision A/B, always fp32.
+Precision: every invocation asks for what ``--precision auto`` chooses on this machine (bf16
+only where it is native and measured faster; ``grouptron.training.precision``); a run that
+changes machines records each epoch's precision. ``--bf16-ab`` adds the precision A/B: bf16
+copies (``-bf16``) of the three univ Trajectron++ ``backward`` seeds, for a machine where bf16
+pays (on the Intel Xeon of the first campaign sessions it was 1.37x slower than fp32).
 
-Order: the precision A/B first (Trajectron++, univ, backward, seed 0 in fp32 and bf16, and
-seeds 1 and 2 in bf16 for the seed spread), then the rest of univ (3 seeds of both models,
-both protocols), then the other splits. ``central`` runs of seed 0 continue the shipped
-checkpoints (copied from ``checkpoints/``, same configuration, future encoder scale
-included); other seeds of ``central`` univ use the same configuration so that seeds differ in
-the seed alone. ``backward`` runs start from scratch on strictly causal inputs.
+Order: univ first (three seeds of both models, both derivatives), then the other splits.
+``central`` runs of seed 0 continue the shipped checkpoints (copied from ``checkpoints/``, same
+configuration, future encoder scale included); other seeds of ``central`` univ use the same
+configuration so that seeds differ in the seed alone. ``backward`` runs start from scratch on
+strictly causal inputs.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ import torch
 
 from grouptron.config import save_config
 from grouptron.model.checkpoint import load_checkpoint
-from grouptron.training.precision import native_bf16
+from grouptron.training.precision import resolve_precision
 
 REPO = Path(__file__).resolve().parents[1]
 EPOCHS = 100
@@ -48,25 +49,26 @@ class Run:
     split: str
     protocol: str
     seed: int = 0
-    fp32_only: bool = False
+    bf16_only: bool = False
 
     @property
     def name(self) -> str:
         name = f"{self.model}-{self.split}-{self.protocol}"
         name += f"-s{self.seed}" if self.seed else ""
-        return name + ("-fp32" if self.fp32_only else "")
+        return name + ("-bf16" if self.bf16_only else "")
 
     @property
     def shipped_source(self) -> Path | None:
         """The shipped run this one continues (seed-0 central runs)."""
-        if self.protocol == "central" and self.seed == 0 and not self.fp32_only:
+        if self.protocol == "central" and self.seed == 0 and not self.bf16_only:
             return REPO / "checkpoints" / f"{self.model}-{self.split}-central"
         return None
 
 
-def queue() -> list[Run]:
-    runs = [Run("trajectron++", "univ", "backward", 0, fp32_only=True)]
-    runs += [Run("trajectron++", "univ", "backward", seed) for seed in (0, 1, 2)]
+def queue(bf16_ab: bool = False) -> list[Run]:
+    runs = [Run("trajectron++", "univ", "backward", seed) for seed in (0, 1, 2)]
+    if bf16_ab:
+        runs += [Run("trajectron++", "univ", "backward", s, bf16_only=True) for s in (0, 1, 2)]
     runs += [Run("grouptron", "univ", "backward", seed) for seed in (0, 1, 2)]
     runs += [Run(model, "univ", "central", seed) for seed in (0, 1, 2) for model in MODELS]
     for split in SPLITS[1:]:
@@ -136,6 +138,9 @@ def main() -> int:
     parser.add_argument("--only", help="run only the runs whose name contains this")
     parser.add_argument("--dry-run", action="store_true", help="print the commands only")
     parser.add_argument(
+        "--bf16-ab", action="store_true", help="add the bf16 copies of the precision A/B"
+    )
+    parser.add_argument(
         "--threads",
         type=int,
         default=1,
@@ -143,8 +148,9 @@ def main() -> int:
         "two jobs of 2 threads each on 2 cores slow both several-fold)",
     )
     args = parser.parse_args()
-    native = "bf16" if native_bf16(torch.device("cpu")) else "fp32"
-    for run in queue():
+    bf16 = resolve_precision("auto", torch.device("cpu"), threads=args.threads)
+    chosen = "bf16" if bf16 else "fp32"
+    for run in queue(args.bf16_ab):
         if args.only and args.only not in run.name:
             continue
         folder = args.out / run.name
@@ -153,7 +159,7 @@ def main() -> int:
             continue
         if not args.dry_run:
             prepare(run, folder)
-        argv = command(run, folder, "fp32" if run.fp32_only else native, args.threads)
+        argv = command(run, folder, "bf16" if run.bf16_only else chosen, args.threads)
         print(" ".join(argv), flush=True)
         if args.dry_run:
             continue

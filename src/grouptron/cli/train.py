@@ -19,6 +19,7 @@ from grouptron.cli.common import (
 )
 from grouptron.config import (
     ExperimentConfig,
+    TrainConfig,
     config_from_dict,
     merge_settings,
     preset_values,
@@ -130,7 +131,10 @@ def experiment_from_args(args: argparse.Namespace) -> ExperimentConfig:
     }
     train_values = {k: v for k, v in flags.items() if v is not None}
     if args.precision is not None or "bf16" not in values.get("train", {}):
-        train_values["bf16"] = resolve_precision(args.precision or "auto", args.device)
+        threads = args.threads or TrainConfig().threads
+        train_values["bf16"] = resolve_precision(
+            args.precision or "auto", args.device, threads=threads
+        )
     data_values: dict[str, Any] = {"on_gap": args.on_gap}
     if args.derivatives:
         data_values["derivatives"] = args.derivatives
