@@ -99,3 +99,12 @@ def test_fine_tuning_a_checkpoint_on_a_dataset_of_ones_own_runs_end_to_end(
     (row,) = json.loads(capsys.readouterr().out)["results"]
     assert row["split"] == "walkers" and row["samples"] > 20 and row["fde"] > 0
     assert main(["evaluate", "--dataset", str(description), "--model", "constant-velocity"]) == 0
+    capsys.readouterr()
+    report = ["report", "--dataset", str(description), "--checkpoints", str(tmp_path), "--quiet"]
+    assert main([*report, "--format", "json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["results"]
+    assert [(r["model"], r["mode"]) for r in rows] == [
+        ("constant-velocity", "ml"), ("grouptron", "ml"), ("grouptron", "best-of-20"),
+    ]  # fmt: skip
+    assert all(r["fde_ci"][0] <= r["fde"] <= r["fde_ci"][1] for r in rows)
+    assert main([*report, "--checkpoints", str(tmp_path / "nowhere")]) == 2

@@ -16,7 +16,9 @@ from grouptron.cli.common import (
     positive_int,
     show_progress,
 )
+from grouptron.data.custom import read_dataset
 from grouptron.data.locate import resolve_data_dir
+from grouptron.evaluation.dataset_report import dataset_report
 from grouptron.evaluation.evaluate import MODES
 from grouptron.evaluation.report import (
     ReportSettings,
@@ -24,6 +26,7 @@ from grouptron.evaluation.report import (
     run_report,
 )
 from grouptron.evaluation.report_tables import report_markdown
+from grouptron.evaluation.results import results_json
 from grouptron.geometry import DERIVATIVE_SCHEMES
 from grouptron.io import (
     refuse_folder,
@@ -45,9 +48,40 @@ def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
     return " ".join(parts)
 
 
+def cmd_report_dataset(args: argparse.Namespace) -> int:
+    """``report --dataset``: every checkpoint trained on a dataset of one's own."""
+    dataset = read_dataset(args.dataset)
+    torch.set_num_threads(args.threads)
+    modes = tuple(m for m in eval_modes(args.mode) if m != "nll")
+    rows = dataset_report(
+        dataset, Path(args.checkpoints), modes=modes, seed=args.seed, use_cache=not args.no_cache
+    )
+    if args.format == "json":
+        text = results_json(rows) + "\n"
+    else:
+        lines = [f"# {dataset.name}: test part of `{dataset.source}`", ""]
+        lines += ["| model | derivatives | mode | samples | ADE m | FDE m [95% interval] |"]
+        lines += ["|---|---|---|---|---|---|"]
+        for r in rows:
+            low, high = r.fde_ci or (float("nan"), float("nan"))
+            lines.append(
+                f"| {r.model} | {r.derivatives} | {r.mode or 'ml'} | {r.samples} | {r.ade:.3f} | "
+                f"{r.fde:.3f} [{low:.3f}, {high:.3f}] |"
+            )
+        text = "\n".join(lines) + "\n"
+    if args.out:
+        write_text_atomically(Path(args.out), text)
+        print(f"wrote {args.out}")
+    else:
+        print(text, end="")
+    return 0
+
+
 def cmd_report(args: argparse.Namespace) -> int:
     if args.out:
         refuse_folder(Path(args.out))  # before the work, not after it
+    if args.dataset:
+        return cmd_report_dataset(args)
     schemes = DERIVATIVE_SCHEMES if args.derivatives == "both" else (args.derivatives,)
     modes = eval_modes(args.mode)
     settings = ReportSettings(
@@ -96,6 +130,12 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     )
     report.add_argument(
         "--checkpoints", default=REPORT_CHECKPOINTS, help="folder of checkpoint folders"
+    )
+    report.add_argument(
+        "--dataset",
+        metavar="FILE",
+        help="report on a dataset of your own instead: every checkpoint under --checkpoints "
+        "trained on it, and constant velocity, on its test part",
     )
     report.add_argument(
         "--derivatives",

@@ -1,0 +1,83 @@
+"""The report of a dataset of one's own: every checkpoint trained on it and constant velocity
+on its test part, with 95% intervals (time steps resampled)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from grouptron.data.custom import DatasetDescription, load_dataset_part
+from grouptron.data.subsets import time_step_ids
+from grouptron.errors import GrouptronError
+from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
+from grouptron.evaluation.results import EvaluationResult
+from grouptron.evaluation.uncertainty import mean_interval
+from grouptron.groups.assign import assign_groups
+from grouptron.model.checkpoint import load_checkpoint, load_trained_model
+from grouptron.model.factory import uses_groups
+
+WEIGHTS_FILE = "best.safetensors"
+
+
+def checkpoints_of(dataset: DatasetDescription, root: Path) -> list[Path]:
+    """The ``*/best.safetensors`` under ``root`` whose stored configuration names this
+    dataset's description file."""
+    if not root.is_dir():
+        raise GrouptronError(f"checkpoint folder {root} does not exist; pass --checkpoints DIR")
+    found = []
+    for path in sorted(root.glob(f"*/{WEIGHTS_FILE}")):
+        stored = load_checkpoint(path).config.dataset
+        if stored and Path(stored).resolve() == dataset.source:
+            found.append(path)
+    if not found:
+        raise GrouptronError(
+            f"no checkpoint under {root} was trained on {dataset.name} ({dataset.source})"
+        )
+    return found
+
+
+def _row(template: EvaluationResult, scores: SampleScores, steps: np.ndarray) -> EvaluationResult:
+    ade, fde = mean_interval(scores.ade, steps), mean_interval(scores.fde, steps)
+    return dataclasses.replace(
+        template,
+        samples=len(scores.fde),
+        ade=ade.mean,
+        fde=fde.mean,
+        mode=scores.mode,
+        ade_ci=(ade.low, ade.high),
+        fde_ci=(fde.low, fde.high),
+    )
+
+
+def dataset_report(
+    dataset: DatasetDescription,
+    root: Path,
+    *,
+    modes: tuple[str, ...] = ("ml",),
+    seed: int = 0,
+    use_cache: bool = True,
+) -> list[EvaluationResult]:
+    """Rows for constant velocity (once per kind of derivatives) and every checkpoint."""
+    rows: list[EvaluationResult] = []
+    paths = checkpoints_of(dataset, root)
+    baselines_done: set[str] = set()
+    for path in paths:
+        model, experiment = load_trained_model(path)
+        data = experiment.data
+        samples = load_dataset_part(dataset, "test", data, use_cache=use_cache).samples
+        steps = time_step_ids(samples)
+        template = EvaluationResult(dataset.name, "constant-velocity", None, 0, 0.0, 0.0)
+        template = dataclasses.replace(template, derivatives=data.derivatives)
+        if data.derivatives not in baselines_done:
+            baselines_done.add(data.derivatives)
+            cv = constant_velocity_scores(samples, data.horizon_steps)
+            rows.append(_row(template, cv, steps))
+        groups = None
+        if uses_groups(experiment):
+            groups = assign_groups(samples, experiment.groups, data.position_scale_m)
+        ours = dataclasses.replace(template, model=experiment.model_name, checkpoint=str(path))
+        for scores in score_samples(model, experiment, samples, modes, seed=seed, groups=groups):
+            rows.append(_row(ours, scores, steps))
+    return rows
