@@ -7,6 +7,7 @@ import re
 from pathlib import Path
 
 import pytest
+import torch
 
 from grouptron.cli import build_parser
 from grouptron.cli.train import experiment_from_args, parse_setting
@@ -99,3 +100,14 @@ def test_wrong_settings_are_one_line_errors(
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1
     assert re.search(message, err), err
+
+
+@pytest.mark.skipif(
+    torch.cuda.is_available(), reason="checks the message of a machine without CUDA"
+)
+def test_an_unavailable_device_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    from grouptron.cli import main
+
+    assert main(["train", "--split", "eth", "--device", "cuda"]) == 2
+    err = capsys.readouterr().err
+    assert "CUDA is not available here" in err and "Traceback" not in err

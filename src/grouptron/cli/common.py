@@ -89,10 +89,24 @@ def non_negative_int(value: str) -> int:
 
 
 def device_type(value: str) -> torch.device:
+    """A torch device that exists here (one line, not a traceback, when it does not)."""
     try:
-        return torch.device(value)
+        device = torch.device(value)
     except RuntimeError:
         raise argparse.ArgumentTypeError(f"not a torch device: {value!r}") from None
+    if device.type == "cuda":
+        if not torch.cuda.is_available():
+            build = "a CPU-only build" if torch.version.cuda is None else "no GPU is visible"
+            raise argparse.ArgumentTypeError(
+                f"{value}: CUDA is not available here (this PyTorch is {build}); use --device cpu"
+            )
+        if device.index is not None and device.index >= torch.cuda.device_count():
+            raise argparse.ArgumentTypeError(
+                f"{value}: only {torch.cuda.device_count()} CUDA device(s) are visible"
+            )
+    elif device.type not in ("cpu", "mps"):
+        raise argparse.ArgumentTypeError(f"{value}: grouptron runs on cpu or cuda devices")
+    return device
 
 
 def parse_splits(value: str) -> list[str]:
