@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import torch
 
 from grouptron import Predictor
 from grouptron.data.dataset import load_scenes
@@ -198,3 +199,15 @@ def test_a_stream_in_centimetres_is_refused_once_it_can_be_judged(tiny_checkpoin
             xy = np.column_stack([120.0 * 0.4 * step + 300 * ids, 50.0 * ids])
             session.update(step * 10, ids, xy)
     assert step >= 6  # judged only once 30 consecutive observations were in the window
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="the message of a machine without CUDA")
+def test_an_unavailable_device_is_one_clear_error(tiny_checkpoints: Path) -> None:
+    from grouptron.errors import GrouptronError
+
+    path = tiny_checkpoints / "grouptron-eth-backward"
+    with pytest.raises(GrouptronError, match="CUDA is not available here"):
+        Predictor.from_checkpoint(path, device="cuda")
+    with pytest.raises(GrouptronError, match="not a torch device"):
+        Predictor.from_checkpoint(path, device="gpu7")
+    assert Predictor.from_checkpoint(path, device="cpu").device.type == "cpu"

@@ -11,6 +11,7 @@ import torch
 
 from grouptron.constants import SPLITS
 from grouptron.data.recording import UNITS_M, RecordingFormat, parse_columns
+from grouptron.devices import available_device
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import MODES
 from grouptron.geometry import DERIVATIVE_SCHEMES
@@ -91,22 +92,9 @@ def non_negative_int(value: str) -> int:
 def device_type(value: str) -> torch.device:
     """A torch device that exists here (one line, not a traceback, when it does not)."""
     try:
-        device = torch.device(value)
-    except RuntimeError:
-        raise argparse.ArgumentTypeError(f"not a torch device: {value!r}") from None
-    if device.type == "cuda":
-        if not torch.cuda.is_available():
-            build = "a CPU-only build" if torch.version.cuda is None else "no GPU is visible"
-            raise argparse.ArgumentTypeError(
-                f"{value}: CUDA is not available here (this PyTorch is {build}); use --device cpu"
-            )
-        if device.index is not None and device.index >= torch.cuda.device_count():
-            raise argparse.ArgumentTypeError(
-                f"{value}: only {torch.cuda.device_count()} CUDA device(s) are visible"
-            )
-    elif device.type not in ("cpu", "mps"):
-        raise argparse.ArgumentTypeError(f"{value}: grouptron runs on cpu or cuda devices")
-    return device
+        return available_device(value)
+    except GrouptronError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def parse_splits(value: str) -> list[str]:

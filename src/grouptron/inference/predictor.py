@@ -25,6 +25,7 @@ from grouptron.data.reader import table_from_values
 from grouptron.data.recording import MAX_MEDIAN_SPEED_MPS, median_speed_mps
 from grouptron.data.samples import SampleSet, scene_samples
 from grouptron.data.scene import Scene, build_scene
+from grouptron.devices import available_device
 from grouptron.errors import GrouptronError
 from grouptron.groups.scene import groups_at_step
 from grouptron.inference.forecast import Forecast
@@ -118,6 +119,9 @@ class Predictor:
             ``"ml-argmax"`` (follow the means of the most probable latent value only; the
             "ML-argmax" row of the evaluator, several times faster without the mixture).
         mixture: also return the mixture parameters (decodes all Z latent values).
+        check_speed: refuse tracks whose median speed no pedestrian walks (wrong units).
+        device: where the network runs (``cpu``, ``cuda``, ``cuda:1``, ``mps``); results are
+            NumPy arrays either way. One clear error when the device is not available.
     """
 
     def __init__(
@@ -129,13 +133,15 @@ class Predictor:
         *,
         mixture: bool = True,
         check_speed: bool = True,
+        device: str | torch.device = "cpu",
     ) -> None:
         most_likely = OLDER_NAMES.get(most_likely, most_likely)  # type: ignore[assignment]
         if most_likely not in MOST_LIKELY_CHOICES:
             raise GrouptronError(
                 f"most_likely must be one of {', '.join(MOST_LIKELY_CHOICES)}, not {most_likely!r}"
             )
-        self.model = model.eval()
+        self.device = available_device(device)
+        self.model = model.eval().to(self.device)
         self.config = config
         self.source = source
         self.most_likely = most_likely
@@ -153,6 +159,7 @@ class Predictor:
         *,
         mixture: bool = True,
         check_speed: bool = True,
+        device: str | torch.device = "cpu",
     ) -> Predictor:
         """Load a ``.safetensors`` checkpoint (never a pickle) by path or shipped name."""
         path = resolve_checkpoint(name_or_path, checkpoints_dir)
@@ -166,6 +173,7 @@ class Predictor:
             most_likely=most_likely,
             mixture=mixture,
             check_speed=check_speed,
+            device=device,
         )
 
     @property
@@ -266,10 +274,11 @@ class Predictor:
         data, H, dt = self.config.data, self.config.data.horizon_steps, self.config.data.dt_s
         groups = groups_for_model(samples, self.config)
         ((_, batch),) = batches(samples, self.config, len(samples), groups)
+        batch = batch.to(self.device)
         most_likely, log_weights, mean, cov = self._most_likely_and_mixture(batch)
         drawn = None
         if num_samples:
-            generator = torch.Generator().manual_seed(seed)
+            generator = torch.Generator(device=self.device).manual_seed(seed)
             drawn = predict_samples(
                 self.model, batch, H, dt, num_samples=num_samples, generator=generator
             )
@@ -287,7 +296,7 @@ class Predictor:
             most_likely=(most_likely + origin[:, None])[order],
             samples=None
             if drawn is None
-            else (drawn.double().numpy() + origin[:, None, None])[order],
+            else (drawn.double().cpu().numpy() + origin[:, None, None])[order],
             mixture_log_weights=None if log_weights is None else log_weights[order],
             mixture_means=None if mean is None else (mean + origin[:, None, None])[order],
             mixture_covariances=None if cov is None else cov[order],
@@ -302,7 +311,7 @@ class Predictor:
         H, dt = self.config.data.horizon_steps, self.config.data.dt_s
         if not self.mixture and self.most_likely == "ml-argmax":
             fast = predict_argmax_latent(self.model, batch, H, dt)  # decodes one latent value
-            return fast.double().numpy(), None, None, None
+            return fast.double().cpu().numpy(), None, None, None
         encoding, velocity = decode_every_latent(self.model, batch, H)
         mean = positions_from_velocities(velocity.mean, dt)  # (N, Z, H, 2)
         if self.most_likely == "ml":
@@ -311,13 +320,13 @@ class Predictor:
             best = encoding.p_logits.argmax(dim=-1)  # (N,)
             most_likely = mean[torch.arange(len(best)), best]
         if not self.mixture:
-            return most_likely.double().numpy(), None, None, None
+            return most_likely.double().cpu().numpy(), None, None, None
         cov = position_covariances(velocity.cov, dt)  # (N, Z, H, 3)
         return (
-            most_likely.double().numpy(),
-            torch.log_softmax(encoding.p_logits, -1).double().numpy(),
-            mean.double().numpy(),
-            covariance_matrices(cov).double().numpy(),
+            most_likely.double().cpu().numpy(),
+            torch.log_softmax(encoding.p_logits, -1).double().cpu().numpy(),
+            mean.double().cpu().numpy(),
+            covariance_matrices(cov).double().cpu().numpy(),
         )
 
     def check_plausible(self, values: np.ndarray, min_pairs: int = 1) -> bool:

@@ -1,0 +1,28 @@
+"""Where tensors run: a device that exists here, or one clear line saying why not."""
+
+from __future__ import annotations
+
+import torch
+
+from grouptron.errors import GrouptronError
+
+
+def available_device(value: str | torch.device) -> torch.device:
+    """``value`` as a torch device that this machine has (cpu, cuda[:i] or mps)."""
+    try:
+        device = torch.device(value)
+    except RuntimeError:
+        raise GrouptronError(f"not a torch device: {value!r}") from None
+    if device.type == "cuda":
+        if not torch.cuda.is_available():
+            build = "a CPU-only build" if torch.version.cuda is None else "no GPU is visible"
+            raise GrouptronError(
+                f"{value}: CUDA is not available here (this PyTorch is {build}); use cpu"
+            )
+        if device.index is not None and device.index >= torch.cuda.device_count():
+            raise GrouptronError(f"{value}: only {torch.cuda.device_count()} CUDA device(s) here")
+    elif device.type == "mps" and not torch.backends.mps.is_available():
+        raise GrouptronError(f"{value}: Apple's MPS is not available here; use cpu")
+    elif device.type not in ("cpu", "cuda", "mps"):
+        raise GrouptronError(f"{value}: grouptron runs on cpu, cuda or mps devices")
+    return device
