@@ -153,3 +153,12 @@ def test_groups_of_a_subset_align_with_the_subset(synthetic_data_dir: Path) -> N
     subset = groups.subset(keep, samples)
     for name in ("ego_group", "nbr_group", "num_groups"):
         np.testing.assert_array_equal(getattr(subset, name), getattr(direct, name))
+
+
+def test_a_partial_id_map_keeps_the_ids_it_does_not_list() -> None:
+    from grouptron.groups.labels import apply_id_map
+
+    labels = {1: 0, 2: 0, 3: 1, 4: 1, 5: 2}
+    assert apply_id_map(labels, {10: 1}) == {10: 0, 2: 0, 3: 1, 4: 1, 5: 2}
+    assert apply_id_map(labels, {3: 5, 5: 3}) == {1: 0, 2: 0, 3: 2, 4: 1, 5: 1}  # a swap
+    assert apply_id_map(labels, {}) == labels

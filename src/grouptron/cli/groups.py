@@ -23,7 +23,7 @@ from grouptron.data.scene import Scene, build_scene
 from grouptron.errors import GrouptronError
 from grouptron.groups.clustering import LINKAGES
 from grouptron.groups.distances import DISTANCE_KINDS
-from grouptron.groups.labels import read_group_labels, read_id_map
+from grouptron.groups.labels import apply_id_map, read_group_labels, read_id_map
 from grouptron.groups.scene import groups_per_step, position_grid, score_against_labels
 from grouptron.io import (
     write_csv_atomically,
@@ -46,8 +46,7 @@ def cmd_groups_evaluate(args: argparse.Namespace) -> int:
     scene = _track_scene(args)
     labels = read_group_labels(args.labels)
     if args.id_map:
-        mapping = read_id_map(args.id_map)
-        labels = {track: labels[label] for track, label in mapping.items() if label in labels}
+        labels = apply_id_map(labels, read_id_map(args.id_map))
     rows = []
     for config in _group_configs(args):
         scores = score_against_labels(scene, labels, config, every=args.every)

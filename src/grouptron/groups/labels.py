@@ -87,6 +87,16 @@ def read_id_map(path: str | Path) -> dict[int, int]:
     return mapping
 
 
+def apply_id_map(labels: dict[int, int], mapping: dict[int, int]) -> dict[int, int]:
+    """Group labels keyed by track id: a listed track takes the group of its label id; every
+    other id keeps its own label (ids not listed are the same in both files), unless a listed
+    track claimed that label id."""
+    claimed = set(mapping.values())
+    mapped = {track: labels[label] for track, label in mapping.items() if label in labels}
+    kept = {pid: g for pid, g in labels.items() if pid not in mapping and pid not in claimed}
+    return {**kept, **mapped}
+
+
 def partition_from_labels(ids: np.ndarray, labels: dict[int, int]) -> np.ndarray:
     """(N,) group labels of pedestrians ``ids``; unlabelled ones get singleton labels."""
     out = np.empty(len(ids), dtype=np.int64)
