@@ -21,6 +21,7 @@ from grouptron.cli.common import (
 )
 from grouptron.config import (
     DataConfig,
+    ExperimentConfig,
 )
 from grouptron.constants import SPLITS
 from grouptron.data.custom import load_dataset_part, read_dataset
@@ -45,6 +46,7 @@ from grouptron.evaluation.test_sets import load_test_set
 from grouptron.groups.assign import assign_groups
 from grouptron.inference.predictor import resolve_checkpoint
 from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import uses_groups
 from grouptron.model.predict import ABLATIONS
 
@@ -139,6 +141,24 @@ def _ablations(args: argparse.Namespace, has_scene: bool) -> tuple[str, ...]:
     return ablate
 
 
+def _model_and_data(
+    args: argparse.Namespace,
+) -> tuple[TrajectronCVAE | None, ExperimentConfig | None, DataConfig]:
+    """The checkpoint's model, experiment and data settings, or only data settings for the
+    baseline."""
+    if not args.checkpoint:
+        return None, None, DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
+    model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
+    torch.set_num_threads(experiment.train.threads)
+    config = experiment.data
+    if args.derivatives and args.derivatives != config.derivatives:
+        raise GrouptronError(
+            f"{args.checkpoint} was trained with {config.derivatives} derivatives; "
+            f"evaluating it on {args.derivatives} ones would be meaningless"
+        )
+    return model, experiment, config
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     if (args.model is None) == (args.checkpoint is None):
         raise GrouptronError("give either --checkpoint PATH or --model constant-velocity")
@@ -149,34 +169,22 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if args.dataset:
         return cmd_evaluate_dataset(args)
     data_dir = resolve_data_dir(args.data_dir)
-    model = None
-    if args.checkpoint:
-        model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
-        torch.set_num_threads(experiment.train.threads)
-        config = experiment.data
-        if args.derivatives and args.derivatives != config.derivatives:
-            raise GrouptronError(
-                f"{args.checkpoint} was trained with {config.derivatives} derivatives; "
-                f"evaluating it on {args.derivatives} ones would be meaningless"
-            )
-        split_arg = args.split or experiment.split
-    else:
-        config = DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
-        split_arg = args.split or "all"
-    splits = parse_splits(split_arg)
+    model, experiment, config = _model_and_data(args)
+    splits = parse_splits(args.split or (experiment.split if experiment else "all"))
     subset = parse_univ_n(args.subset) if args.subset else None
     if args.subset and splits != ["univ"]:
         raise GrouptronError("--subset univ-N needs --split univ")
     modes = eval_modes(args.mode)
-    ablate = _ablations(args, model is not None and uses_groups(experiment))
+    grouped = experiment is not None and uses_groups(experiment)
+    ablate = _ablations(args, grouped)
     results: list[EvaluationResult] = []
-    group_config = experiment.groups if model is not None and uses_groups(experiment) else None
+    group_config = experiment.groups if experiment is not None and grouped else None
     for split in splits:
         samples, groups = load_test_set(
             data_dir, split, config, subset, group_config=group_config, use_cache=not args.no_cache
         )
         masks = {args.subset: None, **(density_masks(samples) if args.by_density else {})}
-        if model is None:
+        if model is None or experiment is None:
             per_sample = [constant_velocity_scores(samples, config.horizon_steps)]
             name, checkpoint = "constant-velocity", None
         else:
@@ -243,6 +251,14 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--format", choices=("table", "json"), default="table", help="output format"
     )
     evaluate.add_argument("--quiet", action="store_true", help="no progress bars")
+    _add_other_data_options(evaluate)
+    add_recording_options(evaluate)
+    add_data_options(evaluate)
+    evaluate.set_defaults(handler=cmd_evaluate)
+
+
+def _add_other_data_options(evaluate: argparse.ArgumentParser) -> None:
+    """Data other than the benchmark's test sets, and the diagnostics."""
     evaluate.add_argument(
         "--tracks",
         nargs="+",
@@ -268,6 +284,3 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         metavar="FILE",
         help="score the test part of a dataset of your own (its description file)",
     )
-    add_recording_options(evaluate)
-    add_data_options(evaluate)
-    evaluate.set_defaults(handler=cmd_evaluate)

@@ -93,6 +93,8 @@ def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | N
         return path
     if path.is_dir() and (path / WEIGHTS_FILE).is_file():
         return path / WEIGHTS_FILE
+    if path.suffix == ".safetensors" or len(path.parts) > 1:  # a path, not a shipped name
+        raise GrouptronError(f"{path}: checkpoint not found")
     folders = [Path(d) for d in (checkpoints_dir, os.environ.get(CHECKPOINTS_ENV)) if d]
     folders += [Path("checkpoints"), SOURCE_CHECKPOINTS]
     for folder in folders:
