@@ -128,7 +128,7 @@ def test_inputs_are_checked(causal: Predictor, recording: np.ndarray, tmp_path: 
     for frame, ids, xy, message in [
         (100, [1], [[0, 0]], "not after"),
         (105, [1], [[0, 0]], "grid"),
-        (110, [1, 2], [[0, 0]], "2 ids but 1 positions"),
+        (110, [1, 2], [[0, 0]], r"\(2, 2\) for 2 ids, got \(1, 2\)"),
         (110, [1], [[np.inf, 0]], "not finite"),
     ]:
         with pytest.raises(GrouptronError, match=message):
@@ -211,3 +211,27 @@ def test_an_unavailable_device_is_one_clear_error(tiny_checkpoints: Path) -> Non
     with pytest.raises(GrouptronError, match="not a torch device"):
         Predictor.from_checkpoint(path, device="gpu7")
     assert Predictor.from_checkpoint(path, device="cpu").device.type == "cpu"
+
+
+@pytest.mark.parametrize(
+    ("ids", "xy", "message"),
+    [
+        ([1, 2], [[0.0, 1.0], [0.0, 1.0]][::-1], None),  # (2, 2) rows of x, y: accepted
+        ([1, 2, 3], [[0.0, 1.0, 2.0], [0.0, 0.0, 0.0]], r"shape \(N, 2\) = \(3, 2\)"),  # (2, N)
+        ([1, 2], [[0.0, 1.0, 2.0, 3.0]], r"got \(1, 4\)"),
+        ([1, 1], [[0.0, 0.0], [1.0, 1.0]], "an id appears twice"),
+        ([[1, 2]], [[0.0, 0.0], [1.0, 1.0]], "ids must be a 1-d array"),
+        ([1], [[0.0, 0.0], [1.0, 1.0]], r"\(1, 2\) for 1 ids"),
+    ],
+)
+def test_stream_inputs_are_checked_strictly(
+    tiny_checkpoints: Path, ids: list, xy: list, message: str | None
+) -> None:
+    from grouptron.errors import GrouptronError
+
+    session = Predictor.from_checkpoint(tiny_checkpoints / "grouptron-eth-backward").stream()
+    if message is None:
+        assert len(session.update(0, ids, xy)) == 0
+        return
+    with pytest.raises(GrouptronError, match=message):
+        session.update(0, ids, xy)

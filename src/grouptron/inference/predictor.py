@@ -377,6 +377,29 @@ class Predictor:
             )
 
 
+def _frame_arrays(frame: int, ids: Any, xy: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(N,) ids and (N, 2) positions of one frame, checked strictly: a (2, N) array, ids of
+    another length or repeated ids are refused, never reshaped into scrambled points."""
+    try:
+        ids_arr = np.asarray(ids, dtype=np.float64)
+        xy_arr = np.asarray(xy, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise GrouptronError(f"frame {frame}: ids and positions must be numbers") from None
+    if ids_arr.ndim != 1:
+        raise GrouptronError(f"frame {frame}: ids must be a 1-d array, got shape {ids_arr.shape}")
+    if len(ids_arr) == 0 and xy_arr.size == 0:
+        return ids_arr, np.zeros((0, 2))
+    if xy_arr.shape != (len(ids_arr), 2):
+        raise GrouptronError(
+            f"frame {frame}: positions must have shape (N, 2) = ({len(ids_arr)}, 2) for "
+            f"{len(ids_arr)} ids, got {xy_arr.shape} (one row of x, y per person; a (2, N) "
+            "array needs transposing)"
+        )
+    if len(np.unique(ids_arr)) != len(ids_arr):
+        raise GrouptronError(f"frame {frame}: an id appears twice in one frame")
+    return ids_arr, xy_arr
+
+
 class StreamSession:
     """Feeds a :class:`Predictor` one frame at a time.
 
@@ -399,12 +422,7 @@ class StreamSession:
     ) -> Forecast:
         """Add the agents observed at ``frame`` ((N,) ids, (N, 2) positions in metres) and
         forecast every agent with enough history."""
-        ids_arr = np.asarray(ids, dtype=np.float64).reshape(-1)
-        xy_arr = (
-            np.asarray(xy, dtype=np.float64).reshape(-1, 2) if len(ids_arr) else np.zeros((0, 2))
-        )
-        if len(xy_arr) != len(ids_arr):
-            raise GrouptronError(f"{len(ids_arr)} ids but {len(xy_arr)} positions at frame {frame}")
+        ids_arr, xy_arr = _frame_arrays(frame, ids, xy)
         if self._last_frame is not None:
             if frame <= self._last_frame:
                 raise GrouptronError(
