@@ -48,6 +48,16 @@ def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
     return " ".join(parts)
 
 
+def _emit(args: argparse.Namespace, text: str) -> int:
+    """Write the report to --out (atomically) or standard output."""
+    if args.out:
+        write_text_atomically(Path(args.out), text)
+        print(f"wrote {args.out}")
+    else:
+        print(text, end="")
+    return 0
+
+
 def cmd_report_dataset(args: argparse.Namespace) -> int:
     """``report --dataset``: every checkpoint trained on a dataset of one's own."""
     dataset = read_dataset(args.dataset)
@@ -69,12 +79,7 @@ def cmd_report_dataset(args: argparse.Namespace) -> int:
                 f"{r.fde:.3f} [{low:.3f}, {high:.3f}] |"
             )
         text = "\n".join(lines) + "\n"
-    if args.out:
-        write_text_atomically(Path(args.out), text)
-        print(f"wrote {args.out}")
-    else:
-        print(text, end="")
-    return 0
+    return _emit(args, text)
 
 
 def cmd_report(args: argparse.Namespace) -> int:
@@ -105,12 +110,7 @@ def cmd_report(args: argparse.Namespace) -> int:
         text = report.to_json() + "\n"
     else:
         text = report_markdown(report, schemes, _report_command(args, modes))
-    if args.out:
-        write_text_atomically(Path(args.out), text)
-        print(f"wrote {args.out}")
-    else:
-        print(text, end="")
-    return 0
+    return _emit(args, text)
 
 
 def add_parser(commands: argparse._SubParsersAction) -> None:
