@@ -65,7 +65,8 @@ def forecasts(name: str) -> dict[str, np.ndarray]:
     live = name.endswith("backward")  # a central model reads the recording's next two steps
     out = {}
     for most_likely in ("ml", "ml-argmax"):
-        predictor = Predictor.from_checkpoint(path, most_likely=most_likely)
+        # Full histories only: the forecasts the golden values were first taken of.
+        predictor = Predictor.from_checkpoint(path, most_likely=most_likely, min_points=8)
         forecast = predictor.predict(tracks, FORECAST_FRAME, num_samples=6, seed=3, live=live)
         out[f"{most_likely}/most_likely"] = forecast.most_likely
         if most_likely == "ml":

@@ -30,7 +30,7 @@ def test_predict_matches_the_track_file_forecast(
     causal: Predictor, recording: np.ndarray, synthetic_data_dir: Path
 ) -> None:
     (scene,) = load_scenes(split_files(synthetic_data_dir, "eth", "test"), causal.config.data)
-    whole = forecast_scene(causal.model, causal.config, scene)
+    whole = forecast_scene(causal.model, causal.config, scene, min_points=2)
     frame = int(np.median(whole.frames))
     forecast = causal.predict(recording, t=frame, num_samples=4)
     at_frame = whole.frames == frame
@@ -133,8 +133,9 @@ def test_inputs_are_checked(causal: Predictor, recording: np.ndarray, tmp_path: 
     ]:
         with pytest.raises(GrouptronError, match=message):
             session.update(frame, ids, xy)
-    # Nobody with 8 steps yet: an empty forecast, not an error.
-    assert len(session.update(110, [1], [[0.1, 0.1]])) == 0
+    # Nobody seen twice yet: an empty forecast, not an error; then person 1's second point.
+    assert len(session.update(110, [3], [[0.1, 0.1]])) == 0
+    assert len(session.update(120, [1, 3], [[0.1, 0.1], [0.2, 0.2]])) == 2
 
 
 def test_a_recording_forecast_with_central_derivatives_matches_the_track_file_forecast(
@@ -142,7 +143,7 @@ def test_a_recording_forecast_with_central_derivatives_matches_the_track_file_fo
 ) -> None:
     central = Predictor.from_checkpoint("grouptron-eth-central", checkpoints_dir=tiny_checkpoints)
     (scene,) = load_scenes(split_files(synthetic_data_dir, "eth", "test"), central.config.data)
-    whole = forecast_scene(central.model, central.config, scene)
+    whole = forecast_scene(central.model, central.config, scene, min_points=2)
     for frame in np.unique(whole.frames)[::7]:  # forecasts read a window around the frame
         forecast = central.predict(recording, t=int(frame), live=False)
         at_frame = whole.frames == frame

@@ -72,6 +72,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
         num_samples=args.samples,
         seed=args.seed,
         progress=show_progress(args),
+        min_points=args.min_points,
     )
     if Path(args.out).suffix == ".ndjson":
         _write_trajnet(Path(args.out), forecast, table, sampled=args.mode == "samples")
@@ -165,7 +166,8 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "predict",
         help="forecast every pedestrian of a track file with a trained checkpoint",
         description="For every pedestrian and frame with 8 observed steps (the last at that "
-        "frame), write the 12 predicted positions as CSV rows 'frame,id,step,x,y': frame is "
+        "frame; --min-points 2 forecasts from as few as 2), write the 12 predicted positions "
+        "as CSV rows 'frame,id,step,x,y': frame is "
         "the last observed frame, step k (1..12) the position k steps (k * frames-per-step "
         "frames) later, x/y in the file's coordinates. --mode samples adds a 'sample' column "
         "and writes --samples futures per pedestrian and frame. The most likely (ml) output "
@@ -202,6 +204,12 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     )
     predict.add_argument("--seed", type=int, default=0, help="seed of --mode samples")
     predict.add_argument(
+        "--min-points",
+        type=positive_int,
+        help="forecast pedestrians with at least this many observed steps in a row, 2 to 8 "
+        "(default 8: the samples the evaluator scores; the Python API's default is 2)",
+    )
+    predict.add_argument(
         "--frames-per-step",
         type=positive_int,
         help="frames between steps 0.4 s apart (default: the checkpoint's, 10 for ETH/UCY)",
@@ -217,7 +225,8 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
     plot = commands.add_parser(
         "plot",
         help="draw a checkpoint's forecasts at one frame of a track file",
-        description="Draw, at one frame, every pedestrian with 8 observed steps: the observed "
+        description="Draw, at one frame, every pedestrian with 2 or more observed steps (the "
+        "Python API's rule; short gaps filled): the observed "
         "path, the recorded future (dotted), the most likely forecast (dashed) and sampled "
         "futures (thin), coloured by detected group; axes in metres. --compare adds a second "
         "model's panel beside the first.",

@@ -22,7 +22,7 @@ from grouptron.io import save_atomically
 
 log = logging.getLogger(__name__)
 
-CACHE_FORMAT_VERSION = 3  # 3: backward derivatives strictly causal at track starts
+CACHE_FORMAT_VERSION = 4  # 3: causal backward derivatives; 4: one-point tracks kept there
 """Bump when the content of cached sample sets changes."""
 
 

@@ -32,7 +32,8 @@ class Scene:
         centre_world_m: (2,) mean position subtracted from the world coordinates.
         ped_id: (A,) pedestrian id of every track as written in the file.
         track_first_step: (A,) first step of every track.
-        track_num_points: (A,) points of every track (>= 2).
+        track_num_points: (A,) points of every track (>= 2; >= 1 under strictly causal
+            ``backward`` derivatives, see :func:`build_scene`).
         num_steps: steps from 0 to the last annotated one, inclusive.
         track: (R,) track of every row; rows are sorted by (track, step).
         step: (R,) step of every row.
@@ -69,11 +70,14 @@ def build_scene(table: TrackTable, config: DataConfig, name: str | None = None) 
     """Turn a validated track table into a :class:`Scene`.
 
     Tracks with fewer than 2 points are dropped (they have no velocity), after the centre is
-    taken over all of the file's positions.
+    taken over all of the file's positions; except under strictly causal ``backward``
+    derivatives, where a person seen once is kept (velocity 0, as at every track's start) so
+    that a neighbour first seen at t counts the same whether or not the recording goes on.
     """
     centre = table.pos_m.mean(axis=0)
     points_per_track = np.bincount(table.track)
-    keep_track = points_per_track >= 2
+    causal = config.derivatives == "backward" and config.backward_start == "zero"
+    keep_track = points_per_track >= (1 if causal else 2)
     keep_row = keep_track[table.track]
     new_index = np.cumsum(keep_track) - 1  # old track -> new contiguous track
     track = new_index[table.track[keep_row]]

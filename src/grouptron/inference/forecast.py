@@ -27,6 +27,10 @@ class Forecast:
         mixture_covariances: (N, Z, H, 2, 2) their covariances (m^2).
         group: (N,) scene-wide group of every agent at ``frame`` (agglomerative clustering of
             everyone present on their histories, C(N) groups; numbered from 0), or None.
+        observed_points: (N,) observed positions in the history each forecast read (at most
+            ``history_steps``; fewer for agents seen only recently), or None.
+        filled_points: (N,) positions of that history filled in for missed detections (not
+            counted in ``observed_points``), or None.
     """
 
     frame: int | None
@@ -38,6 +42,8 @@ class Forecast:
     mixture_means: np.ndarray | None
     mixture_covariances: np.ndarray | None
     group: np.ndarray | None
+    observed_points: np.ndarray | None = None
+    filled_points: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.ids)

@@ -5,12 +5,15 @@
     session = predictor.stream()
     forecast = session.update(frame, ids, xy)       # one frame at a time
 
-Only positions up to the forecast frame are used. Every agent observed at that frame with
-``history_steps`` consecutive steps gets a forecast; the others are skipped.
+Only positions up to the forecast frame are used. Every agent observed at that frame with at
+least ``min_points`` positions in a row gets a forecast (2 by default: the fewest the models were
+trained on); up to ``max_missed_steps`` missed detections in a row are filled by interpolation
+once the agent is seen again, instead of restarting its track.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 import warnings
@@ -21,6 +24,7 @@ import numpy as np
 import torch
 
 from grouptron.config import ExperimentConfig
+from grouptron.data.gaps import bridge_gaps
 from grouptron.data.reader import table_from_values
 from grouptron.data.recording import MAX_MEDIAN_SPEED_MPS, median_speed_mps
 from grouptron.data.samples import SampleSet, scene_samples
@@ -29,6 +33,8 @@ from grouptron.devices import available_device
 from grouptron.errors import GrouptronError
 from grouptron.groups.scene import groups_at_step
 from grouptron.inference.forecast import Forecast
+from grouptron.inference.inputs import as_track_array
+from grouptron.inference.stream import StreamSession
 from grouptron.inference.tracks import groups_for_model
 from grouptron.model.batch import Batch, batches
 from grouptron.model.checkpoint import load_trained_model
@@ -51,34 +57,10 @@ CHECKPOINTS_ENV = "GROUPTRON_CHECKPOINTS"
 WEIGHTS_FILE = "best.safetensors"
 SOURCE_CHECKPOINTS = Path(__file__).resolve().parents[3] / "checkpoints"
 """The shipped checkpoints of the source tree this package runs from (src/ layout)."""
-TRACK_COLUMNS = ("frame", "id", "x", "y")
 MostLikely = Literal["ml", "ml-argmax"]
 MOST_LIKELY_CHOICES = ("ml", "ml-argmax")
-STREAM_MIN_PAIRS = 30
-"""A stream's speeds are judged once it holds this many consecutive observations."""
 OLDER_NAMES = {"mixture-mode": "ml", "argmax-latent": "ml-argmax"}
 """Names these choices had before the vocabulary was unified (still accepted)."""
-
-
-def _as_track_array(tracks: Any) -> np.ndarray:
-    """(R, 4) float64 ``frame, id, x, y`` from an array or a table with those columns."""
-    if hasattr(tracks, "columns"):  # a DataFrame-like table: pick the columns by name
-        missing = [c for c in TRACK_COLUMNS if c not in list(tracks.columns)]
-        if missing:
-            raise GrouptronError(f"tracks lack the columns {missing} (need frame, id, x, y)")
-        tracks = np.column_stack([np.asarray(tracks[c], dtype=np.float64) for c in TRACK_COLUMNS])
-    try:
-        values = np.asarray(tracks, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise GrouptronError("tracks must be numbers: rows of frame, id, x, y") from None
-    if values.ndim != 2 or values.shape[1] != 4:
-        raise GrouptronError(
-            f"tracks must have shape (rows, 4) = frame, id, x, y; got {values.shape}"
-        )
-    bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
-    if bad.size:
-        raise GrouptronError(f"tracks row {int(bad[0])} is not finite: {values[bad[0]].tolist()}")
-    return values
 
 
 def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | None = None) -> Path:
@@ -124,6 +106,11 @@ class Predictor:
         check_speed: refuse tracks whose median speed no pedestrian walks (wrong units).
         device: where the network runs (``cpu``, ``cuda``, ``cuda:1``, ``mps``); results are
             NumPy arrays either way. One clear error when the device is not available.
+        min_points: the fewest positions in a row (the last one at the forecast frame) an agent
+            needs for a forecast, 2 to ``history_steps``; more history, better forecasts.
+        max_missed_steps: missed detections of up to this many steps in a row are filled by
+            linear interpolation between the positions around them (0: a missed detection
+            restarts the agent's track).
     """
 
     def __init__(
@@ -136,6 +123,8 @@ class Predictor:
         mixture: bool = True,
         check_speed: bool = True,
         device: str | torch.device = "cpu",
+        min_points: int = 2,
+        max_missed_steps: int = 2,
     ) -> None:
         most_likely = OLDER_NAMES.get(most_likely, most_likely)  # type: ignore[assignment]
         if most_likely not in MOST_LIKELY_CHOICES:
@@ -149,6 +138,17 @@ class Predictor:
         self.most_likely = most_likely
         self.mixture = mixture
         self.check_speed = check_speed
+        history = config.data.history_steps
+        if not (isinstance(min_points, int) and 2 <= min_points <= history):
+            raise GrouptronError(
+                f"min_points must be an integer from 2 to {history}, not {min_points!r}"
+            )
+        if not (isinstance(max_missed_steps, int) and max_missed_steps >= 0):
+            raise GrouptronError(
+                f"max_missed_steps must be an integer >= 0, not {max_missed_steps!r}"
+            )
+        self.min_points = min_points
+        self.max_missed_steps = max_missed_steps
         self._warned_central = False
 
     @classmethod
@@ -162,6 +162,8 @@ class Predictor:
         mixture: bool = True,
         check_speed: bool = True,
         device: str | torch.device = "cpu",
+        min_points: int = 2,
+        max_missed_steps: int = 2,
     ) -> Predictor:
         """Load a ``.safetensors`` checkpoint (never a pickle) by path or shipped name."""
         path = resolve_checkpoint(name_or_path, checkpoints_dir)
@@ -176,6 +178,8 @@ class Predictor:
             mixture=mixture,
             check_speed=check_speed,
             device=device,
+            min_points=min_points,
+            max_missed_steps=max_missed_steps,
         )
 
     @property
@@ -189,8 +193,9 @@ class Predictor:
     @property
     def window_frames(self) -> int:
         """Frames before ``t`` a forecast reads: ``history_steps`` steps plus the two before
-        them, so velocities and accelerations at the oldest step equal the whole track's."""
-        return (self.history_steps + 1) * self.frames_per_step
+        them, so velocities and accelerations at the oldest step equal the whole track's, plus
+        ``max_missed_steps`` so that a gap at the window's start can still be filled."""
+        return (self.history_steps + 1 + self.max_missed_steps) * self.frames_per_step
 
     def predict(
         self,
@@ -202,7 +207,8 @@ class Predictor:
         live: bool = True,
     ) -> Forecast:
         """Forecast every agent observed at frame ``t`` (default: the last frame) with
-        ``history_steps`` consecutive steps up to it; rows after ``t`` are ignored unless
+        ``min_points`` consecutive steps up to it (missed steps filled); rows after ``t`` are
+        ignored unless
         ``live`` is False (a recording: then the derivatives use the rows the checkpoint's
         protocol reads, as the evaluator does; ``central`` reads two steps ahead).
 
@@ -214,7 +220,7 @@ class Predictor:
             num_samples: sampled futures per agent (0: only the most likely and the mixture).
             seed: seed of the samples.
         """
-        values = _as_track_array(tracks)
+        values = as_track_array(tracks)
         if len(values) == 0:
             raise GrouptronError("tracks are empty: no frame, id, x, y rows")
         self.check_plausible(values)
@@ -245,6 +251,14 @@ class Predictor:
         data = self.config.data
         if len(values) == 0 or not (values[:, 0] == frame).any():
             return self._empty(frame, num_samples)
+        # Only gaps closed by the forecast frame are filled: a later sighting must not put
+        # anyone at a step before it (that would leak the future into the forecast).
+        past = values[:, 0] <= frame
+        filled_past, is_filled = bridge_gaps(
+            values[past], data.frames_per_step, self.max_missed_steps
+        )
+        values = np.concatenate([filled_past, values[~past]])
+        is_filled = np.concatenate([is_filled, np.zeros(int((~past).sum()), dtype=bool)])
         table = table_from_values(
             Path("tracks"),
             values,
@@ -255,12 +269,14 @@ class Predictor:
         )
         scene = build_scene(table, data, name="tracks")
         step = (frame - scene.first_frame) // scene.frames_per_step
-        samples = scene_samples(
-            scene, data, data.history_steps, require_future=False, only_step=step
-        )
+        samples = scene_samples(scene, data, self.min_points, require_future=False, only_step=step)
         if not len(samples):
             return self._empty(frame, num_samples)
-        return self._run(scene, samples, frame, step, num_samples=num_samples, seed=seed)
+        forecast = self._run(scene, samples, frame, step, num_samples=num_samples, seed=seed)
+        filled = _filled_points(forecast, values[is_filled, :2], self.frames_per_step)
+        return dataclasses.replace(
+            forecast, observed_points=forecast.observed_points - filled, filled_points=filled
+        )
 
     @torch.inference_mode()
     def _run(
@@ -303,6 +319,8 @@ class Predictor:
             mixture_means=None if mean is None else (mean + origin[:, None, None])[order],
             mixture_covariances=None if cov is None else cov[order],
             group=group_of_track[samples.track][order],
+            observed_points=samples.hist_mask.sum(axis=1)[order],  # filled ones counted too
+            filled_points=np.zeros(len(ids), dtype=np.int64),
         )
 
     def _most_likely_and_mixture(
@@ -363,6 +381,8 @@ class Predictor:
             mixture_means=np.zeros((0, Z, H, 2)) if self.mixture else None,
             mixture_covariances=np.zeros((0, Z, H, 2, 2)) if self.mixture else None,
             group=np.zeros(0, dtype=np.int64),
+            observed_points=np.zeros(0, dtype=np.int64),
+            filled_points=np.zeros(0, dtype=np.int64),
         )
 
     def _warn_if_central(self) -> None:
@@ -377,67 +397,13 @@ class Predictor:
             )
 
 
-def _frame_arrays(frame: int, ids: Any, xy: Any) -> tuple[np.ndarray, np.ndarray]:
-    """(N,) ids and (N, 2) positions of one frame, checked strictly: a (2, N) array, ids of
-    another length or repeated ids are refused, never reshaped into scrambled points."""
-    try:
-        ids_arr = np.asarray(ids, dtype=np.float64)
-        xy_arr = np.asarray(xy, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise GrouptronError(f"frame {frame}: ids and positions must be numbers") from None
-    if ids_arr.ndim != 1:
-        raise GrouptronError(f"frame {frame}: ids must be a 1-d array, got shape {ids_arr.shape}")
-    if len(ids_arr) == 0 and xy_arr.size == 0:
-        return ids_arr, np.zeros((0, 2))
-    if xy_arr.shape != (len(ids_arr), 2):
-        raise GrouptronError(
-            f"frame {frame}: positions must have shape (N, 2) = ({len(ids_arr)}, 2) for "
-            f"{len(ids_arr)} ids, got {xy_arr.shape} (one row of x, y per person; a (2, N) "
-            "array needs transposing)"
-        )
-    if len(np.unique(ids_arr)) != len(ids_arr):
-        raise GrouptronError(f"frame {frame}: an id appears twice in one frame")
-    return ids_arr, xy_arr
-
-
-class StreamSession:
-    """Feeds a :class:`Predictor` one frame at a time.
-
-    Keeps the last ``Predictor.window_frames`` of rows (the history and the two steps before
-    it); agents appear and vanish freely and a missed detection splits the agent's track.
-    """
-
-    def __init__(self, predictor: Predictor) -> None:
-        self.predictor = predictor
-        self._rows = np.zeros((0, 4))
-        self._last_frame: int | None = None
-        self._judged = False  # units and frame grid judged plausible once (they do not change)
-
-    @property
-    def window_frames(self) -> int:
-        return self.predictor.window_frames
-
-    def update(
-        self, frame: int, ids: Any, xy: Any, num_samples: int = 0, *, seed: int = 0
-    ) -> Forecast:
-        """Add the agents observed at ``frame`` ((N,) ids, (N, 2) positions in metres) and
-        forecast every agent with enough history."""
-        ids_arr, xy_arr = _frame_arrays(frame, ids, xy)
-        if self._last_frame is not None:
-            if frame <= self._last_frame:
-                raise GrouptronError(
-                    f"frame {frame} is not after the previous frame {self._last_frame}"
-                )
-            if (frame - self._last_frame) % self.predictor.frames_per_step:
-                raise GrouptronError(
-                    f"frame {frame} is not on the {self.predictor.frames_per_step}-frame grid of "
-                    f"the previous frame {self._last_frame}"
-                )
-        new = np.column_stack([np.full(len(ids_arr), float(frame)), ids_arr, xy_arr])
-        _as_track_array(new)  # finite, shape
-        rows = np.concatenate([self._rows, new])
-        self._rows = rows[rows[:, 0] >= frame - self.window_frames]
-        self._last_frame = frame
-        if not self._judged:
-            self._judged = self.predictor.check_plausible(self._rows, min_pairs=STREAM_MIN_PAIRS)
-        return self.predictor._forecast(self._rows, frame, num_samples, seed)
+def _filled_points(forecast: Forecast, filled: np.ndarray, frames_per_step: int) -> np.ndarray:
+    """(N,) filled positions inside each forecast's history: ``filled`` holds (F, 2) frame, id
+    of the filled rows; a history is the last ``observed_points`` steps up to the frame."""
+    if len(filled) == 0 or len(forecast) == 0:
+        return np.zeros(len(forecast), dtype=np.int64)
+    oldest = forecast.frames - (forecast.observed_points - 1) * frames_per_step  # (N,)
+    frame, ped = filled[None, :, 0], filled[None, :, 1]  # (1, F)
+    inside = (ped == forecast.ids[:, None]) & (frame >= oldest[:, None])
+    inside &= frame <= forecast.frames[:, None]  # (N, F)
+    return inside.sum(axis=1)

@@ -42,8 +42,10 @@ def forecast_scene(
     seed: int = 0,
     batch_size: int = 256,
     progress: bool = False,
+    min_points: int | None = None,
 ) -> Forecast:
-    """Forecast every (pedestrian, step) of ``scene`` whose last ``history_steps`` are observed.
+    """Forecast every (pedestrian, step) of ``scene`` with ``min_points`` observed positions in
+    a row up to it (default ``history_steps``: the samples the evaluator scores; 2 at least).
 
     ``ml`` is the evaluator's most likely prediction; ``samples`` also draws ``num_samples``
     futures per pedestrian from the model (seeded). Grouptron clusters the neighbours first.
@@ -52,10 +54,13 @@ def forecast_scene(
     if mode not in FORECAST_MODES:
         raise GrouptronError(f"unknown forecast mode {mode!r}; choose from {FORECAST_MODES}")
     data = config.data
-    samples = scene_samples(scene, data, data.history_steps, require_future=False)
+    min_points = data.history_steps if min_points is None else min_points
+    if not 2 <= min_points <= data.history_steps:
+        raise GrouptronError(f"min_points must be from 2 to {data.history_steps}, not {min_points}")
+    samples = scene_samples(scene, data, min_points, require_future=False)
     if not len(samples):
         raise GrouptronError(
-            f"{scene.name}: no pedestrian has {data.history_steps} consecutive observed steps, "
+            f"{scene.name}: no pedestrian has {min_points} consecutive observed steps, "
             "so there is nothing to forecast"
         )
     groups = groups_for_model(samples, config)
@@ -84,4 +89,6 @@ def forecast_scene(
         mixture_means=None,
         mixture_covariances=None,
         group=None,
+        observed_points=samples.hist_mask.sum(axis=1),
+        filled_points=np.zeros(len(samples), dtype=np.int64),
     )
