@@ -11,7 +11,7 @@ import sys
 from collections.abc import Callable, Sequence
 
 from grouptron import __version__
-from grouptron.cli import config, data, evaluate, forecast, groups, report, train
+from grouptron.cli import config, data, evaluate, export, forecast, groups, report, train
 from grouptron.cli.common import (
     EXIT_USAGE,
     Formatter,
@@ -37,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"grouptron {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log more detail")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
-    for module in (data, evaluate, report, forecast, train, groups, config):
+    for module in (data, evaluate, report, forecast, export, train, groups, config):
         module.add_parser(commands)
     _accept_global_options_everywhere(parser)
     return parser

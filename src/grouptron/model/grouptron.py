@@ -38,8 +38,9 @@ class GrouptronCVAE(TrajectronCVAE):
         group_state, group_mask = segment_mean(
             nodes, groups.node_mask, groups.node_group, groups.num_groups
         )  # (G, T, D), (G, T)
+        # The sample count as a tensor size, not len(): export keeps it symbolic that way.
         scene = self.scene_encoder(
-            group_state, group_mask, groups.group_sample, len(batch)
+            group_state, group_mask, groups.group_sample, batch.hist_st.shape[0]
         )  # (G, T, D)
         return scene[groups.ego_group, -1]
 
