@@ -273,10 +273,12 @@ class Predictor:
         if not len(samples):
             return self._empty(frame, num_samples)
         forecast = self._run(scene, samples, frame, step, num_samples=num_samples, seed=seed)
-        filled = _filled_points(forecast, values[is_filled, :2], self.frames_per_step)
-        return dataclasses.replace(
-            forecast, observed_points=forecast.observed_points - filled, filled_points=filled
+        points = forecast.observed_points  # filled ones included so far
+        assert points is not None
+        filled = _filled_points(
+            forecast.ids, frame, points, values[is_filled, :2], self.frames_per_step
         )
+        return dataclasses.replace(forecast, observed_points=points - filled, filled_points=filled)
 
     @torch.inference_mode()
     def _run(
@@ -397,13 +399,16 @@ class Predictor:
             )
 
 
-def _filled_points(forecast: Forecast, filled: np.ndarray, frames_per_step: int) -> np.ndarray:
-    """(N,) filled positions inside each forecast's history: ``filled`` holds (F, 2) frame, id
-    of the filled rows; a history is the last ``observed_points`` steps up to the frame."""
-    if len(filled) == 0 or len(forecast) == 0:
-        return np.zeros(len(forecast), dtype=np.int64)
-    oldest = forecast.frames - (forecast.observed_points - 1) * frames_per_step  # (N,)
-    frame, ped = filled[None, :, 0], filled[None, :, 1]  # (1, F)
-    inside = (ped == forecast.ids[:, None]) & (frame >= oldest[:, None])
-    inside &= frame <= forecast.frames[:, None]  # (N, F)
+def _filled_points(
+    ids: np.ndarray, frame: int, points: np.ndarray, filled: np.ndarray, *, frames_per_step: int
+) -> np.ndarray:
+    """(N,) filled positions inside the histories of N forecasts at ``frame``: (N,) ids, (N,)
+    history lengths (the last ``points`` steps up to the frame); ``filled`` holds the (F, 2)
+    frame, id of the filled rows."""
+    if len(filled) == 0 or len(ids) == 0:
+        return np.zeros(len(ids), dtype=np.int64)
+    oldest = frame - (points - 1) * frames_per_step  # (N,)
+    filled_frame, filled_id = filled[None, :, 0], filled[None, :, 1]  # (1, F)
+    inside = (filled_id == ids[:, None]) & (filled_frame >= oldest[:, None])
+    inside &= filled_frame <= frame  # (N, F)
     return inside.sum(axis=1)
