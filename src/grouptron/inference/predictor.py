@@ -276,7 +276,7 @@ class Predictor:
         points = forecast.observed_points  # filled ones included so far
         assert points is not None
         filled = _filled_points(
-            forecast.ids, frame, points, values[is_filled, :2], self.frames_per_step
+            forecast.ids, frame, points, values[is_filled, :2], frames_per_step=self.frames_per_step
         )
         return dataclasses.replace(forecast, observed_points=points - filled, filled_points=filled)
 
