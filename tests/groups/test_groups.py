@@ -162,3 +162,42 @@ def test_a_partial_id_map_keeps_the_ids_it_does_not_list() -> None:
     assert apply_id_map(labels, {10: 1}) == {10: 0, 2: 0, 3: 1, 4: 1, 5: 2}
     assert apply_id_map(labels, {3: 5, 5: 3}) == {1: 0, 2: 0, 3: 2, 4: 1, 5: 1}  # a swap
     assert apply_id_map(labels, {}) == labels
+
+
+def test_the_one_set_fast_path_equals_the_stacked_distances() -> None:
+    """A whole scene's (N, T, 2) set takes a faster path; a stack of one takes the general one."""
+    rng = np.random.default_rng(3)
+    traj = rng.normal(0, 4, (30, 8, 2))
+    mask = rng.random((30, 8)) > 0.4
+    mask[:, -1] = True  # everyone observed at t
+    mask[0] = [False] * 7 + [True]  # seen once
+    fast = pairwise_distances(traj, mask)
+    general = pairwise_distances(traj[None], mask[None])[0]
+    np.testing.assert_array_equal(fast, general)
+
+
+@pytest.mark.parametrize("distance", ["hausdorff", "modified"])
+def test_groups_from_the_step_matrix_equal_the_per_sample_groups(
+    synthetic_data_dir: Path, distance: str
+) -> None:
+    """Live forecasting clusters every sample on sub-matrices of the step's distances."""
+    from grouptron.data.dataset import load_scenes
+    from grouptron.data.locate import split_files
+    from grouptron.groups.assign import assign_groups_at_step
+    from grouptron.groups.scene import groups_at_step
+
+    data = DataConfig(derivatives="backward")
+    config = GroupConfig(distance=distance)  # type: ignore[arg-type]
+    (scene,) = load_scenes(split_files(synthetic_data_dir, "eth", "test"), data)
+    compared = 0
+    for step in range(scene.num_steps):
+        samples = scene_samples(scene, data, 2, require_future=False, only_step=step)
+        found = groups_at_step(scene, config, step)
+        if not len(samples) or found is None:
+            continue
+        expected = assign_groups(samples, config, data.position_scale_m)
+        got = assign_groups_at_step(samples, found.tracks, found.distances, config)
+        for field in ("ego_group", "nbr_group", "num_groups"):
+            np.testing.assert_array_equal(getattr(got, field), getattr(expected, field))
+        compared += int((samples.num_neighbours >= 2).sum())
+    assert compared > 20  # samples whose groups were not trivially one

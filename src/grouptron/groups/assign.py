@@ -86,3 +86,35 @@ def assign_groups(samples: SampleSet, config: GroupConfig, position_scale_m: flo
         nbr_group=node_labels[~is_ego],
         num_groups=cluster_counts(counts).astype(np.int16),
     )
+
+
+def assign_groups_at_step(
+    samples: SampleSet, tracks: np.ndarray, distances: np.ndarray, config: GroupConfig
+) -> SampleGroups:
+    """:func:`assign_groups` for samples that all sit at one step, given that step's (N, N)
+    distances between the N ``tracks`` present (``groups.scene.groups_at_step``): each sample's
+    matrix is a sub-matrix of it, so no distance is computed twice (live forecasting). The
+    partitions equal :func:`assign_groups`' (Hausdorff distances do not depend on the frame
+    the positions are given in; a test checks)."""
+    counts = samples.num_neighbours + 1
+    node_start, is_ego = ego_first_layout(samples.num_neighbours)
+    node_track = np.empty(len(is_ego), dtype=np.int64)
+    node_track[is_ego], node_track[~is_ego] = samples.track, samples.nbr_track
+    slot = np.full(int(max(node_track.max(initial=0), tracks.max(initial=0))) + 1, -1)
+    slot[tracks] = np.arange(len(tracks))
+    node_slot = slot[node_track]  # (nodes,) row of every node in ``distances``
+    if (node_slot < 0).any():
+        raise ValueError("a node is not among the step's tracks")
+    node_labels = np.zeros(len(is_ego), dtype=np.int16)
+    for num_nodes in np.unique(counts):  # one vectorised block per node count
+        if num_nodes <= 2:
+            continue  # C(1) = C(2) = 1: everyone in group 0
+        rows = node_start[counts == num_nodes][:, None] + np.arange(num_nodes)  # (S, N)
+        index = node_slot[rows]
+        block = distances[index[:, :, None], index[:, None, :]]  # (S, N, N)
+        node_labels[rows] = agglomerative_groups_batched(block, config.linkage)
+    return SampleGroups(
+        ego_group=node_labels[is_ego],
+        nbr_group=node_labels[~is_ego],
+        num_groups=cluster_counts(counts).astype(np.int16),
+    )

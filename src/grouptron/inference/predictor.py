@@ -31,14 +31,15 @@ from grouptron.data.samples import SampleSet, scene_samples
 from grouptron.data.scene import Scene, build_scene
 from grouptron.devices import available_device
 from grouptron.errors import GrouptronError
+from grouptron.groups.assign import assign_groups_at_step
 from grouptron.groups.scene import groups_at_step
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.inputs import as_track_array
 from grouptron.inference.stream import StreamSession
-from grouptron.inference.tracks import groups_for_model
 from grouptron.model.batch import Batch, batches
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.factory import uses_groups
 from grouptron.model.gaussians import (
     covariance_matrices,
     position_covariances,
@@ -292,7 +293,13 @@ class Predictor:
         seed: int,
     ) -> Forecast:
         data, H, dt = self.config.data, self.config.data.horizon_steps, self.config.data.dt_s
-        groups = groups_for_model(samples, self.config)
+        # The step's distances serve both the scene-wide groups and every sample's own.
+        found = groups_at_step(scene, self.config.groups, step, data.history_steps)
+        groups = None
+        if uses_groups(self.config) and found is not None:
+            groups = assign_groups_at_step(
+                samples, found.tracks, found.distances, self.config.groups
+            )
         ((_, batch),) = batches(samples, self.config, len(samples), groups)
         batch = batch.to(self.device)
         most_likely, log_weights, mean, cov = self._most_likely_and_mixture(batch)
@@ -303,7 +310,6 @@ class Predictor:
                 self.model, batch, H, dt, num_samples=num_samples, generator=generator
             )
         origin = samples.pos_now_scene_m.astype(np.float64) + scene.centre_world_m  # (N, 2)
-        found = groups_at_step(scene, self.config.groups, step, data.history_steps)
         group_of_track = np.full(scene.num_tracks, -1)
         if found is not None:
             group_of_track[found.tracks] = found.labels

@@ -69,6 +69,20 @@ def segment_mean(
     return total / count.clamp_min(1.0), count[..., 0] > 0
 
 
+def temporal_conv(conv: nn.Conv1d, x: torch.Tensor) -> torch.Tensor:
+    """``conv`` (odd kernel, same padding) along the steps of (N, T, D) features, as one
+    matrix product of each step's window: the same weights and result as ``conv`` on
+    (N, D, T), several times faster for the short sequences and small batches of live
+    forecasting, where the convolution library's per-call set-up dominates."""
+    kernel = conv.kernel_size[0]
+    pad = kernel // 2
+    T = x.shape[1]
+    padded = nn.functional.pad(x, (0, 0, pad, pad))  # (N, T + 2 pad, D)
+    windows = torch.cat([padded[:, k : k + T] for k in range(kernel)], dim=-1)  # (N, T, k D)
+    weight = conv.weight.permute(0, 2, 1).reshape(conv.out_channels, -1)  # (out, k D)
+    return nn.functional.linear(windows, weight, conv.bias)
+
+
 class STGCNBlock(nn.Module):
     """Graph convolution, then a temporal convolution (kernel 3), a residual and PReLU.
 
@@ -93,6 +107,6 @@ class STGCNBlock(nn.Module):
             self.spatial(x), mask, segment, num_segments, adjacency=self.adjacency
         )
         spatial = self.spatial_act(spatial)
-        temporal = self.temporal(spatial.transpose(1, 2)).transpose(1, 2)  # conv over T
+        temporal = temporal_conv(self.temporal, spatial)  # conv over T
         out = self.out_act(temporal + self.residual(x))
         return out * mask[..., None].to(out.dtype)
