@@ -63,7 +63,7 @@ def load_predictor(args: argparse.Namespace) -> Predictor:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    add_predictor_options(parser, most_likely="ml")
+    add_predictor_options(parser, most_likely="ml-argmax")
     parser.add_argument("--people", default="10,50,100,200")
     parser.add_argument("--frames", type=int, default=60)
     args = parser.parse_args()

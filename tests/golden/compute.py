@@ -66,7 +66,9 @@ def forecasts(name: str) -> dict[str, np.ndarray]:
     out = {}
     for most_likely in ("ml", "ml-argmax"):
         # Full histories only: the forecasts the golden values were first taken of.
-        predictor = Predictor.from_checkpoint(path, most_likely=most_likely, min_points=8)
+        predictor = Predictor.from_checkpoint(
+            path, most_likely=most_likely, mixture=True, min_points=8
+        )
         forecast = predictor.predict(tracks, FORECAST_FRAME, num_samples=6, seed=3, live=live)
         out[f"{most_likely}/most_likely"] = forecast.most_likely
         if most_likely == "ml":

@@ -23,7 +23,9 @@ def recording(synthetic_data_dir: Path) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def causal(tiny_checkpoints: Path) -> Predictor:
-    return Predictor.from_checkpoint("grouptron-eth-backward", checkpoints_dir=tiny_checkpoints)
+    return Predictor.from_checkpoint(
+        "grouptron-eth-backward", checkpoints_dir=tiny_checkpoints, most_likely="ml", mixture=True
+    )
 
 
 def test_predict_matches_the_track_file_forecast(
@@ -141,7 +143,9 @@ def test_inputs_are_checked(causal: Predictor, recording: np.ndarray, tmp_path: 
 def test_a_recording_forecast_with_central_derivatives_matches_the_track_file_forecast(
     tiny_checkpoints: Path, recording: np.ndarray, synthetic_data_dir: Path
 ) -> None:
-    central = Predictor.from_checkpoint("grouptron-eth-central", checkpoints_dir=tiny_checkpoints)
+    central = Predictor.from_checkpoint(
+        "grouptron-eth-central", checkpoints_dir=tiny_checkpoints, most_likely="ml"
+    )
     (scene,) = load_scenes(split_files(synthetic_data_dir, "eth", "test"), central.config.data)
     whole = forecast_scene(central.model, central.config, scene, min_points=2)
     for frame in np.unique(whole.frames)[::7]:  # forecasts read a window around the frame

@@ -14,7 +14,7 @@ MODELS = ["grouptron-univ-backward", "trajectron++-univ-backward"]
 
 @pytest.fixture(scope="module", params=MODELS)
 def predictor(request: pytest.FixtureRequest) -> Predictor:
-    return Predictor.from_checkpoint(request.param)
+    return Predictor.from_checkpoint(request.param, most_likely="ml", mixture=True)
 
 
 def _scene(kind: str) -> np.ndarray:

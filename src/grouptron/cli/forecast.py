@@ -94,7 +94,9 @@ def cmd_predict(args: argparse.Namespace) -> int:
 def cmd_plot(args: argparse.Namespace) -> int:
     out = Path(args.out)
     refuse_folder(out)  # before the work, not after it
-    predictors = [Predictor.from_checkpoint(c) for c in (args.checkpoint, args.compare) if c]
+    predictors = [
+        Predictor.from_checkpoint(c, most_likely="ml") for c in (args.checkpoint, args.compare) if c
+    ]
     for predictor in predictors:
         warn_look_ahead(predictor.source, predictor.config.data.derivatives)
     data = predictors[0].config.data

@@ -99,10 +99,11 @@ class Predictor:
     """A trained Trajectron++ or Grouptron model ready to forecast tracks.
 
     Args:
-        most_likely: ``"ml"`` (the benchmark's most likely trajectory: per step the
-            mode of the p(z|x)-weighted mixture over all Z latent values) or
-            ``"ml-argmax"`` (follow the means of the most probable latent value only; the
-            "ML-argmax" row of the evaluator, several times faster without the mixture).
+        most_likely: ``"ml-argmax"`` (the default: follow the means of the most probable
+            latent value; the evaluator's "ML-argmax" row; with ``mixture=False`` it decodes
+            one latent value, fast enough for a control loop) or ``"ml"`` (the benchmark's
+            most likely trajectory: per step the mode of the p(z|x)-weighted mixture over all
+            Z latent values; several times slower).
         mixture: also return the mixture parameters (decodes all Z latent values).
         check_speed: refuse tracks whose median speed no pedestrian walks (wrong units).
         device: where the network runs (``cpu``, ``cuda``, ``cuda:1``, ``mps``); results are
@@ -119,9 +120,9 @@ class Predictor:
         model: TrajectronCVAE,
         config: ExperimentConfig,
         source: str = "",
-        most_likely: MostLikely = "ml",
+        most_likely: MostLikely = "ml-argmax",
         *,
-        mixture: bool = True,
+        mixture: bool = False,
         check_speed: bool = True,
         device: str | torch.device = "cpu",
         min_points: int = 2,
@@ -158,9 +159,9 @@ class Predictor:
         name_or_path: str | Path,
         checkpoints_dir: str | Path | None = None,
         threads: int | None = None,
-        most_likely: MostLikely = "ml",
+        most_likely: MostLikely = "ml-argmax",
         *,
-        mixture: bool = True,
+        mixture: bool = False,
         check_speed: bool = True,
         device: str | torch.device = "cpu",
         min_points: int = 2,
