@@ -24,7 +24,10 @@ def recording(synthetic_data_dir: Path) -> np.ndarray:
 @pytest.fixture(scope="module")
 def causal(tiny_checkpoints: Path) -> Predictor:
     return Predictor.from_checkpoint(
-        "grouptron-eth-backward", checkpoints_dir=tiny_checkpoints, most_likely="ml", mixture=True
+        "grouptron-eth-backward",
+        checkpoints_dir=tiny_checkpoints,
+        most_likely="ml",
+        mixture=True,
     )
 
 
@@ -240,3 +243,28 @@ def test_stream_inputs_are_checked_strictly(
         return
     with pytest.raises(GrouptronError, match=message):
         session.update(0, ids, xy)
+
+
+def test_the_most_likely_of_the_top_latent_values(causal: Predictor, recording: np.ndarray) -> None:
+    """``latent_values`` trims the mixture: 1 is the argmax latent, Z is the full mixture,
+    and decoding only the top values equals picking them from all decoded ones."""
+    frame = int(np.median(recording[:, 0]))
+    model, config = causal.model, causal.config
+    Z = config.model.latent_modes
+
+    def most_likely(**options: object) -> np.ndarray:
+        return Predictor(model, config, **options).predict(recording, t=frame).most_likely  # type: ignore[arg-type]
+
+    full = most_likely(most_likely="ml")
+    np.testing.assert_allclose(most_likely(most_likely="ml", latent_values=Z), full, atol=1e-5)
+    np.testing.assert_allclose(
+        most_likely(most_likely="ml", latent_values=1), most_likely(most_likely="ml-argmax")
+    )
+    top = most_likely(most_likely="ml", latent_values=4)
+    np.testing.assert_allclose(
+        most_likely(most_likely="ml", latent_values=4, mixture=True), top, atol=1e-5
+    )
+    assert not np.allclose(top, full, atol=1e-5)  # a different mixture, so a different mode
+    for bad in (0, Z + 1, 2.5):
+        with pytest.raises(GrouptronError, match="latent_values"):
+            Predictor(model, config, latent_values=bad)  # type: ignore[arg-type]

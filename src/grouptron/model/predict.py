@@ -58,15 +58,49 @@ def decode_every_latent(
 def most_likely_positions(
     encoding: Encoding, velocity: VelocityGaussians, horizon: int, dt_s: float
 ) -> torch.Tensor:
-    """(B, H, 2): per step, the mode of the p(z|x)-weighted velocity mixture, integrated."""
-    B, Z = encoding.p_logits.shape
-    log_weights = encoding.p_logits[:, None, :].expand(B, horizon, Z)  # (B, H, Z)
+    """(B, H, 2): per step, the mode of the p(z|x)-weighted velocity mixture of the M decoded
+    latent values, integrated (one value: its means)."""
+    B, M = encoding.p_logits.shape
+    if M == 1:
+        return positions_from_velocities(velocity.mean[:, 0], dt_s)
+    log_weights = encoding.p_logits[:, None, :].expand(B, horizon, M)  # (B, H, M)
     mode = mixture_mode(
-        log_weights.reshape(B * horizon, Z),
-        velocity.mean.transpose(1, 2).reshape(B * horizon, Z, 2),  # (B*H, Z, 2)
-        velocity.cov.transpose(1, 2).reshape(B * horizon, Z, 3),
+        log_weights.reshape(B * horizon, M),
+        velocity.mean.transpose(1, 2).reshape(B * horizon, M, 2),  # (B*H, M, 2)
+        velocity.cov.transpose(1, 2).reshape(B * horizon, M, 3),
     ).reshape(B, horizon, 2)
     return positions_from_velocities(mode, dt_s).float()
+
+
+def predict_most_likely_of_top(
+    model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float, *, latent_values: int
+) -> torch.Tensor:
+    """(B, H, 2): the most likely prediction of the mixture of only the ``latent_values`` most
+    probable latent values (each decoded following its means; the mode per step, integrated).
+
+    All Z values is :func:`predict_most_likely`, one is :func:`predict_argmax_latent`; a few
+    come close to all at a fraction of the cost (benchmarks/most_likely.py).
+    """
+    encoding = encode_prior(model, batch)
+    top_logits, top = encoding.p_logits.topk(latent_values, dim=-1)  # (B, M)
+    velocity = model.decode(encoding.x, batch.state_now_st, top, horizon, feedback="mean")
+    trimmed = Encoding(x=encoding.x, p_logits=top_logits, q_logits=None)
+    return most_likely_positions(trimmed, velocity, horizon, dt_s)
+
+
+def top_latent_values(
+    encoding: Encoding, velocity: VelocityGaussians, latent_values: int
+) -> tuple[Encoding, VelocityGaussians]:
+    """The ``latent_values`` most probable of all Z decoded latent values: (B, M) logits and
+    (B, M, ...) Gaussians, most probable first."""
+    top_logits, top = encoding.p_logits.topk(latent_values, dim=-1)  # (B, M)
+    rows = torch.arange(len(top), device=top.device)[:, None]
+    return Encoding(x=encoding.x, p_logits=top_logits, q_logits=None), VelocityGaussians(
+        mean=velocity.mean[rows, top],
+        log_sigma=velocity.log_sigma[rows, top],
+        corr=velocity.corr[rows, top],
+        fed_back=velocity.fed_back[rows, top],
+    )
 
 
 def predict_argmax_latent(
