@@ -201,3 +201,38 @@ def test_groups_from_the_step_matrix_equal_the_per_sample_groups(
             np.testing.assert_array_equal(getattr(got, field), getattr(expected, field))
         compared += int((samples.num_neighbours >= 2).sum())
     assert compared > 20  # samples whose groups were not trivially one
+
+
+@pytest.mark.parametrize("method", ["single", "average", "complete"])
+def test_padded_sets_of_different_sizes_cluster_as_they_would_alone(method: str) -> None:
+    from grouptron.groups.clustering import agglomerative_groups_batched
+
+    rng = np.random.default_rng(7)
+    sizes = np.array([1, 2, 3, 5, 8, 4])
+    width = int(sizes.max())
+    block = np.full((len(sizes), width, width), np.inf)
+    alone = []
+    for s, n in enumerate(sizes):
+        points = rng.normal(0, 3, (n, 2))
+        d = np.linalg.norm(points[:, None] - points[None], axis=-1)
+        block[s, :n, :n] = d
+        alone.append(agglomerative_groups(d, method))  # type: ignore[arg-type]
+    padded = agglomerative_groups_batched(block, method, num_nodes=sizes)  # type: ignore[arg-type]
+    for s, n in enumerate(sizes):
+        np.testing.assert_array_equal(padded[s, :n], alone[s])
+
+
+@pytest.mark.parametrize("method", ["single", "average", "complete"])
+def test_a_whole_crowd_clusters_the_same_through_scipy(method: str) -> None:
+    """Large single sets without ties go through SciPy's linkage; with ties they do not."""
+    from grouptron.groups.clustering import SCIPY_FROM_NODES, agglomerative_groups_batched
+
+    rng = np.random.default_rng(11)
+    for n in (SCIPY_FROM_NODES, 60, 101):
+        points = rng.normal(0, 5, (n, 2))
+        d = np.linalg.norm(points[:, None] - points[None], axis=-1)
+        expected = agglomerative_groups_batched(d[None], method)[0]  # type: ignore[arg-type]
+        np.testing.assert_array_equal(agglomerative_groups(d, method), expected)  # type: ignore[arg-type]
+        tied = np.round(d)  # many equal distances: the vectorised path decides ties
+        expected = agglomerative_groups_batched(tied[None], method)[0]  # type: ignore[arg-type]
+        np.testing.assert_array_equal(agglomerative_groups(tied, method), expected)  # type: ignore[arg-type]

@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from grouptron.data.scene import Scene
 from grouptron.errors import GrouptronError
@@ -44,22 +45,25 @@ def ranges_to_indices(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
     return np.repeat(starts - offsets, counts) + np.arange(total)
 
 
-def co_present_pairs(scene: Scene, rows: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """All ordered pairs of distinct rows that share a step (among ``rows``; default all).
+def pairs_within(
+    scene: Scene, radius_m: float, rows: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """All ordered pairs of distinct rows at the same step within ``radius_m`` of each other
+    (among ``rows``; default all), found with a k-d tree: the step is a third coordinate
+    farther apart than the radius, so only pairs of one step can be close.
 
     Returns:
         Two (P,) arrays of row indices into the scene's rows.
     """
     rows = np.arange(len(scene.step)) if rows is None else rows
-    by_step = rows[np.argsort(scene.step[rows], kind="stable")]  # rows grouped by step
-    steps_sorted = scene.step[by_step]
-    block_start = np.searchsorted(steps_sorted, np.arange(scene.num_steps))
-    block_size = np.bincount(steps_sorted, minlength=scene.num_steps)
-    size_of_row = block_size[steps_sorted]
-    first = np.repeat(np.arange(len(by_step)), size_of_row)
-    second = ranges_to_indices(block_start[steps_sorted], size_of_row)
-    distinct = first != second
-    return by_step[first[distinct]], by_step[second[distinct]]
+    pos = scene.state_scene[rows, :2]
+    apart = 4.0 * radius_m + 1.0  # between two steps: never within the radius
+    points = np.column_stack([pos, scene.step[rows] * apart])
+    # The tree's own arithmetic screens with a margin; the exact test below decides.
+    candidates = cKDTree(points).query_pairs(radius_m * 1.0001 + 1e-9, output_type="ndarray")
+    exact = np.linalg.norm(pos[candidates[:, 0]] - pos[candidates[:, 1]], axis=-1) <= radius_m
+    first, second = rows[candidates[exact, 0]], rows[candidates[exact, 1]]
+    return np.concatenate([first, second]), np.concatenate([second, first])
 
 
 def perception_edges(
@@ -73,10 +77,7 @@ def perception_edges(
     ``from_step + len(ramp_weights) - 1`` on (live forecasting needs only the last step).
     """
     rows = np.flatnonzero(scene.step >= from_step) if from_step > 0 else None
-    row_a, row_b = co_present_pairs(scene, rows)
-    pos = scene.state_scene[:, :2]
-    within = np.linalg.norm(pos[row_a] - pos[row_b], axis=-1) <= radius_m
-    row_a, row_b = row_a[within], row_b[within]
+    row_a, row_b = pairs_within(scene, radius_m, rows)
     _check_density(scene, row_a, radius_m)
     src, dst, step = scene.track[row_a], scene.track[row_b], scene.step[row_a]
 

@@ -97,6 +97,9 @@ def assign_groups_at_step(
     partitions equal :func:`assign_groups`' (Hausdorff distances do not depend on the frame
     the positions are given in; a test checks)."""
     counts = samples.num_neighbours + 1
+    if not len(samples):
+        empty = np.zeros(0, dtype=np.int16)
+        return SampleGroups(ego_group=empty, nbr_group=empty, num_groups=empty)
     node_start, is_ego = ego_first_layout(samples.num_neighbours)
     node_track = np.empty(len(is_ego), dtype=np.int64)
     node_track[is_ego], node_track[~is_ego] = samples.track, samples.nbr_track
@@ -105,14 +108,18 @@ def assign_groups_at_step(
     node_slot = slot[node_track]  # (nodes,) row of every node in ``distances``
     if (node_slot < 0).any():
         raise ValueError("a node is not among the step's tracks")
-    node_labels = np.zeros(len(is_ego), dtype=np.int16)
-    for num_nodes in np.unique(counts):  # one vectorised block per node count
-        if num_nodes <= 2:
-            continue  # C(1) = C(2) = 1: everyone in group 0
-        rows = node_start[counts == num_nodes][:, None] + np.arange(num_nodes)  # (S, N)
-        index = node_slot[rows]
-        block = distances[index[:, :, None], index[:, None, :]]  # (S, N, N)
-        node_labels[rows] = agglomerative_groups_batched(block, config.linkage)
+    # All samples in one padded stack (few, small matrices: one pass per merge beats one
+    # pass per node count); padding is at infinite distance, so it is never merged.
+    width = int(counts.max())
+    slots = np.arange(width)
+    real = slots < counts[:, None]  # (S, W)
+    index = np.where(
+        real, node_slot[np.minimum(node_start[:, None] + slots, len(node_slot) - 1)], 0
+    )
+    block = distances[index[:, :, None], index[:, None, :]]  # (S, W, W)
+    block[~(real[:, :, None] & real[:, None, :])] = np.inf
+    labels = agglomerative_groups_batched(block, config.linkage, num_nodes=counts)  # (S, W)
+    node_labels = labels[real].astype(np.int16)  # row-major: sample by sample, ego first
     return SampleGroups(
         ego_group=node_labels[is_ego],
         nbr_group=node_labels[~is_ego],

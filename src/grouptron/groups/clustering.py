@@ -5,9 +5,14 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
+from scipy.cluster.hierarchy import linkage
+from scipy.spatial.distance import squareform
 
 Linkage = Literal["single", "average", "complete"]
 LINKAGES: tuple[Linkage, ...] = ("single", "average", "complete")
+SCIPY_FROM_NODES = 24
+"""A single set this large, without tied distances, is clustered by SciPy's linkage (same
+partition, a test checks): one NumPy pass per merge costs more there (a whole crowd)."""
 
 
 def cluster_count(num_nodes: int) -> int:
@@ -40,13 +45,35 @@ def agglomerative_groups(
         (N,) labels in ``0..num_groups-1`` (default ``cluster_count(N)``), numbered by first
         member.
     """
-    if len(distances) < 1:
+    n = len(distances)
+    if n < 1:
         raise ValueError("need at least one node")
+    count = cluster_count(n) if num_groups is None else num_groups
+    if n >= SCIPY_FROM_NODES and 1 <= count < n and method in LINKAGES:
+        pairs = squareform(distances, checks=False)  # (n (n-1) / 2,) condensed
+        if len(np.unique(pairs)) == len(pairs):  # no ties: the merge order is unique
+            return _cut_dendrogram(linkage(pairs, method), n, count)
     return agglomerative_groups_batched(distances[None], method, num_groups)[0]
 
 
+def _cut_dendrogram(merges: np.ndarray, n: int, count: int) -> np.ndarray:
+    """(n,) labels after the first ``n - count`` merges of a SciPy linkage matrix (a loop over
+    merges, as the vectorised algorithm's), numbered by first member."""
+    members: dict[int, list[int]] = {i: [i] for i in range(n)}
+    for m, (a, b) in enumerate(merges[: n - count, :2].astype(np.int64)):
+        members[n + m] = members.pop(int(a)) + members.pop(int(b))
+    labels = np.empty(n, dtype=np.int64)
+    for cluster, nodes in enumerate(members.values()):
+        labels[nodes] = cluster
+    return canonical_labels(labels)
+
+
 def agglomerative_groups_batched(
-    distances: np.ndarray, method: Linkage = "average", num_groups: int | None = None
+    distances: np.ndarray,
+    method: Linkage = "average",
+    num_groups: int | None = None,
+    *,
+    num_nodes: np.ndarray | None = None,
 ) -> np.ndarray:
     """Group labels of S independent sets of N nodes, merged in lockstep.
 
@@ -61,26 +88,35 @@ def agglomerative_groups_batched(
         distances: (S, N, N) symmetric, zero diagonals.
         method: the linkage.
         num_groups: how many groups (default ``cluster_count(N)``).
+        num_nodes: (S,) real nodes of every set when sets of different sizes are padded to N:
+            set s has nodes ``0..num_nodes[s]-1`` (its padding rows and columns must be inf)
+            and is merged into ``cluster_count(num_nodes[s])`` groups, exactly as alone.
 
     Returns:
-        (S, N) labels in ``0..num_groups-1``, numbered by first member.
+        (S, N) labels in ``0..num_groups-1``, numbered by first member (padding nodes after
+        the real ones, each alone).
     """
     if method not in LINKAGES:
         raise ValueError(f"unknown linkage {method!r}; choose from {LINKAGES}")
     S, n = distances.shape[:2]
-    count = cluster_count(n) if num_groups is None else num_groups
-    if count >= n or S == 0:
-        return np.broadcast_to(np.arange(n), (S, n)).copy()
+    if num_nodes is None:
+        count = cluster_count(n) if num_groups is None else num_groups
+        merges = np.full(S, n - min(max(count, 1), n))
+    elif num_groups is not None:
+        raise ValueError("give num_groups or num_nodes, not both")
+    else:
+        merges = num_nodes - cluster_counts(num_nodes)  # (S,) padding is never closest (inf)
     d = distances.astype(np.float64, copy=True)
     below = np.tril(np.ones((n, n), dtype=bool))  # diagonal and lower triangle: not pairs
     d[:, np.arange(n), np.arange(n)] = np.inf
     size = np.ones((S, n))
     owner = np.broadcast_to(np.arange(n), (S, n)).copy()  # cluster of each node = its lowest
-    rows = np.arange(S)
-    for _ in range(n - max(count, 1)):  # merges; each is vectorised over the S matrices
-        flat = np.where(below, np.inf, d).reshape(S, n * n).argmin(axis=1)
-        keep, gone = flat // n, flat % n  # (S,) keep < gone
-        a, b = d[rows, keep], d[rows, gone]  # (S, n) distances of the two clusters
+    for merge in range(int(merges.max(initial=0))):  # each merge vectorised over the sets
+        rows = np.flatnonzero(merges > merge)  # the sets still merging
+        live = d if len(rows) == S else d[rows]
+        flat = np.where(below, np.inf, live).reshape(len(rows), n * n).argmin(axis=1)
+        keep, gone = flat // n, flat % n  # (R,) keep < gone
+        a, b = d[rows, keep], d[rows, gone]  # (R, n) distances of the two clusters
         if method == "single":
             merged = np.minimum(a, b)
         elif method == "complete":
@@ -88,14 +124,14 @@ def agglomerative_groups_batched(
         else:
             size_a, size_b = size[rows, keep, None], size[rows, gone, None]
             merged = (size_a * a + size_b * b) / (size_a + size_b)
-        merged[rows, keep] = np.inf
-        merged[rows, gone] = np.inf
+        merged[np.arange(len(rows)), keep] = np.inf
+        merged[np.arange(len(rows)), gone] = np.inf
         d[rows, keep] = merged
         d[rows, :, keep] = merged
         d[rows, gone] = np.inf
         d[rows, :, gone] = np.inf
         size[rows, keep] += size[rows, gone]
-        owner = np.where(owner == gone[:, None], keep[:, None], owner)
+        owner[rows] = np.where(owner[rows] == gone[:, None], keep[:, None], owner[rows])
     # Number the clusters 0, 1, ... by their lowest node, i.e. by first member.
     is_lowest = owner == np.arange(n)
     number = np.cumsum(is_lowest, axis=1) - 1  # (S, n)

@@ -88,15 +88,16 @@ def pairwise_distances(
 
 def _hausdorff_one_set(traj: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """:func:`pairwise_distances` of one (N, T, 2) set, several times faster for a whole scene:
-    the squared distances of all M observed points in one (M, M) matrix, then per-node minima
-    and maxima over contiguous runs of it (``reduceat``); equal to the general path (the same
-    squared distances, and sqrt is monotone)."""
-    counts = mask.sum(axis=1)  # (N,) >= 1 each
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    points = traj[mask]  # (M, 2), node by node
-    squared = cdist(points, points, "sqeuclidean")  # (M, M), symmetric
-    nearest = np.minimum.reduceat(squared, starts, axis=0)  # (N, M): min over node j's points
-    farthest = np.maximum.reduceat(nearest, starts, axis=1)  # (N, N): max over node i's points
+    the squared distances of all N T points in one matrix (unobserved points moved out of
+    reach), then minima and maxima over whole blocks of it; equal to the general path (the
+    same squared distances, and sqrt is monotone)."""
+    N, T = mask.shape
+    reach = 4.0 * float(np.abs(traj[mask]).max(initial=0.0)) + 1.0  # beyond every real pair
+    points = np.where(mask[..., None], traj, reach).reshape(N * T, 2)
+    squared = cdist(points, points, "sqeuclidean").reshape(N, T, N * T)  # (j, b, (i, a))
+    nearest = squared.min(axis=1)  # (j, (i, a)): the nearest point b of j to point a of i
+    nearest[:, ~mask.reshape(-1)] = -np.inf  # only observed points a of i count
+    farthest = nearest.reshape(N, N, T).max(axis=2)  # (j, i)
     symmetric = np.sqrt(np.maximum(farthest, farthest.T))
     np.fill_diagonal(symmetric, 0.0)
     return symmetric
