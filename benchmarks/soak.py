@@ -8,10 +8,11 @@ Usage:
 Pedestrians walk through a square sized for one person per 4 m^2; whoever leaves it is
 replaced by a newcomer with a new id entering from the edge (so ids keep growing and agents
 appear and vanish), and 1% of detections are dropped at random (missed detections split
-tracks). Every ``--report-every`` steps it prints the latency percentiles of that block and
-the process's resident memory; at the end, the whole run's percentiles and the memory at the
-start (after the first block) and at the end. Memory that keeps growing would show as a rising
-RSS column.
+tracks unless filled). Every ``--report-every`` steps it prints the latency percentiles of
+that block, the coverage (of the people detected at a step and seen before, the fraction with
+a forecast: the worst step and the mean) and the process's resident memory; at the end, the
+whole run's percentiles and the memory at the start (after the first block) and at the end.
+Memory that keeps growing would show as a rising RSS column.
 """
 
 from __future__ import annotations
@@ -99,12 +100,12 @@ def main() -> None:
     )
     print(
         f"{'steps':>8} {'p50 ms':>7} {'p90 ms':>7} {'p99 ms':>7} {'max ms':>7} "
-        f"{'RSS MB':>7} {'window rows':>11} {'ids so far':>10}",
+        f"{'RSS MB':>7} {'window rows':>11} {'ids so far':>10} {'coverage min/mean':>18}",
         flush=True,
     )
     crowd, session = Crowd(args.people), predictor.stream()
-    times = np.zeros(args.steps)
-    blocks, forecasts = [], 0
+    times, coverage = np.zeros(args.steps), np.ones(args.steps)
+    blocks, forecasts, seen_before = [], 0, set()
     started = time.perf_counter()
     for k in range(args.steps):
         ids, xy = crowd.step()
@@ -112,11 +113,18 @@ def main() -> None:
         forecast = session.update(10 * k, ids, xy)
         times[k] = 1000 * (time.perf_counter() - tick)
         forecasts += len(forecast)
+        detected = set(ids.tolist())
+        eligible = detected & seen_before  # people in view with 2 or more points
+        if eligible:
+            coverage[k] = len(eligible & set(forecast.ids.tolist())) / len(eligible)
+        seen_before |= detected
         if (k + 1) % args.report_every == 0 or k + 1 == args.steps:
-            block = times[max(0, k + 1 - args.report_every) : k + 1]
+            block = slice(max(0, k + 1 - args.report_every), k + 1)
             row = {
                 "steps": k + 1,
-                **percentiles(block),
+                **percentiles(times[block]),
+                "coverage_min": float(coverage[block].min()),
+                "coverage_mean": float(coverage[block].mean()),
                 "rss_mb": resident_mb(),
                 "window_rows": len(session._rows),
                 "ids": crowd.next_id,
@@ -125,13 +133,15 @@ def main() -> None:
             print(
                 f"{row['steps']:>8} {row['p50']:>7.1f} {row['p90']:>7.1f} {row['p99']:>7.1f} "
                 f"{row['p100']:>7.1f} {row['rss_mb']:>7.0f} {row['window_rows']:>11} "
-                f"{row['ids']:>10}",
+                f"{row['ids']:>10} {row['coverage_min']:>8.3f} / {row['coverage_mean']:.4f}",
                 flush=True,
             )
     total = {
         **percentiles(times),
         "wall_minutes": (time.perf_counter() - started) / 60,
         "forecasts": forecasts,
+        "coverage_min": float(coverage.min()),
+        "coverage_mean": float(coverage.mean()),
         "rss_start_mb": blocks[0]["rss_mb"],
         "rss_end_mb": blocks[-1]["rss_mb"],
     }
