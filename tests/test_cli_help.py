@@ -42,3 +42,13 @@ def test_help_explains_every_option_and_states_defaults_once(name: str) -> None:
     flat = re.sub(r"\s+", " ", text)
     for entry in re.split(r" (?=-{1,2}[a-z])", flat):
         assert entry.lower().count("default") <= 1, f"{name}: {entry}"
+
+
+COMPUTING = ("evaluate", "predict", "plot", "report", "train", "export")
+"""Commands that run a network: each takes --threads."""
+
+
+@pytest.mark.parametrize("name", COMPUTING)
+def test_every_command_that_computes_takes_threads(name: str) -> None:
+    options = {o for a in PARSERS[f"grouptron {name}"]._actions for o in a.option_strings}
+    assert "--threads" in options

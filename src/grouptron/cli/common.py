@@ -42,6 +42,12 @@ class Parser(argparse.ArgumentParser):
         raise GrouptronError(message)
 
 
+def add_threads_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--threads", type=positive_int, default=2, help="CPU threads for the computation"
+    )
+
+
 def add_gap_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--on-gap",

@@ -12,6 +12,7 @@ from grouptron.cli.common import (
     Formatter,
     add_data_options,
     add_recording_options,
+    add_threads_option,
     eval_modes,
     log,
     parse_splits,
@@ -72,7 +73,7 @@ def cmd_evaluate_tracks(args: argparse.Namespace) -> int:
     data = DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
     if args.checkpoint:
         model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
-        torch.set_num_threads(experiment.train.threads)
+        torch.set_num_threads(args.threads)
         data = dataclasses.replace(experiment.data, on_gap=args.on_gap)
         if args.derivatives and args.derivatives != data.derivatives:
             raise GrouptronError(
@@ -104,7 +105,7 @@ def cmd_evaluate_dataset(args: argparse.Namespace) -> int:
     data = DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
     if args.checkpoint:
         model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
-        torch.set_num_threads(experiment.train.threads)
+        torch.set_num_threads(args.threads)
         data = experiment.data
     part = load_dataset_part(dataset, "test", data, use_cache=not args.no_cache)
     template = EvaluationResult(dataset.name, "constant-velocity", None, 0, 0.0, 0.0)
@@ -149,7 +150,7 @@ def _model_and_data(
     if not args.checkpoint:
         return None, None, DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
     model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
-    torch.set_num_threads(experiment.train.threads)
+    torch.set_num_threads(args.threads)
     config = experiment.data
     if args.derivatives and args.derivatives != config.derivatives:
         raise GrouptronError(
@@ -251,6 +252,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--format", choices=("table", "json"), default="table", help="output format"
     )
     evaluate.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_threads_option(evaluate)
     _add_other_data_options(evaluate)
     add_recording_options(evaluate)
     add_data_options(evaluate)

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.cli.common import Formatter, positive_int
+from grouptron.cli.common import Formatter, add_threads_option
 from grouptron.inference.export import (
     EXPORT_FORMATS,
     ForecastNetwork,
@@ -68,5 +68,5 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     export.add_argument(
         "--no-check", action="store_true", help="skip running the file with onnxruntime"
     )
-    export.add_argument("--threads", type=positive_int, default=2, help="CPU threads")
+    add_threads_option(export)
     export.set_defaults(handler=cmd_export)

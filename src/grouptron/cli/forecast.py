@@ -13,6 +13,7 @@ from tqdm import tqdm
 from grouptron.cli.common import (
     Formatter,
     add_gap_option,
+    add_threads_option,
     non_negative_int,
     positive_int,
     show_progress,
@@ -94,6 +95,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
 def cmd_plot(args: argparse.Namespace) -> int:
     out = Path(args.out)
     refuse_folder(out)  # before the work, not after it
+    torch.set_num_threads(args.threads)
     predictors = [
         Predictor.from_checkpoint(c, most_likely="ml") for c in (args.checkpoint, args.compare) if c
     ]
@@ -209,7 +211,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--min-points",
         type=positive_int,
         help="forecast pedestrians with at least this many observed steps in a row, 2 to 8 "
-        "(default 8: the samples the evaluator scores; the Python API's default is 2)",
+        "(default 8: the samples the evaluator scores; the Python API forecasts from 2)",
     )
     predict.add_argument(
         "--frames-per-step",
@@ -217,7 +219,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         help="frames between steps 0.4 s apart (default: the checkpoint's, 10 for ETH/UCY)",
     )
     add_gap_option(predict)
-    predict.add_argument("--threads", type=positive_int, default=2, help="CPU threads")
+    add_threads_option(predict)
     predict.add_argument("--quiet", action="store_true", help="no progress bar")
     predict.set_defaults(handler=cmd_predict)
     _add_plot(commands)
@@ -257,5 +259,6 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
     plot.add_argument("--samples", type=non_negative_int, default=20, help="sampled futures")
     plot.add_argument("--seed", type=int, default=0, help="seed of the samples")
     plot.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_threads_option(plot)
     add_gap_option(plot)
     plot.set_defaults(handler=cmd_plot)

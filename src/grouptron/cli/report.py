@@ -11,9 +11,9 @@ from grouptron.cli.common import (
     REPORT_CHECKPOINTS,
     Formatter,
     add_data_options,
+    add_threads_option,
     eval_modes,
     non_negative_int,
-    positive_int,
     show_progress,
 )
 from grouptron.data.custom import read_dataset
@@ -163,7 +163,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--format", choices=("markdown", "json"), default="markdown", help="output format"
     )
     report.add_argument("--seed", type=int, default=0, help="seed of the sampling modes")
-    report.add_argument("--threads", type=positive_int, default=2, help="CPU threads")
+    add_threads_option(report)
     report.add_argument("--quiet", action="store_true", help="no progress output")
     add_data_options(report, derivatives=False)
     report.set_defaults(handler=cmd_report)
