@@ -105,9 +105,20 @@ def test_wrong_settings_are_one_line_errors(
 @pytest.mark.skipif(
     torch.cuda.is_available(), reason="checks the message of a machine without CUDA"
 )
-def test_an_unavailable_device_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["train", "--split", "eth"],
+        ["evaluate", "--model", "constant-velocity"],
+        ["predict", "--checkpoint", "C", "--tracks", "T", "--out", "o.csv"],
+        ["plot", "--checkpoint", "C", "--tracks", "T", "--frame", "0", "--out", "o.png"],
+    ],
+)
+def test_an_unavailable_device_is_one_line(
+    command: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
     from grouptron.cli import main
 
-    assert main(["train", "--split", "eth", "--device", "cuda"]) == 2
+    assert main([*command, "--device", "cuda"]) == 2
     err = capsys.readouterr().err
     assert "CUDA is not available here" in err and "Traceback" not in err

@@ -48,6 +48,15 @@ def add_threads_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_device_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--device",
+        type=device_type,
+        default="cpu",
+        help="where the network runs: cpu, cuda, cuda:1 or mps (one clear error where absent)",
+    )
+
+
 def add_gap_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--on-gap",

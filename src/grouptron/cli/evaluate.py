@@ -11,6 +11,7 @@ import torch
 from grouptron.cli.common import (
     Formatter,
     add_data_options,
+    add_device_option,
     add_recording_options,
     add_threads_option,
     eval_modes,
@@ -92,7 +93,7 @@ def cmd_evaluate_tracks(args: argparse.Namespace) -> int:
     modes = tuple(m for m in eval_modes(args.mode) if m != "nll")
     results = evaluate_recordings(
         files, fmt, model=model, experiment=experiment, data=data, modes=modes,
-        seed=args.seed, progress=show_progress(args),
+        seed=args.seed, progress=show_progress(args), device=args.device,
     )  # fmt: skip
     print(results_json(results) if args.format == "json" else results_table(results))
     return 0
@@ -119,8 +120,8 @@ def cmd_evaluate_dataset(args: argparse.Namespace) -> int:
             groups = assign_groups(part.samples, experiment.groups, data.position_scale_m)
         modes = eval_modes(args.mode)
         scores = evaluate_model(
-            model, experiment, part.samples, modes, seed=args.seed,
-            progress=show_progress(args), groups=groups,
+            model.to(args.device), experiment, part.samples, modes, seed=args.seed,
+            progress=show_progress(args), groups=groups, device=args.device,
         )  # fmt: skip
         template = dataclasses.replace(
             template, model=experiment.model_name, checkpoint=str(args.checkpoint)
@@ -190,8 +191,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             name, checkpoint = "constant-velocity", None
         else:
             per_sample = score_samples(
-                model, experiment, samples, modes, seed=args.seed,
-                progress=show_progress(args), groups=groups, ablate=ablate,
+                model.to(args.device), experiment, samples, modes, seed=args.seed,
+                progress=show_progress(args), groups=groups, ablate=ablate, device=args.device,
             )  # fmt: skip
             suffix = f" without {' and '.join(ablate)}" if ablate else ""
             name, checkpoint = experiment.model_name + suffix, str(args.checkpoint)
@@ -253,6 +254,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     )
     evaluate.add_argument("--quiet", action="store_true", help="no progress bars")
     add_threads_option(evaluate)
+    add_device_option(evaluate)
     _add_other_data_options(evaluate)
     add_recording_options(evaluate)
     add_data_options(evaluate)

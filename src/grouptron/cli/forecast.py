@@ -12,6 +12,7 @@ from tqdm import tqdm
 
 from grouptron.cli.common import (
     Formatter,
+    add_device_option,
     add_gap_option,
     add_threads_option,
     non_negative_int,
@@ -74,6 +75,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
         seed=args.seed,
         progress=show_progress(args),
         min_points=args.min_points,
+        device=args.device,
     )
     if Path(args.out).suffix == ".ndjson":
         _write_trajnet(Path(args.out), forecast, table, sampled=args.mode == "samples")
@@ -97,7 +99,9 @@ def cmd_plot(args: argparse.Namespace) -> int:
     refuse_folder(out)  # before the work, not after it
     torch.set_num_threads(args.threads)
     predictors = [
-        Predictor.from_checkpoint(c, most_likely="ml") for c in (args.checkpoint, args.compare) if c
+        Predictor.from_checkpoint(c, most_likely="ml", device=args.device)
+        for c in (args.checkpoint, args.compare)
+        if c
     ]
     for predictor in predictors:
         warn_look_ahead(predictor.source, predictor.config.data.derivatives)
@@ -220,6 +224,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     )
     add_gap_option(predict)
     add_threads_option(predict)
+    add_device_option(predict)
     predict.add_argument("--quiet", action="store_true", help="no progress bar")
     predict.set_defaults(handler=cmd_predict)
     _add_plot(commands)
@@ -260,5 +265,6 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
     plot.add_argument("--seed", type=int, default=0, help="seed of the samples")
     plot.add_argument("--quiet", action="store_true", help="no progress bar")
     add_threads_option(plot)
+    add_device_option(plot)
     add_gap_option(plot)
     plot.set_defaults(handler=cmd_plot)

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+import torch
 
 from grouptron.config import DataConfig, ExperimentConfig
 from grouptron.data.download import file_sha256, shipped_checksums
@@ -117,9 +118,11 @@ def evaluate_recordings(
     modes: tuple[str, ...] = ("ml",),
     seed: int = 0,
     progress: bool = False,
+    device: torch.device | str = "cpu",
 ) -> list[EvaluationResult]:
     """Constant velocity (``model`` None) or a checkpoint on the files: rows per file and mode,
-    then the pooled row. ``data`` is the checkpoint's data settings (or the baseline's)."""
+    then the pooled row. ``data`` is the checkpoint's data settings (or the baseline's); the
+    network runs on ``device``."""
     samples = recording_samples(files, fmt, data)
     template = EvaluationResult("", CONSTANT_VELOCITY, None, 0, 0.0, 0.0)
     template = dataclasses.replace(template, derivatives=data.derivatives)
@@ -132,8 +135,9 @@ def evaluate_recordings(
         groups = assign_groups(samples, experiment.groups, data.position_scale_m)
     rows = []
     per_mode = score_samples(
-        model, experiment, samples, modes, seed=seed, progress=progress, groups=groups
-    )
+        model.to(device), experiment, samples, modes, seed=seed, progress=progress,
+        groups=groups, device=device,
+    )  # fmt: skip
     for scores in per_mode:
         mode_template = dataclasses.replace(template, model=experiment.model_name, mode=scores.mode)
         rows += _rows(files, samples, scores, mode_template)

@@ -43,6 +43,7 @@ def forecast_scene(
     batch_size: int = 256,
     progress: bool = False,
     min_points: int | None = None,
+    device: torch.device | str = "cpu",
 ) -> Forecast:
     """Forecast every (pedestrian, step) of ``scene`` with ``min_points`` observed positions in
     a row up to it (default ``history_steps``: the samples the evaluator scores; 2 at least).
@@ -64,8 +65,8 @@ def forecast_scene(
             "so there is nothing to forecast"
         )
     groups = groups_for_model(samples, config)
-    model.eval()
-    generator = torch.Generator().manual_seed(seed)
+    model.eval().to(device)
+    generator = torch.Generator(device=device).manual_seed(seed)
     K, H = (num_samples if mode == "samples" else 0), data.horizon_steps
     most_likely = np.empty((len(samples), H, 2))  # (S, H, 2)
     drawn = np.empty((len(samples), K, H, 2))  # (S, K, H, 2)
@@ -73,10 +74,11 @@ def forecast_scene(
     for index, batch in tqdm(
         batches(samples, config, batch_size, groups), total=total, disable=not progress
     ):
-        most_likely[index] = predict_most_likely(model, batch, H, data.dt_s).double().numpy()
+        batch = batch.to(device)
+        most_likely[index] = predict_most_likely(model, batch, H, data.dt_s).double().cpu().numpy()
         if K:
             pred = predict_samples(model, batch, H, data.dt_s, num_samples=K, generator=generator)
-            drawn[index] = pred.double().numpy()
+            drawn[index] = pred.double().cpu().numpy()
     origin_world = samples.pos_now_scene_m.astype(np.float64) + scene.centre_world_m  # (S, 2)
     frames = scene.first_frame + samples.step.astype(np.int64) * scene.frames_per_step
     return Forecast(
