@@ -99,13 +99,7 @@ def agglomerative_groups_batched(
     if method not in LINKAGES:
         raise ValueError(f"unknown linkage {method!r}; choose from {LINKAGES}")
     S, n = distances.shape[:2]
-    if num_nodes is None:
-        count = cluster_count(n) if num_groups is None else num_groups
-        merges = np.full(S, n - min(max(count, 1), n))
-    elif num_groups is not None:
-        raise ValueError("give num_groups or num_nodes, not both")
-    else:
-        merges = num_nodes - cluster_counts(num_nodes)  # (S,) padding is never closest (inf)
+    merges = _merges_per_set(S, n, num_groups, num_nodes)
     d = distances.astype(np.float64, copy=True)
     below = np.tril(np.ones((n, n), dtype=bool))  # diagonal and lower triangle: not pairs
     d[:, np.arange(n), np.arange(n)] = np.inf
@@ -117,13 +111,9 @@ def agglomerative_groups_batched(
         flat = np.where(below, np.inf, live).reshape(len(rows), n * n).argmin(axis=1)
         keep, gone = flat // n, flat % n  # (R,) keep < gone
         a, b = d[rows, keep], d[rows, gone]  # (R, n) distances of the two clusters
-        if method == "single":
-            merged = np.minimum(a, b)
-        elif method == "complete":
-            merged = np.maximum(a, b)
-        else:
-            size_a, size_b = size[rows, keep, None], size[rows, gone, None]
-            merged = (size_a * a + size_b * b) / (size_a + size_b)
+        merged = _lance_williams(
+            method, a, b, size_a=size[rows, keep, None], size_b=size[rows, gone, None]
+        )
         merged[np.arange(len(rows)), keep] = np.inf
         merged[np.arange(len(rows)), gone] = np.inf
         d[rows, keep] = merged
@@ -136,3 +126,26 @@ def agglomerative_groups_batched(
     is_lowest = owner == np.arange(n)
     number = np.cumsum(is_lowest, axis=1) - 1  # (S, n)
     return np.take_along_axis(number, owner, axis=1)
+
+
+def _merges_per_set(
+    S: int, n: int, num_groups: int | None, num_nodes: np.ndarray | None
+) -> np.ndarray:
+    """(S,) merges each set needs: down to ``num_groups`` or C(N) of its real nodes."""
+    if num_nodes is None:
+        count = cluster_count(n) if num_groups is None else num_groups
+        return np.full(S, n - min(max(count, 1), n))
+    if num_groups is not None:
+        raise ValueError("give num_groups or num_nodes, not both")
+    return num_nodes - cluster_counts(num_nodes)  # padding is never closest (inf)
+
+
+def _lance_williams(
+    method: Linkage, a: np.ndarray, b: np.ndarray, *, size_a: np.ndarray, size_b: np.ndarray
+) -> np.ndarray:
+    """Distances of a merged cluster from those of its two parts, (R, n) each (sizes (R, 1))."""
+    if method == "single":
+        return np.minimum(a, b)
+    if method == "complete":
+        return np.maximum(a, b)
+    return (size_a * a + size_b * b) / (size_a + size_b)

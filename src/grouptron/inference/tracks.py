@@ -31,6 +31,23 @@ def groups_for_model(samples: SampleSet, config: ExperimentConfig) -> SampleGrou
     return assign_groups(samples, config.groups, config.data.position_scale_m)
 
 
+def _samples_to_forecast(
+    scene: Scene, config: ExperimentConfig, min_points: int | None
+) -> SampleSet:
+    """Every (pedestrian, step) with ``min_points`` observed positions in a row up to it."""
+    data = config.data
+    min_points = data.history_steps if min_points is None else min_points
+    if not 2 <= min_points <= data.history_steps:
+        raise GrouptronError(f"min_points must be from 2 to {data.history_steps}, not {min_points}")
+    samples = scene_samples(scene, data, min_points, require_future=False)
+    if not len(samples):
+        raise GrouptronError(
+            f"{scene.name}: no pedestrian has {min_points} consecutive observed steps, "
+            "so there is nothing to forecast"
+        )
+    return samples
+
+
 @torch.inference_mode()
 def forecast_scene(
     model: TrajectronCVAE,
@@ -55,15 +72,7 @@ def forecast_scene(
     if mode not in FORECAST_MODES:
         raise GrouptronError(f"unknown forecast mode {mode!r}; choose from {FORECAST_MODES}")
     data = config.data
-    min_points = data.history_steps if min_points is None else min_points
-    if not 2 <= min_points <= data.history_steps:
-        raise GrouptronError(f"min_points must be from 2 to {data.history_steps}, not {min_points}")
-    samples = scene_samples(scene, data, min_points, require_future=False)
-    if not len(samples):
-        raise GrouptronError(
-            f"{scene.name}: no pedestrian has {min_points} consecutive observed steps, "
-            "so there is nothing to forecast"
-        )
+    samples = _samples_to_forecast(scene, config, min_points)
     groups = groups_for_model(samples, config)
     model.eval().to(device)
     generator = torch.Generator(device=device).manual_seed(seed)
