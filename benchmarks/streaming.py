@@ -50,6 +50,10 @@ def add_predictor_options(parser: argparse.ArgumentParser, most_likely: str) -> 
         default=most_likely,
         help="the Predictor's most-likely definition (ml-argmax also skips the mixture)",
     )
+    parser.add_argument("--min-points", type=int, default=2, help="Predictor(min_points=...)")
+    parser.add_argument(
+        "--max-missed-steps", type=int, default=2, help="Predictor(max_missed_steps=...)"
+    )
 
 
 def load_predictor(args: argparse.Namespace) -> Predictor:
@@ -58,6 +62,8 @@ def load_predictor(args: argparse.Namespace) -> Predictor:
         args.checkpoint,
         most_likely=args.most_likely,
         mixture=args.most_likely == "ml",
+        min_points=args.min_points,
+        max_missed_steps=args.max_missed_steps,
     )
 
 
