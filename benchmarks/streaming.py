@@ -3,7 +3,8 @@
 Usage:
     python benchmarks/streaming.py [--checkpoint NAME_OR_PATH] [--people 10,50,100,200]
                                    [--frames 60] [--threads 2]
-                                   [--most-likely ml|ml-argmax]
+                                   [--most-likely ml|ml-argmax] [--latent-values K]
+                                   [--mixture] [--min-points 2] [--max-missed-steps 2]
 
 A synthetic scene of N pedestrians walking in pairs and alone through a square sized for about
 one person per 4 m^2 is streamed frame by frame; the first 9 frames (before anyone has 8 steps)
@@ -50,6 +51,10 @@ def add_predictor_options(parser: argparse.ArgumentParser, most_likely: str) -> 
         default=most_likely,
         help="the Predictor's most-likely definition (ml-argmax also skips the mixture)",
     )
+    parser.add_argument(
+        "--latent-values", type=int, help="Predictor(latent_values=...) for --most-likely ml"
+    )
+    parser.add_argument("--mixture", action="store_true", help="also return the mixture")
     parser.add_argument("--min-points", type=int, default=2, help="Predictor(min_points=...)")
     parser.add_argument(
         "--max-missed-steps", type=int, default=2, help="Predictor(max_missed_steps=...)"
@@ -61,7 +66,8 @@ def load_predictor(args: argparse.Namespace) -> Predictor:
     return Predictor.from_checkpoint(
         args.checkpoint,
         most_likely=args.most_likely,
-        mixture=args.most_likely == "ml",
+        latent_values=args.latent_values,
+        mixture=args.mixture,
         min_points=args.min_points,
         max_missed_steps=args.max_missed_steps,
     )
