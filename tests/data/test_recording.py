@@ -221,3 +221,47 @@ def test_out_of_domain_recordings_load_with_one_command_each(
     sdd = str(OOD / "trajnet_sdd" / "bookstore_0.txt")
     assert main([*common, sdd, "--fps", "30"]) == 0
     assert '"split": "bookstore_0.txt"' in capsys.readouterr().out
+
+
+def test_groups_and_plot_read_recordings_in_their_own_layout(
+    tmp_path: Path, tiny_checkpoints: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`groups detect` and `plot` take the same layout options as `evaluate --tracks`: a 16 fps
+    centimetre file gives the groups of the same walkers written ETH/UCY-style."""
+    times = np.arange(0, 14.0, 1 / 16)
+    native = write_recording(tmp_path / "cm.txt", times, columns="id,frame,x,y", scale=100, fps=16)
+    grid = write_recording(
+        tmp_path / "eth.txt", np.arange(0, 14.0, 0.4), columns="frame,id,x,y", fps=25
+    )
+    layout = ["--columns", "id,frame,x,y", "--fps", "16", "--units", "cm"]
+    outputs = []
+    for args in ([str(grid)], [str(native), *layout]):
+        out = tmp_path / f"groups{len(outputs)}.csv"
+        assert main(["groups", "detect", "--tracks", *args, "--out", str(out)]) == 0
+        outputs.append(np.loadtxt(out, delimiter=",", skiprows=1))
+    # Same people, same groups at the same times (a 0.4 s step is 10 frames at 25 fps, and the
+    # 16 fps file's steps are counted from its first row: both start at time 0).
+    assert len(outputs[0]) == len(outputs[1]) > 0
+    np.testing.assert_array_equal(outputs[0][:, 1:], outputs[1][:, 1:])
+    assert (
+        main(
+            [
+                "groups",
+                "detect",
+                "--tracks",
+                str(native),
+                "--columns",
+                "id,frame,x,y",
+                "--fps",
+                "16",
+            ]
+        )
+        == 2
+    )
+    assert "--units" in capsys.readouterr().err  # centimetres read as metres: refused
+    picture = tmp_path / "plot.png"
+    checkpoint = str(tiny_checkpoints / "grouptron-eth-backward")
+    assert main(["plot", "--checkpoint", checkpoint, "--tracks", str(native), *layout,
+                 "--frame", "20", "--samples", "2", "--out", str(picture)]) == 0  # fmt: skip
+    assert picture.stat().st_size > 1000  # 16 fps is no whole number of frames per step:
+    # --frame counts 0.4 s steps from the first row (step 20 = 8 s)

@@ -6,11 +6,13 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+from pathlib import Path
 
 import torch
 
 from grouptron.constants import SPLITS
-from grouptron.data.recording import UNITS_M, RecordingFormat, parse_columns
+from grouptron.data.reader import TrackTable, read_tracks
+from grouptron.data.recording import UNITS_M, RecordingFormat, parse_columns, read_resampled
 from grouptron.devices import available_device
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import MODES
@@ -177,6 +179,27 @@ def add_recording_options(parser: argparse.ArgumentParser) -> None:
         help="read files whose median walking speed is above 3 m/s (refused otherwise: a sign "
         "of wrong --units or --fps)",
     )
+
+
+def own_layout(args: argparse.Namespace) -> bool:
+    """Whether the recording options name anything but an ETH/UCY-style file."""
+    default = RecordingFormat()
+    return (
+        parse_columns(args.columns) != default.columns
+        or args.fps is not None
+        or args.units != default.units
+        or Path(args.tracks).suffix == ".ndjson"
+    )
+
+
+def read_track_table(args: argparse.Namespace, frames_per_step: int) -> TrackTable:
+    """The ``--tracks`` file: an ETH/UCY-style file as it is (``--frames-per-step``,
+    ``--on-gap``), or a recording in its own layout (``--columns``, ``--fps``, ``--units``;
+    TrajNet++ ``.ndjson``) resampled to 0.4 s steps, in its own frame numbers where a step is a
+    whole number of them, else in steps."""
+    if own_layout(args):
+        return read_resampled(Path(args.tracks), recording_format(args))
+    return read_tracks(args.tracks, frames_per_step, args.on_gap)
 
 
 def recording_format(args: argparse.Namespace) -> RecordingFormat:

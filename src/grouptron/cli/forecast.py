@@ -14,9 +14,11 @@ from grouptron.cli.common import (
     Formatter,
     add_device_option,
     add_gap_option,
+    add_recording_options,
     add_threads_option,
     non_negative_int,
     positive_int,
+    read_track_table,
     show_progress,
     warn_look_ahead,
 )
@@ -105,8 +107,11 @@ def cmd_plot(args: argparse.Namespace) -> int:
     ]
     for predictor in predictors:
         warn_look_ahead(predictor.source, predictor.config.data.derivatives)
+    table = read_track_table(args, predictors[0].config.data.frames_per_step)
+    for predictor in predictors:  # forecast on the file's own frame grid
+        data = dataclasses.replace(predictor.config.data, frames_per_step=table.frames_per_step)
+        predictor.config = dataclasses.replace(predictor.config, data=data)
     data = predictors[0].config.data
-    table = read_tracks(args.tracks, data.frames_per_step, args.on_gap)
     rows = np.column_stack([table.frame, table.ped_id, table.pos_m]).astype(np.float64)
     if args.until is None:
         plot_forecasts(_plot_panels(args, predictors, rows, args.frame), args.frame, out)
@@ -128,7 +133,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     if not drawn:
         raise GrouptronError(
             f"{args.tracks}: nobody between frames {args.frame} and {args.until} has "
-            f"{data.history_steps} observed steps"
+            f"{predictors[0].min_points} observed steps"
         )
     animate_forecasts(drawn, out)
     print(f"wrote {out}: {len(drawn)} frames from {drawn[0][0]} to {drawn[-1][0]}")
@@ -152,8 +157,8 @@ def _plot_panels(
             if not required:
                 return []
             raise GrouptronError(
-                f"{args.tracks}: nobody at frame {frame} has {data.history_steps} observed "
-                "steps; pick another --frame"
+                f"{args.tracks}: nobody at frame {frame} has {predictor.min_points} observed "
+                "steps in a row; pick another --frame"
             )
         history, truth = tracks_around(
             rows,
@@ -252,7 +257,13 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
         help="a .safetensors checkpoint or a shipped name (grouptron-univ-backward)",
     )
     plot.add_argument("--compare", help="a second checkpoint drawn beside the first")
-    plot.add_argument("--tracks", required=True, help="a 'frame id x y' track file")
+    plot.add_argument(
+        "--tracks",
+        required=True,
+        help="a track file: 'frame id x y' (ETH/UCY), another layout (--columns, --fps, "
+        "--units; resampled to 0.4 s steps, --frame then in the file's frames where a step is a "
+        "whole number of them, else in steps) or TrajNet++ .ndjson",
+    )
     plot.add_argument("--frame", type=int, required=True, help="the frame to forecast from")
     plot.add_argument(
         "--until",
@@ -267,4 +278,5 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
     add_threads_option(plot)
     add_device_option(plot)
     add_gap_option(plot)
+    add_recording_options(plot)
     plot.set_defaults(handler=cmd_plot)

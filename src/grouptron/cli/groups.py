@@ -12,13 +12,14 @@ from grouptron.cli.common import (
     Formatter,
     Parser,
     add_gap_option,
+    add_recording_options,
     positive_int,
+    read_track_table,
 )
 from grouptron.config import (
     DataConfig,
     GroupConfig,
 )
-from grouptron.data.reader import read_tracks
 from grouptron.data.scene import Scene, build_scene
 from grouptron.errors import GrouptronError
 from grouptron.groups.clustering import LINKAGES
@@ -38,8 +39,8 @@ def _group_configs(args: argparse.Namespace) -> list[GroupConfig]:
 
 
 def _track_scene(args: argparse.Namespace) -> Scene:
-    table = read_tracks(args.tracks, args.frames_per_step, args.on_gap)
-    return build_scene(table, DataConfig(frames_per_step=args.frames_per_step), str(args.tracks))
+    table = read_track_table(args, args.frames_per_step)
+    return build_scene(table, DataConfig(frames_per_step=table.frames_per_step), str(args.tracks))
 
 
 def cmd_groups_evaluate(args: argparse.Namespace) -> int:
@@ -151,14 +152,20 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
 
 
 def _track_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--tracks", required=True, help="a 'frame id x y' track file")
+    parser.add_argument(
+        "--tracks",
+        required=True,
+        help="a track file: 'frame id x y' (ETH/UCY), another layout (--columns, --fps, "
+        "--units; resampled to 0.4 s steps) or TrajNet++ .ndjson",
+    )
     parser.add_argument(
         "--frames-per-step",
         type=positive_int,
         default=10,
-        help="frames between annotated steps",
+        help="frames between annotated steps of a 'frame id x y' file",
     )
     add_gap_option(parser)
+    add_recording_options(parser)
 
 
 def _add_detect(group_commands: argparse._SubParsersAction) -> None:
