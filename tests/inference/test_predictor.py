@@ -179,6 +179,50 @@ def test_shipped_names_resolve_from_any_working_directory(
         resolve_checkpoint("nowhere")
 
 
+@pytest.mark.slow
+def test_an_installed_package_carries_the_shipped_weights(tmp_path: Path) -> None:
+    """A wheel of the project holds every shipped checkpoint's weights and config (not its
+    resuming state), and a plain install of it resolves shipped names from anywhere."""
+    import shutil
+    import subprocess
+    import sys
+    import zipfile
+
+    from tests.conftest import REPO
+
+    source = tmp_path / "source"  # a copy: building writes into the source tree
+    shutil.copytree(REPO / "src", source / "src", symlinks=True)
+    keep = shutil.ignore_patterns("last.safetensors", "candidates", "*.png", "metrics.*")
+    shutil.copytree(REPO / "checkpoints", source / "checkpoints", ignore=keep)
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy(REPO / name, source / name)
+    build = [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q"]
+    subprocess.run([*build, str(source), "-w", str(tmp_path / "wheel")], check=True)
+    (wheel,) = (tmp_path / "wheel").glob("grouptron-*.whl")
+    names = zipfile.ZipFile(wheel).namelist()
+    shipped = sorted(p.parent.name for p in (REPO / "checkpoints").glob("*/best.safetensors"))
+    for name in shipped:
+        assert f"grouptron/checkpoints/{name}/best.safetensors" in names
+        assert f"grouptron/checkpoints/{name}/config.json" in names
+    assert not any(n.endswith("last.safetensors") for n in names)
+    target = tmp_path / "installed"
+    install = [sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target"]
+    subprocess.run([*install, str(target), str(wheel)], check=True)
+    code = (
+        "from grouptron.inference.predictor import Predictor; "
+        "p = Predictor.from_checkpoint('grouptron-univ-backward'); print(p.source)"
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=tmp_path,
+        env={"PYTHONPATH": str(target), "PATH": "/usr/bin:/bin"},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert run.stdout.strip().startswith(str(target)), run.stdout
+
+
 def test_centimetres_given_as_metres_are_refused_by_the_api(tiny_checkpoints: Path) -> None:
     from grouptron.errors import GrouptronError
 

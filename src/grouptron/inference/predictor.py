@@ -57,8 +57,9 @@ log = logging.getLogger(__name__)
 
 CHECKPOINTS_ENV = "GROUPTRON_CHECKPOINTS"
 WEIGHTS_FILE = "best.safetensors"
-SOURCE_CHECKPOINTS = Path(__file__).resolve().parents[3] / "checkpoints"
-"""The shipped checkpoints of the source tree this package runs from (src/ layout)."""
+PACKAGE_CHECKPOINTS = Path(__file__).resolve().parents[1] / "checkpoints"
+"""The shipped checkpoints installed with the package (weights and configs only; in a source
+checkout a link to the repository's checkpoints/)."""
 MostLikely = Literal["ml", "ml-argmax"]
 MOST_LIKELY_CHOICES = ("ml", "ml-argmax")
 OLDER_NAMES = {"mixture-mode": "ml", "argmax-latent": "ml-argmax"}
@@ -69,8 +70,8 @@ def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | N
     """A checkpoint file from a path or a shipped name such as ``"grouptron-univ-backward"``.
 
     Names are looked up in ``checkpoints_dir``, ``$GROUPTRON_CHECKPOINTS``, ``./checkpoints`` and
-    the ``checkpoints/`` folder of the source tree grouptron is installed from, so shipped names
-    resolve from any working directory.
+    the shipped checkpoints installed with the package, so shipped names resolve from any
+    working directory.
     """
     path = Path(name_or_path)
     if path.is_file():
@@ -80,7 +81,7 @@ def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | N
     if path.suffix == ".safetensors" or len(path.parts) > 1:  # a path, not a shipped name
         raise GrouptronError(f"{path}: checkpoint not found")
     folders = [Path(d) for d in (checkpoints_dir, os.environ.get(CHECKPOINTS_ENV)) if d]
-    folders += [Path("checkpoints"), SOURCE_CHECKPOINTS]
+    folders += [Path("checkpoints"), PACKAGE_CHECKPOINTS]
     for folder in folders:
         candidate = folder / str(name_or_path) / WEIGHTS_FILE
         if candidate.is_file():
