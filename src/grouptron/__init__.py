@@ -19,7 +19,7 @@ future ``t+1..t+12``. Every step is 0.4 s (the ETH/UCY convention).
 
 __version__ = "0.1.0"
 
-__all__ = ["Forecast", "Predictor", "StreamSession", "__version__"]
+__all__ = ["Forecast", "Predictor", "StreamSession", "__version__", "load_tracks"]
 
 
 def __getattr__(name: str) -> object:
@@ -28,4 +28,8 @@ def __getattr__(name: str) -> object:
         from grouptron.inference import predictor
 
         return getattr(predictor, name)
+    if name == "load_tracks":
+        from grouptron.data.recording import load_tracks
+
+        return load_tracks
     raise AttributeError(f"module 'grouptron' has no attribute {name!r}")

@@ -265,3 +265,26 @@ def test_groups_and_plot_read_recordings_in_their_own_layout(
                  "--frame", "20", "--samples", "2", "--out", str(picture)]) == 0  # fmt: skip
     assert picture.stat().st_size > 1000  # 16 fps is no whole number of frames per step:
     # --frame counts 0.4 s steps from the first row (step 20 = 8 s)
+
+
+def test_the_python_api_reads_any_layout_for_the_predictor(
+    tmp_path: Path, tiny_checkpoints: Path
+) -> None:
+    from grouptron import Predictor, load_tracks
+
+    native = write_recording(
+        tmp_path / "cm.txt", np.arange(0, 14.0, 1 / 16), columns="id,frame,x,y", scale=100, fps=16
+    )
+    grid = write_recording(
+        tmp_path / "eth.txt", np.arange(0, 14.0, 0.4), columns="frame,id,x,y", fps=25
+    )
+    rows = load_tracks(native, columns="id,frame,x,y", fps=16, units="cm")
+    expected = load_tracks(grid, fps=25)  # already on the grid: the same rows
+    order = np.lexsort((rows[:, 0], rows[:, 1]))
+    by_id = np.lexsort((expected[:, 0], expected[:, 1]))
+    np.testing.assert_allclose(rows[order], expected[by_id], atol=1e-3)  # interpolation error
+    predictor = Predictor.from_checkpoint(tiny_checkpoints / "grouptron-eth-backward")
+    forecast = predictor.predict(rows, t=200)
+    assert len(forecast) == 3 and np.isfinite(forecast.most_likely).all()
+    with pytest.raises(GrouptronError, match="--units"):
+        load_tracks(native, columns="id,frame,x,y", fps=16)
