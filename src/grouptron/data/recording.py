@@ -309,7 +309,7 @@ def load_tracks(
     fmt = RecordingFormat(
         columns=parse_columns(columns),
         fps=fps,
-        units=units,  # type: ignore[arg-type]
+        units=units,
         max_gap_s=max_gap_s,
         check_speed=check_speed,
     )
