@@ -76,6 +76,14 @@ class GroupConfig:
     distance: Literal["hausdorff", "modified"] = "hausdorff"
     quantile: float = 0.9
     """Quantile of the modified Hausdorff distance (Atev et al.)."""
+    max_distance_m: float | None = None
+    """None: C(N) = (N + 1) // 2 groups of N people (the paper's rule). A distance: merge
+    while the two closest groups are at most this far apart (complete linkage: everyone in a
+    group within it of everyone else), however many groups that leaves (docs/groups.md)."""
+    velocity_weight_s: float = 0.0
+    """Above 0, two people are at least this many seconds times the difference of their mean
+    velocities over the window apart: walking together means walking alike (0: positions
+    only, the paper's distance)."""
 
     def __post_init__(self) -> None:
         if self.linkage not in ("single", "average", "complete"):
@@ -84,6 +92,10 @@ class GroupConfig:
             raise GrouptronError("groups.distance must be hausdorff or modified")
         if not 0.0 < self.quantile <= 1.0:
             raise GrouptronError("groups.quantile must be in (0, 1]")
+        if not self.velocity_weight_s >= 0:
+            raise GrouptronError("groups.velocity_weight_s must be >= 0 (seconds)")
+        if self.max_distance_m is not None and not self.max_distance_m > 0:
+            raise GrouptronError("groups.max_distance_m must be a positive distance (or None)")
 
 
 @dataclass(frozen=True)

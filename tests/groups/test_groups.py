@@ -236,3 +236,69 @@ def test_a_whole_crowd_clusters_the_same_through_scipy(method: str) -> None:
         tied = np.round(d)  # many equal distances: the vectorised path decides ties
         expected = agglomerative_groups_batched(tied[None], method)[0]  # type: ignore[arg-type]
         np.testing.assert_array_equal(agglomerative_groups(tied, method), expected)  # type: ignore[arg-type]
+
+
+def test_a_distance_threshold_cuts_the_dendrogram_at_that_height() -> None:
+    """Hand-made: two pairs and a loner on a line; the threshold decides, not a group count."""
+    from grouptron.groups.clustering import agglomerative_groups_batched
+
+    x = np.array([0.0, 0.5, 3.0, 3.4, 10.0])
+    d = np.abs(x[:, None] - x[None])
+    np.testing.assert_array_equal(
+        agglomerative_groups(d, "single", max_distance=1.0), [0, 0, 1, 1, 2]
+    )
+    np.testing.assert_array_equal(agglomerative_groups(d, "single", max_distance=0.3), range(5))
+    np.testing.assert_array_equal(
+        agglomerative_groups(d, "single", max_distance=3.0), [0] * 4 + [1]
+    )
+    # complete linkage: everyone in a group within the threshold of everyone else (3.4 > 3)
+    np.testing.assert_array_equal(
+        agglomerative_groups(d, "complete", max_distance=3.0), [0, 0, 1, 1, 2]
+    )
+    padded = np.full((2, 5, 5), np.inf)
+    padded[0] = d
+    padded[1, :3, :3] = d[2:, 2:]
+    labels = agglomerative_groups_batched(
+        padded, "single", num_nodes=np.array([5, 3]), max_distance=1.0
+    )
+    np.testing.assert_array_equal(labels[0], [0, 0, 1, 1, 2])
+    np.testing.assert_array_equal(labels[1, :3], [0, 0, 1])
+
+
+def test_walking_alike_groups_people_and_standing_beside_a_walker_does_not() -> None:
+    from grouptron.groups.distances import group_distances
+
+    t = np.arange(8) * 0.4
+    walker = np.stack([0.5 * t, np.zeros(8)], -1)  # a slow walk, 1.4 m in the window
+    partner = walker + np.array([0.0, 0.8])
+    stander = np.stack([np.full(8, 0.7), np.full(8, 0.8)], -1)  # beside the walk's middle
+    traj, mask = np.stack([walker, partner, stander]), np.ones((3, 8), bool)
+    plain = group_distances(
+        traj, mask, kind="hausdorff", quantile=0.9, velocity_weight_s=0.0, dt_s=0.4
+    )
+    alike = group_distances(
+        traj, mask, kind="hausdorff", quantile=0.9, velocity_weight_s=4.0, dt_s=0.4
+    )
+    np.testing.assert_allclose(alike[0, 1], plain[0, 1])  # same velocity: no change
+    np.testing.assert_allclose(alike[0, 2], 4.0 * 0.5)  # 0.5 m/s apart, weighed 4 s
+    assert plain[0, 2] < 1.5 < alike[0, 2]
+    for distances, expected in ((plain, [0, 0, 0]), (alike, [0, 0, 1])):
+        labels = agglomerative_groups(distances, "single", max_distance=1.5)
+        np.testing.assert_array_equal(labels, expected)
+
+
+def test_threshold_groups_of_samples_count_their_own_groups(tmp_path: Path) -> None:
+    """With a threshold a sample has as many groups as the cut leaves (2 nodes far apart: 2)."""
+    scene = walking_scene(tmp_path)
+    data = DataConfig()
+    samples = scene_samples(scene, data, 2)
+    config = GroupConfig(linkage="single", max_distance_m=0.01)  # nobody that close
+    groups = assign_groups(samples, config, data.position_scale_m)
+    np.testing.assert_array_equal(groups.num_groups, samples.num_neighbours + 1)
+    assert (groups.ego_group == 0).all()
+    wide = assign_groups(samples, GroupConfig(max_distance_m=1e6), data.position_scale_m)
+    assert (wide.num_groups == 1).all() and (wide.nbr_group == 0).all()
+    with pytest.raises(Exception, match="max_distance_m"):
+        GroupConfig(max_distance_m=0.0)
+    with pytest.raises(Exception, match="velocity_weight_s"):
+        GroupConfig(velocity_weight_s=-1.0)

@@ -12,9 +12,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from grouptron.config import GroupConfig
+from grouptron.constants import DT_S
 from grouptron.data.samples import SampleSet, edge_rows, ego_first_layout
 from grouptron.groups.clustering import agglomerative_groups_batched, cluster_counts
-from grouptron.groups.distances import pairwise_distances
+from grouptron.groups.distances import group_distances
 
 MAX_DISTANCE_ELEMENTS = 4_000_000
 """Bound on (samples x N x N x T x T) per vectorised distance block (memory)."""
@@ -64,28 +65,30 @@ def node_trajectories(
 
 
 def assign_groups(samples: SampleSet, config: GroupConfig, position_scale_m: float) -> SampleGroups:
-    """Cluster every sample's nodes into C(N) groups on Hausdorff distances of their histories."""
+    """Cluster every sample's nodes on Hausdorff distances of their histories: into C(N)
+    groups, or by ``config.max_distance_m``."""
     node_labels = np.zeros(len(samples) + int(samples.nbr_offsets[-1]), dtype=np.int16)
     node_start, is_ego = ego_first_layout(samples.num_neighbours)
     counts = samples.num_neighbours + 1
     for num_nodes in np.unique(counts):  # one vectorised block per node count
         same = np.flatnonzero(counts == num_nodes)
-        if num_nodes <= 2:
+        if num_nodes == 1 or (num_nodes == 2 and config.max_distance_m is None):
             continue  # C(1) = C(2) = 1: everyone in group 0
         T = samples.hist_st.shape[1]
         block = max(1, MAX_DISTANCE_ELEMENTS // (num_nodes * num_nodes * T * T))
         for start in range(0, len(same), block):
             index = same[start : start + block]
             traj, mask = node_trajectories(samples, index, int(num_nodes), position_scale_m)
-            distances = pairwise_distances(traj, mask, config.distance, config.quantile)
-            labels = agglomerative_groups_batched(distances, config.linkage)  # (S, N)
+            distances = group_distances(
+                traj, mask, kind=config.distance, quantile=config.quantile,
+                velocity_weight_s=config.velocity_weight_s, dt_s=DT_S,
+            )  # fmt: skip
+            labels = agglomerative_groups_batched(
+                distances, config.linkage, max_distance=config.max_distance_m
+            )  # (S, N)
             rows = node_start[index][:, None] + np.arange(num_nodes)  # (S, N)
             node_labels[rows] = labels
-    return SampleGroups(
-        ego_group=node_labels[is_ego],
-        nbr_group=node_labels[~is_ego],
-        num_groups=cluster_counts(counts).astype(np.int16),
-    )
+    return _sample_groups(node_labels, node_start, is_ego, counts, config)
 
 
 def assign_groups_at_step(
@@ -118,10 +121,27 @@ def assign_groups_at_step(
     )
     block = distances[index[:, :, None], index[:, None, :]]  # (S, W, W)
     block[~(real[:, :, None] & real[:, None, :])] = np.inf
-    labels = agglomerative_groups_batched(block, config.linkage, num_nodes=counts)  # (S, W)
+    labels = agglomerative_groups_batched(
+        block, config.linkage, num_nodes=counts, max_distance=config.max_distance_m
+    )  # (S, W)
     node_labels = labels[real].astype(np.int16)  # row-major: sample by sample, ego first
+    return _sample_groups(node_labels, node_start, is_ego, counts, config)
+
+
+def _sample_groups(
+    node_labels: np.ndarray,
+    node_start: np.ndarray,
+    is_ego: np.ndarray,
+    counts: np.ndarray,
+    config: GroupConfig,
+) -> SampleGroups:
+    """Per-sample groups from the flat node labels (ego first in every sample's block)."""
+    if config.max_distance_m is None:
+        num_groups = cluster_counts(counts)  # C(N), what the clustering was asked for
+    else:  # as many as the cut left: one more than the highest label of each sample
+        num_groups = np.maximum.reduceat(node_labels, node_start) + 1 if len(counts) else counts
     return SampleGroups(
         ego_group=node_labels[is_ego],
         nbr_group=node_labels[~is_ego],
-        num_groups=cluster_counts(counts).astype(np.int16),
+        num_groups=num_groups.astype(np.int16),
     )

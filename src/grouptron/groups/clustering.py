@@ -36,24 +36,35 @@ def canonical_labels(labels: np.ndarray) -> np.ndarray:
 
 
 def agglomerative_groups(
-    distances: np.ndarray, method: Linkage = "average", num_groups: int | None = None
+    distances: np.ndarray,
+    method: Linkage = "average",
+    num_groups: int | None = None,
+    *,
+    max_distance: float | None = None,
 ) -> np.ndarray:
     """Group labels of N nodes from their (N, N) distance matrix (symmetric, zero diagonal):
     :func:`agglomerative_groups_batched` on a stack of one. Deterministic, also with ties.
 
     Returns:
-        (N,) labels in ``0..num_groups-1`` (default ``cluster_count(N)``), numbered by first
-        member.
+        (N,) labels in ``0..num_groups-1`` (default ``cluster_count(N)``; with
+        ``max_distance``, as many as merging clusters at most that far apart leaves),
+        numbered by first member.
     """
     n = len(distances)
     if n < 1:
         raise ValueError("need at least one node")
-    count = cluster_count(n) if num_groups is None else num_groups
-    if n >= SCIPY_FROM_NODES and 1 <= count < n and method in LINKAGES:
+    if n >= SCIPY_FROM_NODES and method in LINKAGES:
         pairs = squareform(distances, checks=False)  # (n (n-1) / 2,) condensed
         if len(np.unique(pairs)) == len(pairs):  # no ties: the merge order is unique
-            return _cut_dendrogram(linkage(pairs, method), n, count)
-    return agglomerative_groups_batched(distances[None], method, num_groups)[0]
+            merges = linkage(pairs, method)  # heights ascending (these linkages are monotone)
+            if max_distance is not None:
+                count = n - int(np.searchsorted(merges[:, 2], max_distance, side="right"))
+            else:
+                count = cluster_count(n) if num_groups is None else num_groups
+            return _cut_dendrogram(merges, n, min(max(count, 1), n))
+    return agglomerative_groups_batched(
+        distances[None], method, num_groups, max_distance=max_distance
+    )[0]
 
 
 def _cut_dendrogram(merges: np.ndarray, n: int, count: int) -> np.ndarray:
@@ -74,6 +85,7 @@ def agglomerative_groups_batched(
     num_groups: int | None = None,
     *,
     num_nodes: np.ndarray | None = None,
+    max_distance: float | None = None,
 ) -> np.ndarray:
     """Group labels of S independent sets of N nodes, merged in lockstep.
 
@@ -91,6 +103,9 @@ def agglomerative_groups_batched(
         num_nodes: (S,) real nodes of every set when sets of different sizes are padded to N:
             set s has nodes ``0..num_nodes[s]-1`` (its padding rows and columns must be inf)
             and is merged into ``cluster_count(num_nodes[s])`` groups, exactly as alone.
+        max_distance: instead of a group count, merge while the two closest clusters are at
+            most this far apart (the dendrogram cut at a height; these linkages are monotone,
+            so a set stops for good at its first closest pair beyond it).
 
     Returns:
         (S, N) labels in ``0..num_groups-1``, numbered by first member (padding nodes after
@@ -99,16 +114,29 @@ def agglomerative_groups_batched(
     if method not in LINKAGES:
         raise ValueError(f"unknown linkage {method!r}; choose from {LINKAGES}")
     S, n = distances.shape[:2]
-    merges = _merges_per_set(S, n, num_groups, num_nodes)
+    if max_distance is not None:
+        if num_groups is not None:
+            raise ValueError("give num_groups or max_distance, not both")
+        real = np.full(S, n) if num_nodes is None else num_nodes
+        merges = np.maximum(real - 1, 0)  # at most down to one group; the height stops it
+    else:
+        merges = _merges_per_set(S, n, num_groups, num_nodes)
     d = distances.astype(np.float64, copy=True)
     below = np.tril(np.ones((n, n), dtype=bool))  # diagonal and lower triangle: not pairs
     d[:, np.arange(n), np.arange(n)] = np.inf
     size = np.ones((S, n))
     owner = np.broadcast_to(np.arange(n), (S, n)).copy()  # cluster of each node = its lowest
+    stopped = np.zeros(S, dtype=bool)  # beyond max_distance for good
     for merge in range(int(merges.max(initial=0))):  # each merge vectorised over the sets
-        rows = np.flatnonzero(merges > merge)  # the sets still merging
+        rows = np.flatnonzero((merges > merge) & ~stopped)  # the sets still merging
         live = d if len(rows) == S else d[rows]
         flat = np.where(below, np.inf, live).reshape(len(rows), n * n).argmin(axis=1)
+        if max_distance is not None:
+            close = live.reshape(len(rows), n * n)[np.arange(len(rows)), flat] <= max_distance
+            stopped[rows[~close]] = True
+            rows, flat = rows[close], flat[close]
+            if not len(rows):
+                break
         keep, gone = flat // n, flat % n  # (R,) keep < gone
         a, b = d[rows, keep], d[rows, gone]  # (R, n) distances of the two clusters
         merged = _lance_williams(

@@ -101,3 +101,36 @@ def _hausdorff_one_set(traj: np.ndarray, mask: np.ndarray) -> np.ndarray:
     symmetric = np.sqrt(np.maximum(farthest, farthest.T))
     np.fill_diagonal(symmetric, 0.0)
     return symmetric
+
+
+def mean_velocities(traj: np.ndarray, mask: np.ndarray, dt_s: float) -> np.ndarray:
+    """(..., N, 2) mean velocity of each trajectory over its observed points: (last - first) /
+    elapsed time; 0 for a single point. ``traj`` (..., N, T, 2), ``mask`` (..., N, T)."""
+    T = mask.shape[-1]
+    step = np.arange(T)
+    first = np.where(mask, step, T).min(axis=-1)  # (..., N)
+    last = np.where(mask, step, -1).max(axis=-1)
+    take = np.minimum(np.stack([first, last], -1), T - 1)  # (..., N, 2)
+    ends = np.take_along_axis(traj, take[..., None], axis=-2)  # (..., N, 2, 2)
+    elapsed = np.maximum(last - first, 1)[..., None] * dt_s
+    return (ends[..., 1, :] - ends[..., 0, :]) / elapsed
+
+
+def group_distances(
+    traj: np.ndarray,
+    mask: np.ndarray,
+    *,
+    kind: DistanceKind,
+    quantile: float,
+    velocity_weight_s: float,
+    dt_s: float,
+) -> np.ndarray:
+    """(..., N, N) distances the grouping clusters on: :func:`pairwise_distances`, and with
+    ``velocity_weight_s`` > 0 at least that many seconds times the difference of the mean
+    velocities (walking together means walking alike)."""
+    distances = pairwise_distances(traj, mask, kind, quantile)
+    if velocity_weight_s <= 0:
+        return distances
+    velocity = mean_velocities(traj, mask, dt_s)  # (..., N, 2)
+    apart = np.linalg.norm(velocity[..., :, None, :] - velocity[..., None, :, :], axis=-1)
+    return np.maximum(distances, velocity_weight_s * apart)

@@ -8,11 +8,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from grouptron.config import GroupConfig
-from grouptron.constants import HISTORY_STEPS, PERCEPTION_RADIUS_M
+from grouptron.constants import DT_S, HISTORY_STEPS, PERCEPTION_RADIUS_M
 from grouptron.data.samples import dense_grid
 from grouptron.data.scene import Scene
 from grouptron.groups.clustering import agglomerative_groups
-from grouptron.groups.distances import pairwise_distances
+from grouptron.groups.distances import group_distances
 from grouptron.groups.labels import (
     PairCounts,
     dice_of_partitions,
@@ -74,10 +74,11 @@ def _cluster_step(
     if len(tracks) == 0:
         return None
     window = slice(step, step + pad + 1)
-    distances = pairwise_distances(
-        pos[tracks, window], present[tracks, window], config.distance, config.quantile
-    )
-    labels = agglomerative_groups(distances, config.linkage)
+    distances = group_distances(
+        pos[tracks, window], present[tracks, window], kind=config.distance,
+        quantile=config.quantile, velocity_weight_s=config.velocity_weight_s, dt_s=DT_S,
+    )  # fmt: skip
+    labels = agglomerative_groups(distances, config.linkage, max_distance=config.max_distance_m)
     return StepGroups(step, tracks, labels, distances, pos[tracks, step + pad])
 
 
@@ -113,7 +114,11 @@ def score_against_labels(
             if len(others) == 0:
                 continue
             nodes = np.concatenate([[ego], others])
-            predicted = agglomerative_groups(found.distances[np.ix_(nodes, nodes)], config.linkage)
+            predicted = agglomerative_groups(
+                found.distances[np.ix_(nodes, nodes)],
+                config.linkage,
+                max_distance=config.max_distance_m,
+            )
             labelled = truth[nodes]
             ego_counts.add_pairs(predicted[1:] == predicted[0], labelled[1:] == labelled[0])
             ego_counts.add_dice(dice_of_partitions(predicted, labelled))
