@@ -114,13 +114,7 @@ def agglomerative_groups_batched(
     if method not in LINKAGES:
         raise ValueError(f"unknown linkage {method!r}; choose from {LINKAGES}")
     S, n = distances.shape[:2]
-    if max_distance is not None:
-        if num_groups is not None:
-            raise ValueError("give num_groups or max_distance, not both")
-        real = np.full(S, n) if num_nodes is None else num_nodes
-        merges = np.maximum(real - 1, 0)  # at most down to one group; the height stops it
-    else:
-        merges = _merges_per_set(S, n, num_groups, num_nodes)
+    merges = _merges_per_set(S, n, num_groups, num_nodes, until_height=max_distance is not None)
     d = distances.astype(np.float64, copy=True)
     below = np.tril(np.ones((n, n), dtype=bool))  # diagonal and lower triangle: not pairs
     d[:, np.arange(n), np.arange(n)] = np.inf
@@ -137,19 +131,7 @@ def agglomerative_groups_batched(
             rows, flat = rows[close], flat[close]
             if not len(rows):
                 break
-        keep, gone = flat // n, flat % n  # (R,) keep < gone
-        a, b = d[rows, keep], d[rows, gone]  # (R, n) distances of the two clusters
-        merged = _lance_williams(
-            method, a, b, size_a=size[rows, keep, None], size_b=size[rows, gone, None]
-        )
-        merged[np.arange(len(rows)), keep] = np.inf
-        merged[np.arange(len(rows)), gone] = np.inf
-        d[rows, keep] = merged
-        d[rows, :, keep] = merged
-        d[rows, gone] = np.inf
-        d[rows, :, gone] = np.inf
-        size[rows, keep] += size[rows, gone]
-        owner[rows] = np.where(owner[rows] == gone[:, None], keep[:, None], owner[rows])
+        _merge(d, size, owner, rows, flat, method=method)
     # Number the clusters 0, 1, ... by their lowest node, i.e. by first member.
     is_lowest = owner == np.arange(n)
     number = np.cumsum(is_lowest, axis=1) - 1  # (S, n)
@@ -157,15 +139,48 @@ def agglomerative_groups_batched(
 
 
 def _merges_per_set(
-    S: int, n: int, num_groups: int | None, num_nodes: np.ndarray | None
+    S: int, n: int, num_groups: int | None, num_nodes: np.ndarray | None, *, until_height: bool
 ) -> np.ndarray:
-    """(S,) merges each set needs: down to ``num_groups`` or C(N) of its real nodes."""
+    """(S,) merges each set needs: down to ``num_groups`` or C(N) of its real nodes; or, cut
+    at a height (``until_height``), at most down to one group (the height stops it)."""
+    if until_height:
+        if num_groups is not None:
+            raise ValueError("give num_groups or max_distance, not both")
+        real = np.full(S, n) if num_nodes is None else num_nodes
+        return np.maximum(real - 1, 0)
     if num_nodes is None:
         count = cluster_count(n) if num_groups is None else num_groups
         return np.full(S, n - min(max(count, 1), n))
     if num_groups is not None:
         raise ValueError("give num_groups or num_nodes, not both")
     return num_nodes - cluster_counts(num_nodes)  # padding is never closest (inf)
+
+
+def _merge(
+    d: np.ndarray,
+    size: np.ndarray,
+    owner: np.ndarray,
+    rows: np.ndarray,
+    flat: np.ndarray,
+    *,
+    method: Linkage,
+) -> None:
+    """Merge, in sets ``rows``, the pair at flat index ``flat`` of (S, n, n) ``d`` (in place:
+    the distances, (S, n) cluster sizes and owners)."""
+    n = d.shape[-1]
+    keep, gone = flat // n, flat % n  # (R,) keep < gone
+    a, b = d[rows, keep], d[rows, gone]  # (R, n) distances of the two clusters
+    merged = _lance_williams(
+        method, a, b, size_a=size[rows, keep, None], size_b=size[rows, gone, None]
+    )
+    merged[np.arange(len(rows)), keep] = np.inf
+    merged[np.arange(len(rows)), gone] = np.inf
+    d[rows, keep] = merged
+    d[rows, :, keep] = merged
+    d[rows, gone] = np.inf
+    d[rows, :, gone] = np.inf
+    size[rows, keep] += size[rows, gone]
+    owner[rows] = np.where(owner[rows] == gone[:, None], keep[:, None], owner[rows])
 
 
 def _lance_williams(
