@@ -84,3 +84,35 @@ def test_bad_label_file_is_a_one_line_error(
     labels.write_text("1 two\n")
     assert main(["groups", "evaluate", "--tracks", str(tracks), "--labels", str(labels)]) == 2
     assert "groups.txt:1: expected pedestrian ids" in capsys.readouterr().err
+
+
+def test_the_threshold_rule_leaves_strangers_alone_where_c_of_n_merges_them(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Two walking pairs and two strangers standing 2.5 m apart: C(N) = 3 groups of 6 people
+    must merge someone; the threshold rule (the default) finds the labelled groups."""
+    rows = []
+    for step in range(20):
+        x = 0.5 * step
+        rows += [(step * 10, 1, x, 0.0), (step * 10, 2, x, 0.6)]
+        rows += [(step * 10, 3, 20 - x, 8.0), (step * 10, 4, 20 - x, 8.7)]
+        rows += [(step * 10, 5, 5.0, 4.0), (step * 10, 6, 7.5, 4.0)]
+    tracks = write_tracks(tmp_path / "strangers.txt", rows)
+    labels = tmp_path / "groups.txt"
+    labels.write_text("1 2\n3 4\n")
+    by_rule = {}
+    for rule in ("threshold", "count"):
+        results = evaluate_json(
+            capsys, "--tracks", str(tracks), "--labels", str(labels), "--rule", rule
+        )
+        scene = next(r for r in results if r["scope"] == "scene")
+        assert scene["rule"] == rule
+        by_rule[rule] = scene["pair_f1"]
+    assert by_rule["threshold"] == pytest.approx(1.0)
+    assert by_rule["count"] < 0.9
+    out = tmp_path / "groups.csv"
+    assert main(["groups", "detect", "--tracks", str(tracks), "--out", str(out)]) == 0
+    at_100 = {
+        int(r["id"]): int(r["group"]) for r in csv.DictReader(out.open()) if r["frame"] == "100"
+    }
+    assert len({at_100[5], at_100[6], at_100[1], at_100[3]}) == 4 and at_100[1] == at_100[2]

@@ -98,6 +98,25 @@ def int_at_least(value: str, lowest: int) -> int:
     return number
 
 
+def float_at_least(value: str, lowest: float, *, strictly: bool) -> float:
+    try:
+        number = float(value)
+    except ValueError:
+        number = float("nan")
+    if not (number > lowest if strictly else number >= lowest) or number == float("inf"):
+        wanted = f"a number {'>' if strictly else '>='} {lowest:g}"
+        raise argparse.ArgumentTypeError(f"expected {wanted}, got {value!r}")
+    return number
+
+
+def positive_float(value: str) -> float:
+    return float_at_least(value, 0.0, strictly=True)
+
+
+def non_negative_float(value: str) -> float:
+    return float_at_least(value, 0.0, strictly=False)
+
+
 def positive_int(value: str) -> int:
     return int_at_least(value, 1)
 

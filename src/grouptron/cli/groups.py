@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 from pathlib import Path
 
@@ -13,10 +14,13 @@ from grouptron.cli.common import (
     Parser,
     add_gap_option,
     add_recording_options,
+    non_negative_float,
+    positive_float,
     positive_int,
     read_track_table,
 )
 from grouptron.config import (
+    DETECTION_GROUPS,
     DataConfig,
     GroupConfig,
 )
@@ -33,9 +37,61 @@ from grouptron.viz.groups import plot_step_groups
 
 
 def _group_configs(args: argparse.Namespace) -> list[GroupConfig]:
-    linkages = LINKAGES if args.linkage == "all" else (args.linkage,)
+    """The grouping(s) asked for: the threshold rule (the default) or C(N), per linkage and
+    distance ('all' compares them)."""
+    base = DETECTION_GROUPS if args.rule == "threshold" else GroupConfig()
+    linkages = LINKAGES if args.linkage == "all" else (args.linkage or base.linkage,)
     distances = DISTANCE_KINDS if args.distance == "all" else (args.distance,)
-    return [GroupConfig(linkage=link, distance=dist) for link in linkages for dist in distances]
+    by_threshold = args.rule == "threshold"
+    return [
+        dataclasses.replace(
+            base,
+            linkage=link,
+            distance=dist,
+            max_distance_m=args.max_distance if by_threshold else None,
+            velocity_weight_s=args.velocity_weight if by_threshold else 0.0,
+        )
+        for link in linkages
+        for dist in distances
+    ]
+
+
+def _rule_options(parser: argparse.ArgumentParser, *, compare: bool) -> None:
+    """How people are grouped: the options of ``groups detect`` and ``groups evaluate``."""
+    every = " (all: compare them)" if compare else ""
+    parser.add_argument(
+        "--rule",
+        choices=("threshold", "count"),
+        default="threshold",
+        help="threshold: merge while groups are at most --max-distance apart (chosen on human "
+        "labels, docs/groups.md); count: the paper's C(N) = (N + 1) // 2 groups of N people",
+    )
+    parser.add_argument(
+        "--linkage",
+        choices=(*LINKAGES, "all") if compare else LINKAGES,
+        help=f"agglomerative linkage between clusters{every} (default: single for the "
+        "threshold rule, complete for count)",
+    )
+    parser.add_argument(
+        "--distance",
+        choices=(*DISTANCE_KINDS, "all") if compare else DISTANCE_KINDS,
+        default=GroupConfig().distance,
+        help="distance between two trajectories: Hausdorff, or its modified (quantile) form"
+        + every,
+    )
+    parser.add_argument(
+        "--max-distance",
+        type=positive_float,
+        default=DETECTION_GROUPS.max_distance_m,
+        help="metres: the threshold rule's cut",
+    )
+    parser.add_argument(
+        "--velocity-weight",
+        type=non_negative_float,
+        default=DETECTION_GROUPS.velocity_weight_s,
+        help="seconds: the threshold rule keeps people at least this times their velocity "
+        "difference apart (0: positions only)",
+    )
 
 
 def _track_scene(args: argparse.Namespace) -> Scene:
@@ -55,8 +111,11 @@ def cmd_groups_evaluate(args: argparse.Namespace) -> int:
             rows.append(
                 {
                     "scope": scope,
+                    "rule": "count" if config.max_distance_m is None else "threshold",
                     "linkage": config.linkage,
                     "distance": config.distance,
+                    "max_distance_m": config.max_distance_m,
+                    "velocity_weight_s": config.velocity_weight_s,
                     **values,
                 }
             )
@@ -67,14 +126,14 @@ def cmd_groups_evaluate(args: argparse.Namespace) -> int:
         print(json.dumps(document, indent=2))
         return 0
     header = (
-        f"{'scope':<9} {'linkage':<9} {'distance':<10} {'precision':>9} {'recall':>7} "
+        f"{'scope':<9} {'rule':<9} {'linkage':<9} {'distance':<10} {'precision':>9} {'recall':>7} "
         f"{'F1':>6} {'Dice':>6} {'decisions':>9}"
     )
     print(header)
     print("-" * len(header))
     for r in rows:
         print(
-            f"{r['scope']:<9} {r['linkage']:<9} {r['distance']:<10} "
+            f"{r['scope']:<9} {r['rule']:<9} {r['linkage']:<9} {r['distance']:<10} "
             f"{r['pair_precision']:>9.3f} {r['pair_recall']:>7.3f} {r['pair_f1']:>6.3f} "
             f"{r['dice']:>6.3f} {r['decisions']:>9}"
         )
@@ -83,7 +142,7 @@ def cmd_groups_evaluate(args: argparse.Namespace) -> int:
 
 def cmd_groups_detect(args: argparse.Namespace) -> int:
     scene = _track_scene(args)
-    config = GroupConfig(linkage=args.linkage, distance=args.distance)
+    (config,) = _group_configs(args)
     found = list(groups_per_step(scene, config))
     if not found:
         raise GrouptronError(
@@ -183,18 +242,7 @@ def _add_detect(group_commands: argparse._SubParsersAction) -> None:
     detect.add_argument("--out", help="CSV file (default: print to standard output)")
     detect.add_argument("--plot", help="PNG of one step's groups")
     detect.add_argument("--frame", type=int, help="frame to plot (default: the most crowded)")
-    detect.add_argument(
-        "--linkage",
-        choices=LINKAGES,
-        default=GroupConfig().linkage,
-        help="agglomerative linkage between clusters",
-    )
-    detect.add_argument(
-        "--distance",
-        choices=DISTANCE_KINDS,
-        default=GroupConfig().distance,
-        help="distance between two trajectories: Hausdorff, or its modified (quantile) form",
-    )
+    _rule_options(detect, compare=False)
     detect.set_defaults(handler=cmd_groups_detect)
 
 
@@ -217,18 +265,7 @@ def _add_evaluate(group_commands: argparse._SubParsersAction) -> None:
     _track_options(score)
     score.add_argument("--labels", required=True, help="group label file")
     score.add_argument("--id-map", help="CSV 'track_id,label_id' when the ids differ")
-    score.add_argument(
-        "--linkage",
-        choices=(*LINKAGES, "all"),
-        default=GroupConfig().linkage,
-        help="agglomerative linkage between clusters (all: compare them)",
-    )
-    score.add_argument(
-        "--distance",
-        choices=(*DISTANCE_KINDS, "all"),
-        default=GroupConfig().distance,
-        help="distance between two trajectories (all: compare them)",
-    )
+    _rule_options(score, compare=True)
     score.add_argument("--every", type=positive_int, default=1, help="score every k-th step")
     score.add_argument("--format", choices=("table", "json"), default="table", help="output format")
     score.set_defaults(handler=cmd_groups_evaluate)
