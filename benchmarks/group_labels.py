@@ -2,10 +2,14 @@
 
 Usage:
     python benchmarks/group_labels.py --labels-dir DIR [--data-dir DIR]
+    python benchmarks/group_labels.py --labels-dir DIR --sweep [--every 5]
 
 DIR holds eth/, hotel/, zara1/, zara2/ with a groups.txt each (ids as in the benchmark files).
-Every linkage and distance is scored with both scopes; prints Markdown tables (pairwise F1,
-precision, recall and Dice per recording, and the means used to choose the defaults).
+Every linkage and distance is scored with both scopes under the paper's C(N) rule; prints
+Markdown tables (pairwise F1, precision, recall and Dice per recording, and the means used to
+choose the defaults). ``--sweep`` scores the threshold rule instead, per-ego scope, over
+linkages, cut heights and velocity weights on every ``--every``-th step, then the best one and
+C(N) again on every step.
 """
 
 from __future__ import annotations
@@ -32,6 +36,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--labels-dir", required=True)
     parser.add_argument("--data-dir")
+    parser.add_argument("--sweep", action="store_true", help="the threshold rule's grid")
+    parser.add_argument("--every", type=int, default=5, help="sweep every k-th step")
     args = parser.parse_args()
     data_dir = resolve_data_dir(args.data_dir)
     scenes = {
@@ -40,6 +46,9 @@ def main() -> None:
     }
     labels = {name: read_group_labels(Path(args.labels_dir) / name / "groups.txt")
               for name in RECORDINGS}  # fmt: skip
+    if args.sweep:
+        sweep(scenes, labels, args.every)
+        return
     for scope in ("per_ego", "scene"):
         print(f"\n### scope `{scope}`\n")
         print("| linkage | distance | " + " | ".join(f"{n} F1 / Dice" for n in RECORDINGS)
@@ -55,6 +64,39 @@ def main() -> None:
                          for k in ("pair_f1", "dice", "pair_precision", "pair_recall")]  # fmt: skip
                 print(f"| {linkage} | {distance} | {cells} | "
                       + " | ".join(f"{m:.3f}" for m in means) + " |")  # fmt: skip
+
+
+def per_ego_means(scenes: dict, labels: dict, config: GroupConfig, every: int) -> list[float]:
+    """Per-recording per-ego pair F1, then the means of F1, precision and recall."""
+    scores = [score_against_labels(scenes[n], labels[n], config, every=every)["per_ego"]
+              for n in RECORDINGS]  # fmt: skip
+    f1 = [s["pair_f1"] for s in scores]
+    return [*f1, *(float(np.mean([s[k] for s in scores]))
+                   for k in ("pair_f1", "pair_precision", "pair_recall"))]  # fmt: skip
+
+
+def sweep(scenes: dict, labels: dict, every: int) -> None:
+    """The threshold rule's grid (every ``every``-th step), then the best and C(N) on all."""
+    print(f"\n### threshold rule, scope `per_ego`, every {every}th step\n")
+    print("| linkage | cut m | velocity weight s | " + " | ".join(f"{n} F1" for n in RECORDINGS)
+          + " | mean F1 | mean precision | mean recall |")  # fmt: skip
+    print("|---|---|---|" + "---|" * (len(RECORDINGS) + 3))
+    best: tuple[float, GroupConfig] | None = None
+    for linkage in LINKAGES:
+        for weight in (0.0, 1.0, 2.0, 3.0, 4.0):
+            for cut in (1.0, 1.25, 1.5, 1.75, 2.0, 2.5):
+                config = GroupConfig(linkage=linkage, max_distance_m=cut, velocity_weight_s=weight)
+                values = per_ego_means(scenes, labels, config, every)
+                print(f"| {linkage} | {cut} | {weight} | "
+                      + " | ".join(f"{v:.3f}" for v in values) + " |", flush=True)  # fmt: skip
+                if best is None or values[len(RECORDINGS)] > best[0]:
+                    best = (values[len(RECORDINGS)], config)
+    assert best is not None
+    print("\n### every step\n")
+    for name, config in (("best of the grid", best[1]), ("C(N), complete", GroupConfig())):
+        values = per_ego_means(scenes, labels, config, 1)
+        print(f"| {name}: {config.linkage}, {config.max_distance_m}, {config.velocity_weight_s} | "
+              + " | ".join(f"{v:.3f}" for v in values) + " |")  # fmt: skip
 
 
 if __name__ == "__main__":

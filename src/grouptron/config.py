@@ -151,10 +151,28 @@ class GroupEncoderConfig:
     group_adjacency: Literal["sym_norm", "laplacian"] = "sym_norm"
     """``sym_norm``: D^-1/2 (A + I) D^-1/2; ``laplacian``: Social-STGCNN's normalised
     Laplacian I - D^-1/2 A D^-1/2 (zero for a singleton group)."""
+    # Variants (defaults: the paper's encoders). Each is a switch of the one model.
+    temporal_layers: int = 1
+    """Temporal convolutions per ST-GCN block, the k-th dilated 2^(k-1): 1 (the paper's) sees
+    steps t-2..t at the last step; 3 see all 8 observed steps (receptive field 15)."""
+    scene_dropout_keep: float = 1.0
+    """Keep probability of dropout on E_scene (1: none, the paper's)."""
+    scene_layer_norm: bool = False
+    """Layer-normalise E_scene (it is 3-6x the magnitude of the other encodings otherwise)."""
+    ego_in_own_group: bool = True
+    """False: the ego's own group state E_g averages its other members only (alone: zeros),
+    so E_scene cannot be a second copy of the ego's motion."""
+    count_feature: bool = False
+    """Give the scene encoder log(1 + members) of every group and E_scene log(1 + groups):
+    the counts that mean aggregation removes (density)."""
 
     def __post_init__(self) -> None:
         if self.group_dim < 1:
             raise GrouptronError("group_encoder.group_dim must be >= 1")
+        if self.temporal_layers < 1:
+            raise GrouptronError("group_encoder.temporal_layers must be >= 1")
+        if not 0.0 < self.scene_dropout_keep <= 1.0:
+            raise GrouptronError("group_encoder.scene_dropout_keep must be in (0, 1]")
         if self.group_adjacency not in ("sym_norm", "laplacian"):
             raise GrouptronError("group_encoder.group_adjacency must be sym_norm or laplacian")
 

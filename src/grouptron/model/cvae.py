@@ -100,12 +100,16 @@ class TrajectronCVAE(nn.Module):
         self.initial_action = nn.Linear(c.state_dim, c.action_dim)
         self.gaussian_head = nn.Linear(c.decoder_hidden, 5)  # mu (2), log sigma (2), corr (1)
 
+    def extra_dropout_sizes(self) -> dict[str, int]:
+        """Dropout sites beyond the CVAE's (``noise.dropout_sizes``), drawn after them."""
+        return {}
+
     # --- encoders ---------------------------------------------------------------------------
 
     def _dropout(
         self, h: torch.Tensor, drawn: TrainingNoise | None, site: str, keep: float
     ) -> torch.Tensor:
-        uniforms = drawn.dropout[site] if drawn is not None else None
+        uniforms = drawn.dropout.get(site) if drawn is not None else None
         return noise.dropout(h, keep, self.training, uniforms)
 
     def encode_condition(self, batch: Batch, drawn: TrainingNoise | None = None) -> torch.Tensor:

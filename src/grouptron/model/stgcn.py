@@ -74,11 +74,13 @@ def temporal_conv(conv: nn.Conv1d, x: torch.Tensor) -> torch.Tensor:
     matrix product of each step's window: the same weights and result as ``conv`` on
     (N, D, T), several times faster for the short sequences and small batches of live
     forecasting, where the convolution library's per-call set-up dominates."""
-    kernel = conv.kernel_size[0]
-    pad = kernel // 2
+    kernel, dilation = conv.kernel_size[0], conv.dilation[0]
+    pad = dilation * (kernel // 2)
     T = x.shape[1]
     padded = nn.functional.pad(x, (0, 0, pad, pad))  # (N, T + 2 pad, D)
-    windows = torch.cat([padded[:, k : k + T] for k in range(kernel)], dim=-1)  # (N, T, k D)
+    windows = torch.cat(
+        [padded[:, k * dilation : k * dilation + T] for k in range(kernel)], dim=-1
+    )  # (N, T, k D)
     weight = conv.weight.permute(0, 2, 1).reshape(conv.out_channels, -1)  # (out, k D)
     return nn.functional.linear(windows, weight, conv.bias)
 
@@ -90,12 +92,27 @@ class STGCNBlock(nn.Module):
     and masked steps, which make batch statistics unreliable).
     """
 
-    def __init__(self, in_dim: int, out_dim: int, adjacency: Adjacency, kernel: int = 3):
+    def __init__(
+        self,
+        in_dim: int,
+        out_dim: int,
+        adjacency: Adjacency,
+        kernel: int = 3,
+        *,
+        temporal_layers: int = 1,
+    ):
         super().__init__()
         self.adjacency: Adjacency = adjacency
         self.spatial = nn.Linear(in_dim, out_dim)
         self.spatial_act = nn.PReLU()
         self.temporal = nn.Conv1d(out_dim, out_dim, kernel, padding=kernel // 2)
+        # Further temporal convolutions, dilated 2, 4, ...: the receptive field grows to all
+        # observed steps (none by default: the paper's block, and its checkpoints, unchanged).
+        self.more_temporal = nn.ModuleList(
+            nn.Conv1d(out_dim, out_dim, kernel, padding=2**k * (kernel // 2), dilation=2**k)
+            for k in range(1, temporal_layers)
+        )
+        self.more_act = nn.ModuleList(nn.PReLU() for _ in range(1, temporal_layers))
         self.residual = nn.Linear(in_dim, out_dim) if in_dim != out_dim else nn.Identity()
         self.out_act = nn.PReLU()
 
@@ -108,5 +125,8 @@ class STGCNBlock(nn.Module):
         )
         spatial = self.spatial_act(spatial)
         temporal = temporal_conv(self.temporal, spatial)  # conv over T
+        for conv, act in zip(self.more_temporal, self.more_act, strict=True):
+            assert isinstance(conv, nn.Conv1d)
+            temporal = temporal_conv(conv, act(temporal) * mask[..., None].to(temporal.dtype))
         out = self.out_act(temporal + self.residual(x))
         return out * mask[..., None].to(out.dtype)

@@ -131,7 +131,8 @@ def _train_step(
     angles = (
         draw_rotation_angles(state.rng, len(index)) if config.train.rotation_augmentation else None
     )
-    noise = draw_training_noise(len(index), config.model, config.data.horizon_steps)
+    extra = state.model.extra_dropout_sizes()
+    noise = draw_training_noise(len(index), config.model, config.data.horizon_steps, extra)
     mine = cluster.shard(len(index))  # this process's rows of the global batch
     rotation = None if angles is None else angles[mine]
     batch = make_batch(samples, index[mine], config.data, rotation, groups=groups).to(device)
