@@ -132,3 +132,26 @@ def test_variant_settings_are_checked() -> None:
     for bad in ({"temporal_layers": 0}, {"scene_dropout_keep": 0.0}):
         with pytest.raises(GrouptronError, match=next(iter(bad))):
             GroupEncoderConfig(**bad)  # type: ignore[arg-type]
+
+
+def test_every_screened_variant_is_a_valid_configuration(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """The screening campaign's switches are settings `grouptron config show` accepts."""
+    import importlib.util
+
+    from grouptron.cli import main
+    from tests.conftest import REPO
+
+    spec = importlib.util.spec_from_file_location("screen", REPO / "campaign" / "screen.py")
+    assert spec is not None and spec.loader is not None
+    screen = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(screen)
+    for model, switches in screen.VARIANTS.values():
+        argv = ["config", "show", "--model", model, "--split", "univ", "--changes"]
+        for switch in switches:
+            argv += ["--set", switch]
+        assert main(argv) == 0
+        shown = capsys.readouterr().out
+        for switch in switches:
+            assert switch.split("=")[0] in shown

@@ -1,0 +1,132 @@
+"""Screening of Grouptron's variants on validation data (causal protocol), resumable.
+
+Usage:
+    python campaign/screen.py [--splits univ,zara1] [--seeds 0,1,2] [--epochs 100]
+                              [--only VARIANT] [--out campaign/screen] [--threads 1] [--dry-run]
+    python campaign/screen.py --table [--out campaign/screen]
+
+Every (variant, split, seed) trains ``grouptron train --derivatives backward`` into
+``OUT/<variant>-<split>-s<seed>`` with the variant's ``--set`` switches, and is skipped once
+finished (its ``selection.json`` exists); a stopped run resumes. ``trajectron++`` and
+``grouptron`` (the paper's) are the references. ``--table`` prints, per split and variant, the
+validation ML FDE (the trainer's re-scoring of its best epochs on the whole validation part)
+of each seed, their mean, and the mean paired difference to Trajectron++ over the seeds both
+have. Only validation is looked at: test waits for the winner (issue "Make group information
+useful").
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+
+VARIANTS: dict[str, tuple[str, list[str]]] = {
+    "trajectron++": ("trajectron++", []),
+    "grouptron": ("grouptron", []),
+    "receptive": ("grouptron", ["group_encoder.temporal_layers=3"]),
+    "regularised": (
+        "grouptron",
+        ["group_encoder.scene_dropout_keep=0.75", "group_encoder.scene_layer_norm=true"],
+    ),
+    "ego-out": ("grouptron", ["group_encoder.ego_in_own_group=false"]),
+    "counts": ("grouptron", ["group_encoder.count_feature=true"]),
+    "threshold": (
+        "grouptron",
+        ["groups.linkage=single", "groups.max_distance_m=1.5", "groups.velocity_weight_s=2.0"],
+    ),
+    "all": (
+        "grouptron",
+        [
+            "group_encoder.temporal_layers=3",
+            "group_encoder.scene_dropout_keep=0.75",
+            "group_encoder.scene_layer_norm=true",
+            "group_encoder.ego_in_own_group=false",
+            "group_encoder.count_feature=true",
+            "groups.linkage=single",
+            "groups.max_distance_m=1.5",
+            "groups.velocity_weight_s=2.0",
+        ],
+    ),
+}
+"""name -> (model, --set switches). Each switch is a setting of the one model (docs)."""
+
+
+def train_command(variant: str, split: str, seed: int, args: argparse.Namespace) -> list[str]:
+    model, switches = VARIANTS[variant]
+    out = Path(args.out) / f"{variant}-{split}-s{seed}"
+    command = [sys.executable, "-m", "grouptron", "train", "--split", split, "--model", model]
+    command += ["--out", str(out), "--epochs", str(args.epochs), "--seed", str(seed)]
+    command += ["--derivatives", "backward", "--threads", str(args.threads), "--quiet"]
+    for switch in switches:
+        command += ["--set", switch]
+    return command + (["--resume"] if (out / "last.safetensors").exists() else [])
+
+
+def validation_fde(run: Path) -> float | None:
+    """The finished run's whole-validation ML FDE, or None while it runs."""
+    selection = run / "selection.json"
+    if not selection.exists():
+        return None
+    return float(json.loads(selection.read_text())["full_val_ml_fde"])
+
+
+def table(args: argparse.Namespace) -> None:
+    seeds = [int(s) for s in args.seeds.split(",")]
+    print("| split | variant | " + " | ".join(f"seed {s}" for s in seeds) + " | mean | "
+          "mean paired difference to Trajectron++ |")  # fmt: skip
+    print("|---|---|" + "---|" * (len(seeds) + 2))
+    for split in args.splits.split(","):
+        runs = {
+            (v, s): validation_fde(Path(args.out) / f"{v}-{split}-s{s}")
+            for v in VARIANTS
+            for s in seeds
+        }
+        for variant in VARIANTS:
+            values = [runs[variant, s] for s in seeds]
+            done = [v for v in values if v is not None]
+            paired = [
+                runs[variant, s] - runs["trajectron++", s]  # type: ignore[operator]
+                for s in seeds
+                if runs[variant, s] is not None and runs["trajectron++", s] is not None
+            ]
+            cells = " | ".join("-" if v is None else f"{v:.3f}" for v in values)
+            mean = f"{np.mean(done):.3f}" if done else "-"
+            diff = f"{np.mean(paired):+.3f} ({len(paired)} seeds)" if paired else "-"
+            print(f"| {split} | {variant} | {cells} | {mean} | {diff} |")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--splits", default="univ,zara1")
+    parser.add_argument("--seeds", default="0,1,2")
+    parser.add_argument("--epochs", type=int, default=100)
+    parser.add_argument("--only", help="run only this variant")
+    parser.add_argument("--out", default=str(REPO / "campaign" / "screen"))
+    parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument("--dry-run", action="store_true", help="print the commands only")
+    parser.add_argument("--table", action="store_true", help="print the validation table")
+    args = parser.parse_args()
+    if args.table:
+        table(args)
+        return
+    for seed in (int(s) for s in args.seeds.split(",")):  # seeds outer: early rows comparable
+        for split in args.splits.split(","):
+            for variant in VARIANTS if args.only is None else [args.only]:
+                run = Path(args.out) / f"{variant}-{split}-s{seed}"
+                if validation_fde(run) is not None:
+                    continue
+                command = train_command(variant, split, seed, args)
+                print(" ".join(command), flush=True)
+                if not args.dry_run:
+                    subprocess.run(command, check=True)
+
+
+if __name__ == "__main__":
+    main()
