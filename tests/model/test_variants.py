@@ -155,3 +155,39 @@ def test_every_screened_variant_is_a_valid_configuration(
         shown = capsys.readouterr().out
         for switch in switches:
             assert switch.split("=")[0] in shown
+
+
+@pytest.mark.slow
+def test_the_all_switches_variant_trains_and_evaluates_from_the_cli(
+    synthetic_data_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`grouptron train --set ...` with every switch on (threshold groups, cached by their
+    settings, included), then `evaluate` of its checkpoint: the card lists the switches."""
+    import json
+    import math
+
+    from grouptron.cli import main
+    from tests.test_cli import TINY_MODEL
+
+    config = tmp_path / "tiny.json"
+    config.write_text(json.dumps({"model": TINY_MODEL, "train": {"batch_size": 64}}))
+    out = tmp_path / "variant"
+    common = ["--data-dir", str(synthetic_data_dir), "--quiet"]
+    switches = [
+        "group_encoder.temporal_layers=3", "group_encoder.scene_dropout_keep=0.75",
+        "group_encoder.scene_layer_norm=true", "group_encoder.ego_in_own_group=false",
+        "group_encoder.count_feature=true", "groups.linkage=single",
+        "groups.max_distance_m=1.5", "groups.velocity_weight_s=2.0",
+    ]  # fmt: skip
+    argv = ["train", "--split", "eth", "--model", "grouptron", "--derivatives", "backward"]
+    argv += ["--epochs", "1", "--config", str(config), "--out", str(out)]
+    for switch in switches:
+        argv += ["--set", switch]
+    assert main([*argv, *common]) == 0
+    capsys.readouterr()
+    card = (out / "README.md").read_text()
+    assert "temporal_layers" in card and "max_distance_m" in card
+    evaluate = ["evaluate", "--checkpoint", str(out / "best.safetensors"), *common]
+    assert main([*evaluate, "--format", "json"]) == 0
+    (row,) = json.loads(capsys.readouterr().out)["results"]
+    assert row["model"] == "grouptron" and math.isfinite(row["fde"])
