@@ -23,8 +23,7 @@ from grouptron.cli.common import (
     warn_look_ahead,
 )
 from grouptron.data.ndjson import write_forecast_ndjson
-from grouptron.data.reader import TrackTable, read_tracks
-from grouptron.data.recording import RecordingFormat, read_resampled
+from grouptron.data.reader import TrackTable
 from grouptron.data.scene import build_scene
 from grouptron.errors import GrouptronError
 from grouptron.inference.forecast import Forecast
@@ -59,12 +58,8 @@ def cmd_predict(args: argparse.Namespace) -> int:
     model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
     warn_look_ahead(args.checkpoint, experiment.data.derivatives)
     torch.set_num_threads(args.threads)
-    if Path(args.tracks).suffix == ".ndjson":  # TrajNet++: its own layout and rate
-        table = read_resampled(Path(args.tracks), RecordingFormat(), experiment.data.dt_s)
-        frames_per_step = table.frames_per_step
-    else:
-        frames_per_step = args.frames_per_step or experiment.data.frames_per_step
-        table = read_tracks(args.tracks, frames_per_step, args.on_gap)
+    table = read_track_table(args, args.frames_per_step or experiment.data.frames_per_step)
+    frames_per_step = table.frames_per_step
     data = dataclasses.replace(experiment.data, frames_per_step=frames_per_step)
     experiment = dataclasses.replace(experiment, data=data)
     scene = build_scene(table, data, name=str(args.tracks))
@@ -199,7 +194,8 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     predict.add_argument(
         "--tracks",
         required=True,
-        help="a 'frame id x y' track file, or a TrajNet++ .ndjson file",
+        help="a 'frame id x y' track file, another layout (--columns, --fps, --units; resampled "
+        "to 0.4 s steps) or a TrajNet++ .ndjson file",
     )
     predict.add_argument(
         "--out",
@@ -228,6 +224,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         help="frames between steps 0.4 s apart (default: the checkpoint's, 10 for ETH/UCY)",
     )
     add_gap_option(predict)
+    add_recording_options(predict)
     add_threads_option(predict)
     add_device_option(predict)
     predict.add_argument("--quiet", action="store_true", help="no progress bar")
