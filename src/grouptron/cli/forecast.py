@@ -168,6 +168,7 @@ def _plot_panels(
     return panels
 
 
+# One flat list of options so that `--help` reads in the order a user needs them.
 def add_parser(commands: argparse._SubParsersAction) -> None:
     """Add the command and its options to the ``grouptron`` parser."""
     predict = commands.add_parser(
