@@ -8,11 +8,13 @@ Usage:
 Every (variant, split, seed) trains ``grouptron train --derivatives backward`` into
 ``OUT/<variant>-<split>-s<seed>`` with the variant's ``--set`` switches, and is skipped once
 finished (its ``selection.json`` exists); a stopped run resumes. ``trajectron++`` and
-``grouptron`` (the paper's) are the references. ``--table`` prints, per split and variant, the
-validation ML FDE (the trainer's re-scoring of its best epochs on the whole validation part)
-of each seed, their mean, and the mean paired difference to Trajectron++ over the seeds both
-have. Only validation is looked at: test waits for the winner (issue "Make group information
-useful").
+``grouptron`` (the paper's) are the references; where the checkpoint campaign (``run.py``)
+already trained the same run (``REFERENCES/<model>-<split>-backward[-s<seed>]``, identical
+configuration) it is read from there instead of trained twice. ``--table`` prints, per split
+and variant, the validation ML FDE (the trainer's re-scoring of its best epochs on the whole
+validation part) of each seed, their mean, and the mean paired difference to Trajectron++ over
+the seeds both have, and constant velocity's FDE on the same samples. Only validation is looked
+at: test waits for the winner.
 """
 
 from __future__ import annotations
@@ -69,6 +71,17 @@ def train_command(variant: str, split: str, seed: int, args: argparse.Namespace)
     return command + (["--resume"] if (out / "last.safetensors").exists() else [])
 
 
+def run_folder(variant: str, split: str, seed: int, args: argparse.Namespace) -> Path:
+    """Where the run lives: the campaign's copy of a reference run once finished, else OUT."""
+    model, switches = VARIANTS[variant]
+    if not switches:
+        name = f"{model}-{split}-backward" + (f"-s{seed}" if seed else "")
+        reference = Path(args.references) / name
+        if (reference / "selection.json").exists():
+            return reference
+    return Path(args.out) / f"{variant}-{split}-s{seed}"
+
+
 def validation_fde(run: Path) -> float | None:
     """The finished run's whole-validation ML FDE, or None while it runs."""
     selection = run / "selection.json"
@@ -84,9 +97,7 @@ def table(args: argparse.Namespace) -> None:
     print("|---|---|" + "---|" * (len(seeds) + 2))
     for split in args.splits.split(","):
         runs = {
-            (v, s): validation_fde(Path(args.out) / f"{v}-{split}-s{s}")
-            for v in VARIANTS
-            for s in seeds
+            (v, s): validation_fde(run_folder(v, split, s, args)) for v in VARIANTS for s in seeds
         }
         for variant in VARIANTS:
             values = [runs[variant, s] for s in seeds]
@@ -100,6 +111,14 @@ def table(args: argparse.Namespace) -> None:
             mean = f"{np.mean(done):.3f}" if done else "-"
             diff = f"{np.mean(paired):+.3f} ({len(paired)} seeds)" if paired else "-"
             print(f"| {split} | {variant} | {cells} | {mean} | {diff} |")
+        cv = [
+            json.loads((run / "selection.json").read_text())["full_val_cv_fde"]
+            for run in (run_folder(v, split, s, args) for v in VARIANTS for s in seeds)
+            if (run / "selection.json").exists()
+        ]
+        if cv:  # the same validation samples for every run of a split
+            print(f"| {split} | constant velocity | " + " | ".join(["-"] * len(seeds))
+                  + f" | {cv[0]:.3f} | - |")  # fmt: skip
 
 
 def main() -> None:
@@ -110,6 +129,11 @@ def main() -> None:
     parser.add_argument("--only", help="run only this variant")
     parser.add_argument("--out", default=str(REPO / "campaign" / "screen"))
     parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument(
+        "--references",
+        default=str(REPO / "campaign" / "runs"),
+        help="the checkpoint campaign's runs, reused for the reference variants",
+    )
     parser.add_argument("--dry-run", action="store_true", help="print the commands only")
     parser.add_argument("--table", action="store_true", help="print the validation table")
     args = parser.parse_args()
@@ -119,8 +143,7 @@ def main() -> None:
     for seed in (int(s) for s in args.seeds.split(",")):  # seeds outer: early rows comparable
         for split in args.splits.split(","):
             for variant in VARIANTS if args.only is None else [args.only]:
-                run = Path(args.out) / f"{variant}-{split}-s{seed}"
-                if validation_fde(run) is not None:
+                if validation_fde(run_folder(variant, split, seed, args)) is not None:
                     continue
                 command = train_command(variant, split, seed, args)
                 print(" ".join(command), flush=True)
