@@ -29,6 +29,19 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 
+ALL_GROUP_SWITCHES = [
+    "group_encoder.temporal_layers=3",
+    "group_encoder.scene_dropout_keep=0.75",
+    "group_encoder.scene_layer_norm=true",
+    "group_encoder.ego_in_own_group=false",
+    "group_encoder.count_feature=true",
+    "groups.linkage=single",
+    "groups.max_distance_m=1.5",
+    "groups.velocity_weight_s=2.0",
+]
+MEAN_EDGES = ["model.edge_aggregation=mean", "model.edge_count_feature=true"]
+"""The edge encoder's density-robust aggregation (both models have it)."""
+
 VARIANTS: dict[str, tuple[str, list[str]]] = {
     "trajectron++": ("trajectron++", []),
     "grouptron": ("grouptron", []),
@@ -43,19 +56,10 @@ VARIANTS: dict[str, tuple[str, list[str]]] = {
         "grouptron",
         ["groups.linkage=single", "groups.max_distance_m=1.5", "groups.velocity_weight_s=2.0"],
     ),
-    "all": (
-        "grouptron",
-        [
-            "group_encoder.temporal_layers=3",
-            "group_encoder.scene_dropout_keep=0.75",
-            "group_encoder.scene_layer_norm=true",
-            "group_encoder.ego_in_own_group=false",
-            "group_encoder.count_feature=true",
-            "groups.linkage=single",
-            "groups.max_distance_m=1.5",
-            "groups.velocity_weight_s=2.0",
-        ],
-    ),
+    "all": ("grouptron", ALL_GROUP_SWITCHES),
+    "mean-edges": ("grouptron", MEAN_EDGES),
+    "robust": ("grouptron", ALL_GROUP_SWITCHES + MEAN_EDGES),
+    "trajectron++-mean": ("trajectron++", MEAN_EDGES),
 }
 """name -> (model, --set switches). Each switch is a setting of the one model (docs)."""
 

@@ -119,6 +119,13 @@ class ModelConfig:
     p_z_hidden: int = 32
     decoder_hidden: int = 128
     use_edges: bool = True
+    edge_aggregation: Literal["sum", "mean"] = "sum"
+    """How the edge encoder combines the neighbours' states at each step: ``sum`` (the
+    reference; grows with the crowd, so a dense crowd lies outside the training range) or
+    ``mean`` over the neighbours observed at that step (density-robust)."""
+    edge_count_feature: bool = False
+    """Append log(1 + neighbours observed) per step to the edge encoder's input, so that a
+    ``mean`` keeps the density information a sum carried."""
     rnn_dropout_keep: float = 0.75
     mlp_dropout_keep: float = 0.9
     log_sigma_min: float = -10.0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -11,6 +12,7 @@ import pytest
 import torch
 
 from grouptron.cli import main
+from grouptron.config import DataConfig, ExperimentConfig, GroupEncoderConfig
 from grouptron.data.reader import table_from_values
 from grouptron.data.samples import scene_samples
 from grouptron.data.scene import build_scene
@@ -25,7 +27,10 @@ from grouptron.inference.predictor import resolve_checkpoint
 from grouptron.inference.tracks import groups_for_model
 from grouptron.model.batch import make_batch
 from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.factory import build_model
 from tests.golden.compute import synthetic_tracks
+from tests.model.test_cvae import SMALL
 
 onnx = pytest.importorskip("onnx")
 pytest.importorskip("onnxruntime")
@@ -43,14 +48,31 @@ def _batch_inputs(network: ForecastNetwork) -> dict[str, torch.Tensor]:
     batch = make_batch(
         samples, np.arange(len(samples)), data, groups=groups_for_model(samples, config)
     )
-    inputs = batch_inputs(batch, network.uses_groups)
+    inputs = batch_inputs(batch, network.config)
     return dict(zip(network.input_names, inputs, strict=True))
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["trajectron++-univ-backward", "grouptron-univ-backward"])
 def test_onnxruntime_equals_pytorch_on_a_shipped_checkpoint(name: str, tmp_path: Path) -> None:
-    model, config = load_trained_model(resolve_checkpoint(name))
+    _check_export(*load_trained_model(resolve_checkpoint(name)), tmp_path)
+
+
+@pytest.mark.slow
+def test_a_model_with_mean_edges_and_counts_exports_its_extra_input(tmp_path: Path) -> None:
+    config = ExperimentConfig(
+        model_name="grouptron",
+        split="eth",
+        model=dataclasses.replace(SMALL, edge_aggregation="mean", edge_count_feature=True),
+        group_encoder=GroupEncoderConfig(group_dim=4),
+        data=DataConfig(derivatives="backward"),
+    )
+    torch.manual_seed(0)
+    names = _check_export(build_model(config).eval(), config, tmp_path)
+    assert names[-1] == "nbr_count"
+
+
+def _check_export(model: TrajectronCVAE, config: ExperimentConfig, tmp_path: Path) -> list[str]:
     out = tmp_path / "model.onnx"
     names = export_onnx(model, config, out)
     network = ForecastNetwork(model, config)
@@ -69,6 +91,7 @@ def test_onnxruntime_equals_pytorch_on_a_shipped_checkpoint(name: str, tmp_path:
     assert meta["grouptron.model"] == config.model_name
     assert json.loads(meta["grouptron.inputs"]) == names
     assert json.loads(meta["grouptron.state_scale"]) == list(config.data.state_scale)
+    return names
 
 
 def test_export_without_the_extra_is_one_clear_error(

@@ -33,7 +33,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     if args.no_check:
         return 0
     network = ForecastNetwork(model, config)
-    inputs = batch_inputs(example_batch(config), network.uses_groups)
+    inputs = batch_inputs(example_batch(config), config)
     with torch.inference_mode():
         expected = [o.numpy() for o in network(*inputs)]
     got = run_onnx(out, {n: t.numpy() for n, t in zip(names, inputs, strict=True)})

@@ -35,6 +35,7 @@ from grouptron.model.predict import decode_every_latent
 
 EXPORT_FORMATS = ("onnx",)
 BASE_INPUTS = ("hist_st", "hist_mask", "nbr_sum_st", "edge_scale")
+COUNT_INPUTS = ("nbr_count",)
 GROUP_INPUTS = ("node_st", "node_mask", "node_group", "group_sample", "ego_group")
 OUTPUTS = ("log_weights", "position_mean_m", "position_cov_m2")
 ONNX_OPSET = 18
@@ -47,7 +48,9 @@ class ForecastNetwork(nn.Module):
     Inputs: ``hist_st`` (B, T, 6) float32, ``hist_mask`` (B, T) bool, ``nbr_sum_st`` (B, T, 6)
     float32, ``edge_scale`` (B,) float32; Grouptron also ``node_st`` (Nn, T, 6) float32,
     ``node_mask`` (Nn, T) bool, ``node_group`` (Nn,) int64, ``group_sample`` (G,) int64,
-    ``ego_group`` (B,) int64 (the fields of :class:`~grouptron.model.batch.Batch`).
+    ``ego_group`` (B,) int64; a model with the ``mean`` edge aggregation or the count
+    feature also ``nbr_count`` (B, T) float32, last (the fields of
+    :class:`~grouptron.model.batch.Batch`).
 
     Outputs: ``log_weights`` (B, Z) log p(z|x); ``position_mean_m`` (B, Z, H, 2) each latent
     value's mean positions relative to the position at ``t``, metres; ``position_cov_m2``
@@ -61,15 +64,22 @@ class ForecastNetwork(nn.Module):
         self.horizon = config.data.horizon_steps
         self.dt_s = config.data.dt_s
         self.uses_groups = uses_groups(config)
+        self.uses_count = uses_neighbour_count(config)
 
     @property
     def input_names(self) -> tuple[str, ...]:
-        return BASE_INPUTS + (GROUP_INPUTS if self.uses_groups else ())
+        return self.names_for(self.config)
+
+    @staticmethod
+    def names_for(config: ExperimentConfig) -> tuple[str, ...]:
+        names = BASE_INPUTS + (GROUP_INPUTS if uses_groups(config) else ())
+        return names + (COUNT_INPUTS if uses_neighbour_count(config) else ())
 
     def forward(self, *inputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         hist_st, hist_mask, nbr_sum_st, edge_scale = inputs[:4]
-        groups = GroupBatch(*inputs[4:]) if self.uses_groups else None
-        batch = Batch(hist_st, hist_mask, nbr_sum_st, edge_scale, hist_st, hist_st, groups)
+        groups = GroupBatch(*inputs[4:9]) if self.uses_groups else None
+        count = inputs[-1] if self.uses_count else None
+        batch = Batch(hist_st, hist_mask, nbr_sum_st, edge_scale, hist_st, hist_st, groups, count)
         encoding, velocity = decode_every_latent(self.model, batch, self.horizon)
         cov = position_covariances(velocity.cov, self.dt_s)  # (B, Z, H, 3)
         return (
@@ -79,15 +89,29 @@ class ForecastNetwork(nn.Module):
         )
 
 
-def batch_inputs(batch: Batch, uses_groups: bool) -> tuple[torch.Tensor, ...]:
+def uses_neighbour_count(config: ExperimentConfig) -> bool:
+    """Whether the network reads ``nbr_count`` (the mean edge aggregation or count feature)."""
+    return config.model.edge_aggregation != "sum" or config.model.edge_count_feature
+
+
+def batch_inputs(batch: Batch, config: ExperimentConfig) -> tuple[torch.Tensor, ...]:
     """The network's inputs from a batch, in the order of ``ForecastNetwork.input_names``."""
-    inputs = (batch.hist_st, batch.hist_mask, batch.nbr_sum_st, batch.edge_scale)
-    if not uses_groups:
-        return inputs
-    if batch.groups is None:
-        raise GrouptronError("a Grouptron network needs a batch with groups")
-    g = batch.groups
-    return (*inputs, g.node_st, g.node_mask, g.node_group, g.group_sample, g.ego_group)
+    inputs: tuple[torch.Tensor, ...] = (
+        batch.hist_st,
+        batch.hist_mask,
+        batch.nbr_sum_st,
+        batch.edge_scale,
+    )
+    if uses_groups(config):
+        if batch.groups is None:
+            raise GrouptronError("a Grouptron network needs a batch with groups")
+        g = batch.groups
+        inputs += (g.node_st, g.node_mask, g.node_group, g.group_sample, g.ego_group)
+    if uses_neighbour_count(config):
+        if batch.nbr_count is None:
+            raise GrouptronError("this network needs a batch with nbr_count")
+        inputs += (batch.nbr_count,)
+    return inputs
 
 
 def example_batch(config: ExperimentConfig) -> Batch:
@@ -119,9 +143,11 @@ def export_onnx(model: TrajectronCVAE, config: ExperimentConfig, out: Path) -> l
             "export needs onnx and onnxscript: pip install 'grouptron[export]'"
         ) from None
     network = ForecastNetwork(model, config)
-    inputs = batch_inputs(example_batch(config), network.uses_groups)
+    inputs = batch_inputs(example_batch(config), config)
     samples = torch.export.Dim("samples")
-    dims: dict[str, dict[int, torch.export.Dim]] = {n: {0: samples} for n in BASE_INPUTS}
+    dims: dict[str, dict[int, torch.export.Dim]] = {
+        n: {0: samples} for n in BASE_INPUTS + COUNT_INPUTS
+    }
     if network.uses_groups:
         nodes, groups = torch.export.Dim("nodes"), torch.export.Dim("groups")
         dims |= {"node_st": {0: nodes}, "node_mask": {0: nodes}, "node_group": {0: nodes}}
@@ -164,9 +190,7 @@ def contract_metadata(config: ExperimentConfig) -> dict[str, str]:
         "grouptron.state_scale": json.dumps(list(data.state_scale)),
         "grouptron.perception_radius_m": repr(data.perception_radius_m),
         "grouptron.edge_ramp_weights": json.dumps(list(data.edge_ramp_weights)),
-        "grouptron.inputs": json.dumps(
-            list(BASE_INPUTS + (GROUP_INPUTS if uses_groups(config) else ()))
-        ),
+        "grouptron.inputs": json.dumps(list(ForecastNetwork.names_for(config))),
         "grouptron.outputs": json.dumps(list(OUTPUTS)),
     }
 

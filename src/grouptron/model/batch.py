@@ -10,7 +10,7 @@ import numpy as np
 import torch
 
 from grouptron.config import DataConfig, ExperimentConfig
-from grouptron.data.samples import SampleSet, edge_rows, ego_first_layout
+from grouptron.data.samples import SampleSet, edge_rows, ego_first_layout, segment_sums
 from grouptron.geometry import rotate_rows, rotation_matrix
 from grouptron.groups.assign import SampleGroups
 
@@ -91,6 +91,9 @@ class Batch:
         fut_rel_m: (B, H, 2) future positions relative to the current one, metres.
         fut_st: (B, H, 2) the same divided by the future scale (future encoder input).
         groups: the nodes and groups for Grouptron's encoders, or None.
+        nbr_count: (B, T) neighbours observed at each history step, 0 where the ego is
+            masked (the ``mean`` edge aggregation and the count feature); None for batches
+            built by hand for models that read neither.
     """
 
     hist_st: torch.Tensor
@@ -100,6 +103,7 @@ class Batch:
     fut_rel_m: torch.Tensor
     fut_st: torch.Tensor
     groups: GroupBatch | None = None
+    nbr_count: torch.Tensor | None = None
 
     def __len__(self) -> int:
         return self.hist_st.shape[0]
@@ -144,6 +148,9 @@ def make_batch(
         nbr_sum_st = rotate_rows(nbr_sum_st, rotation)
         fut_rel_m = rotate_rows(fut_rel_m, rotation)
     fut = torch.from_numpy(np.ascontiguousarray(fut_rel_m))
+    edges, counts = edge_rows(samples.nbr_offsets, index)  # (E_b,), (B,)
+    offsets = np.concatenate([[0], np.cumsum(counts)])
+    nbr_count = segment_sums(samples.nbr_hist_mask[edges], offsets) * samples.hist_mask[index]
     return Batch(
         hist_st=torch.from_numpy(np.ascontiguousarray(hist_st)),
         hist_mask=torch.from_numpy(samples.hist_mask[index]),
@@ -156,6 +163,7 @@ def make_batch(
             if groups is not None
             else None
         ),
+        nbr_count=torch.from_numpy(nbr_count.astype(np.float32)),
     )
 
 

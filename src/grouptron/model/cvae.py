@@ -14,6 +14,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from grouptron.config import ModelConfig
+from grouptron.errors import GrouptronError
 from grouptron.model import gaussians, noise
 from grouptron.model.batch import Batch
 from grouptron.model.layers import HoistedGRUDecoder, run_masked_lstm
@@ -81,7 +82,8 @@ class TrajectronCVAE(nn.Module):
         self.config = config
         c = config
         self.history_encoder = nn.LSTMCell(c.state_dim, c.history_hidden)
-        self.edge_encoder = nn.LSTMCell(2 * c.state_dim, c.edge_hidden) if c.use_edges else None
+        edge_input_dim = 2 * c.state_dim + int(c.edge_count_feature)
+        self.edge_encoder = nn.LSTMCell(edge_input_dim, c.edge_hidden) if c.use_edges else None
         self.condition_dim = c.history_hidden + (c.edge_hidden if c.use_edges else 0)
         self.base_condition_dim = self.condition_dim  # Trajectron++'s [edge; history]
         self.condition_dim += extra_condition_dim
@@ -124,14 +126,27 @@ class TrajectronCVAE(nn.Module):
         )
         if self.edge_encoder is None:
             return history
-        joint = torch.cat([batch.nbr_sum_st, batch.hist_st], dim=-1)  # (B, T, 12)
-        edge = run_masked_lstm(self.edge_encoder, joint, batch.hist_mask)
+        edge = run_masked_lstm(self.edge_encoder, self._edge_input(batch), batch.hist_mask)
         edge = self._dropout(edge, drawn, "edge", keep)
         edge = edge * batch.edge_scale[:, None]
         # The reference combines edge types by attention and applies dropout again; with the
         # single pedestrian-pedestrian edge type the attention is the identity.
         edge = self._dropout(edge, drawn, "edge_combined", keep)
         return torch.cat([edge, history], dim=-1)
+
+    def _edge_input(self, batch: Batch) -> torch.Tensor:
+        """(B, T, 12) ``[neighbours; ego]`` (13 with the count feature)."""
+        c = self.config
+        if c.edge_aggregation == "sum" and not c.edge_count_feature:
+            return torch.cat([batch.nbr_sum_st, batch.hist_st], dim=-1)
+        if batch.nbr_count is None:
+            raise GrouptronError("this model needs batches with nbr_count (make_batch)")
+        count = batch.nbr_count[..., None]  # (B, T, 1)
+        neighbours = batch.nbr_sum_st
+        if c.edge_aggregation == "mean":
+            neighbours = neighbours / count.clamp(min=1.0)
+        parts = [neighbours, batch.hist_st]
+        return torch.cat([*parts, torch.log1p(count)] if c.edge_count_feature else parts, -1)
 
     def encode_future(self, batch: Batch, drawn: TrainingNoise | None = None) -> torch.Tensor:
         """(B, 4*future_hidden) final states of the bi-LSTM over the standardised future."""

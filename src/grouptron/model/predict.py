@@ -25,7 +25,10 @@ def encode_prior(model: TrajectronCVAE, batch: Batch, ablate: Ablation = ()) -> 
     if unknown:
         raise GrouptronError(f"unknown ablation {', '.join(unknown)}; choose from {ABLATIONS}")
     if "edges" in ablate:
-        batch = dataclasses.replace(batch, nbr_sum_st=torch.zeros_like(batch.nbr_sum_st))
+        count = None if batch.nbr_count is None else torch.zeros_like(batch.nbr_count)
+        batch = dataclasses.replace(
+            batch, nbr_sum_st=torch.zeros_like(batch.nbr_sum_st), nbr_count=count
+        )
     x = model.encode_condition(batch)  # (B, Dx)
     if "scene" in ablate:
         width = model.condition_dim - model.base_condition_dim  # E_scene's, last in x
