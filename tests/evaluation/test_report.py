@@ -21,6 +21,7 @@ from grouptron.evaluation.report import (
     evaluate_checkpoint,
     find_checkpoints,
     nll_subsample,
+    score_checkpoint,
 )
 from grouptron.evaluation.report_stats import Report, build_report
 from grouptron.evaluation.report_tables import report_markdown
@@ -122,7 +123,48 @@ def test_report_statistics_on_hand_made_scores() -> None:
     assert spreads["grouptron - trajectron++"].fde == pytest.approx((0.0, 0.1))
     loaded = json.loads(report.to_json())
     assert loaded["seeds"][0]["fde_sd"] == pytest.approx(0.1 / np.sqrt(2))
-    assert set(loaded) == {"results", "paired", "seeds"}
+    assert set(loaded) == {"results", "paired", "seeds", "density", "ablations"}
+    assert loaded["density"] == [] and loaded["ablations"] == []  # no --diagnostics
+
+
+def test_density_and_ablation_tables_on_hand_made_scores() -> None:
+    steps = np.repeat(np.arange(20), 5)
+    base = np.linspace(0.5, 1.5, 100)
+    sparse = np.arange(100) < 40
+    bins = {"neighbours 0": sparse, "neighbours 1-2": ~sparse}
+    # The model beats constant velocity by 0.1 m when alone, loses by 0.2 m in company.
+    model = _run("trajectron++", 0, np.where(sparse, base - 0.1, base + 0.2), steps)
+    no_edges = SampleScores("ml", base, model.scores["ml"].fde + 0.05, base)
+    model = dataclasses.replace(model, density=bins, ablated={"edges": no_edges})
+    report = build_report([_run("constant-velocity", 0, base, steps), model], ("backward",))
+    density = {r.bin: r for r in report.density}
+    assert density["neighbours 0"].samples == 40
+    assert density["neighbours 0"].difference.mean == pytest.approx(-0.1)
+    assert density["neighbours 1-2"].difference.low == pytest.approx(0.2)
+    (ablation,) = report.ablations
+    assert (ablation.ablation, ablation.split) == ("edges", "eth")
+    assert ablation.difference.mean == pytest.approx(0.05)
+    text = report_markdown(report, ("backward",), "grouptron report --diagnostics")
+    assert (
+        "| Trajectron++ | backward | -0.100 [-0.100, -0.100]* | +0.200 [+0.200, +0.200]* |" in text
+    )
+    assert "neighbours 1-2 (60)" in text
+    assert "| Trajectron++ | backward | edges | +0.050 [+0.050, +0.050]*" in text
+
+
+def test_report_diagnostics_score_each_input_a_model_has(
+    tiny_checkpoints: Path, synthetic_data_dir: Path
+) -> None:
+    path = tiny_checkpoints / "grouptron-eth-central/best.safetensors"
+    entry = ReportCheckpoint("grouptron", "eth", "central", path)
+    settings = ReportSettings(modes=("ml",), diagnostics=True)
+    run = score_checkpoint(entry, synthetic_data_dir, settings)
+    assert set(run.ablated) == {"edges", "scene"}
+    assert not np.allclose(run.ablated["scene"].fde, run.scores["ml"].fde)
+    covered = np.sum([mask for mask in run.density.values()], axis=0)
+    assert (covered == 1).all()  # every sample in exactly one density bin
+    with pytest.raises(GrouptronError, match="ml mode"):
+        ReportSettings(modes=("best-of-20",), diagnostics=True)
 
 
 def _row(model: str, split: str, fde: float, ade: float, subset: str | None = None):

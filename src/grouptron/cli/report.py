@@ -43,6 +43,8 @@ def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
         parts.append(f"--checkpoints {args.checkpoints}")
     if args.seed:
         parts.append(f"--seed {args.seed}")
+    if args.diagnostics:
+        parts.append("--diagnostics")
     if args.out:
         parts.append(f"--out {args.out}")
     return " ".join(parts)
@@ -94,6 +96,7 @@ def cmd_report(args: argparse.Namespace) -> int:
         seed=args.seed,
         nll_max_samples=args.nll_max_samples,
         use_cache=not args.no_cache,
+        diagnostics=args.diagnostics,
     )
     data_dir = resolve_data_dir(args.data_dir)
     checkpoints = find_checkpoints(Path(args.checkpoints), schemes)
@@ -163,6 +166,13 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--format", choices=("markdown", "json"), default="markdown", help="output format"
     )
     report.add_argument("--seed", type=int, default=0, help="seed of the sampling modes")
+    report.add_argument(
+        "--diagnostics",
+        action="store_true",
+        help="also the density table (model minus constant velocity by neighbours within "
+        "3 m) and the ablation table (edges, scene inputs taken away); needs the ml mode and "
+        "one more ML pass per input a model has",
+    )
     add_threads_option(report)
     report.add_argument("--quiet", action="store_true", help="no progress output")
     add_data_options(report, derivatives=False)

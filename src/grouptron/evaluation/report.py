@@ -20,10 +20,16 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.config import DataConfig
+from grouptron.config import DataConfig, ExperimentConfig
 from grouptron.constants import SPLITS, UNIV_N_PAPER
 from grouptron.data.samples import SampleSet
-from grouptron.data.subsets import UNIV_N_DEFINITIONS, UnivN, time_step_ids, univ_n_mask
+from grouptron.data.subsets import (
+    UNIV_N_DEFINITIONS,
+    UnivN,
+    density_masks,
+    time_step_ids,
+    univ_n_mask,
+)
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import (
     MODES,
@@ -38,6 +44,7 @@ from grouptron.evaluation.test_sets import load_test_set, subset_with_groups
 from grouptron.geometry import DerivativeScheme
 from grouptron.model.checkpoint import load_checkpoint, load_trained_model
 from grouptron.model.factory import MODEL_NAMES, uses_groups
+from grouptron.model.predict import ABLATIONS
 
 log = logging.getLogger(__name__)
 
@@ -54,11 +61,16 @@ class ReportSettings:
     test samples of all checkpoints, minutes for 300 per split)."""
     batch_size: int = 256
     use_cache: bool = True
+    diagnostics: bool = False
+    """Also score by density and with each input taken away (``evaluation.diagnostics``):
+    one more ML pass per ablation a model has."""
 
     def __post_init__(self) -> None:
         unknown = [m for m in self.modes if m not in MODES]
         if unknown or not self.modes:
             raise GrouptronError(f"unknown report modes {unknown}; choose from {MODES}")
+        if self.diagnostics and "ml" not in self.modes:
+            raise GrouptronError("the density and ablation tables need the ml mode")
         if self.nll_max_samples < 0:
             raise GrouptronError("the NLL sample cap must be >= 0 (0 means all samples)")
 
@@ -212,7 +224,28 @@ def score_checkpoint(
         )
         rows += _rows(scores, masks, keep, template)
         by_mode["nll"] = scores
-    return ScoredRun(entry, time_step_ids(samples), masks, by_mode, keep, rows)
+    run = ScoredRun(entry, time_step_ids(samples), masks, by_mode, keep, rows)
+    if not settings.diagnostics:
+        return run
+    ablated = {}
+    for ablation in model_ablations(experiment):
+        (ablated[ablation],) = score_samples(
+            model,
+            experiment,
+            samples,
+            ("ml",),
+            batch_size=batch,
+            progress=progress,
+            groups=groups,
+            ablate=(ablation,),
+        )
+    return dataclasses.replace(run, density=density_masks(samples), ablated=ablated)
+
+
+def model_ablations(experiment: ExperimentConfig) -> tuple[str, ...]:
+    """The inputs of ``ABLATIONS`` this model has."""
+    has = {"edges": experiment.model.use_edges, "scene": uses_groups(experiment)}
+    return tuple(a for a in ABLATIONS if has[a])
 
 
 def evaluate_checkpoint(
@@ -285,7 +318,9 @@ def run_report(
                 file=sys.stderr,
                 flush=True,
             )
-        run_settings = settings if primary else dataclasses.replace(settings, modes=("ml",))
+        run_settings = (
+            settings if primary else dataclasses.replace(settings, modes=("ml",), diagnostics=False)
+        )
         with torch.inference_mode():
             runs.append(score_checkpoint(entry, data_dir, run_settings, progress))
     return build_report(runs, schemes)

@@ -17,6 +17,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from grouptron.constants import SPLITS
+from grouptron.evaluation.diagnostics import (
+    AblationRow,
+    DensityRow,
+    ablation_rows,
+    density_rows,
+)
 from grouptron.evaluation.results import MEAN_ROW, EvaluationResult, mean_over_splits
 from grouptron.evaluation.scored import CONSTANT_VELOCITY, ScoredRun
 from grouptron.evaluation.uncertainty import (
@@ -84,6 +90,8 @@ class Report:
     rows: list[EvaluationResult]
     paired: list[PairedDifference]
     seeds: list[SeedSpread]
+    density: list[DensityRow] = dataclasses.field(default_factory=list)
+    ablations: list[AblationRow] = dataclasses.field(default_factory=list)
 
     def to_json(self) -> str:
         return json.dumps(
@@ -91,6 +99,8 @@ class Report:
                 "results": [r.to_dict() for r in self.rows],
                 "paired": [p.to_dict() for p in self.paired],
                 "seeds": [s.to_dict() for s in self.seeds],
+                "density": [d.to_dict() for d in self.density],
+                "ablations": [a.to_dict() for a in self.ablations],
             },
             indent=2,
         )
@@ -293,4 +303,6 @@ def build_report(runs: Sequence[ScoredRun], schemes: Sequence[str]) -> Report:
         rows=with_intervals(rows, primary),
         paired=paired_differences(primary, columns),
         seeds=seed_spreads(runs, columns),
+        density=density_rows(list(primary.values())),
+        ablations=ablation_rows(list(primary.values())),
     )

@@ -3,7 +3,7 @@ per-sample scores (kept for intervals and paired differences)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +37,8 @@ class ScoredRun:
         scores: per-sample scores by mode; the ``nll`` scores cover only ``nll_within``.
         nll_within: (S,) mask of the NLL subsample, or None.
         rows: the mean rows of every mode and subset.
+        density: (S,) masks of the density bins (report diagnostics), or empty.
+        ablated: ML scores with an input taken away, by ablation (report diagnostics).
     """
 
     entry: ReportCheckpoint
@@ -45,3 +47,5 @@ class ScoredRun:
     scores: dict[str, SampleScores]
     nll_within: np.ndarray | None
     rows: list[EvaluationResult]
+    density: dict[str, np.ndarray] = field(default_factory=dict)
+    ablated: dict[str, SampleScores] = field(default_factory=dict)
