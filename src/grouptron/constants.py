@@ -27,6 +27,10 @@ SPLITS: Final = ("eth", "hotel", "univ", "zara1", "zara2")
 
 PARTS: Final = ("train", "val", "test")
 
+ALL_LOCATIONS: Final = "all-locations"
+"""A training-only split: the train and val parts of all five locations, nothing held out (a
+model for use, never for benchmark tables; its best weights are the final epoch's)."""
+
 EXPECTED_TEST_SAMPLES: Final = {
     "eth": 364,
     "hotel": 1197,

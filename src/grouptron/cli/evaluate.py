@@ -25,7 +25,7 @@ from grouptron.config import (
     DataConfig,
     ExperimentConfig,
 )
-from grouptron.constants import SPLITS
+from grouptron.constants import ALL_LOCATIONS, SPLITS
 from grouptron.data.custom import load_dataset_part, read_dataset
 from grouptron.data.locate import resolve_data_dir
 from grouptron.data.subsets import density_masks, parse_univ_n
@@ -172,6 +172,12 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         return cmd_evaluate_dataset(args)
     data_dir = resolve_data_dir(args.data_dir)
     model, experiment, config = _model_and_data(args)
+    if experiment is not None and experiment.split == ALL_LOCATIONS:
+        raise GrouptronError(
+            f"{args.checkpoint} was trained on every ETH/UCY location ({ALL_LOCATIONS}), so "
+            "no benchmark test set is held out from it; score it on recordings of your own "
+            "(--tracks, --dataset)"
+        )
     splits = parse_splits(args.split or (experiment.split if experiment else "all"))
     subset = parse_univ_n(args.subset) if args.subset else None
     if args.subset and splits != ["univ"]:

@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 
 from grouptron.cli.common import (
@@ -24,7 +25,7 @@ from grouptron.config import (
     merge_settings,
     preset_values,
 )
-from grouptron.constants import SPLITS
+from grouptron.constants import ALL_LOCATIONS, SPLITS
 from grouptron.data.custom import load_dataset_part, read_dataset
 from grouptron.data.dataset import PartData, load_part
 from grouptron.data.locate import resolve_data_dir
@@ -89,7 +90,11 @@ def _parts(
     else:
         data_dir = resolve_data_dir(args.data_dir)
         split = experiment.split
-        parts = [load_part(data_dir, split, p, data, use_cache=cached) for p in ("train", "val")]
+        names = ("train",) if split == ALL_LOCATIONS else ("train", "val")
+        parts = [load_part(data_dir, split, p, data, use_cache=cached) for p in names]
+    if len(parts) == 1:  # nothing held out: an empty validation part
+        nothing = np.zeros(len(parts[0].samples), dtype=bool)
+        parts.append(dataclasses.replace(parts[0], samples=parts[0].samples.subset(nothing)))
     if not uses_groups(experiment):
         return parts[0], parts[1], None, None
     print("clustering every sample's neighbours into groups (cached after the first run)")
@@ -106,8 +111,12 @@ def _parts(
                 samples=part.samples,
                 use_cache=cached,
             )
-            for name, part in zip(("train", "val"), parts, strict=True)
+            for name, part in zip(names, parts, strict=False)
         ]
+        if len(found) == 1:
+            found.append(
+                found[0].subset(np.zeros(len(parts[0].samples), dtype=bool), parts[0].samples)
+            )
     return parts[0], parts[1], found[0], found[1]
 
 
@@ -204,9 +213,13 @@ def cmd_train(args: argparse.Namespace) -> int:
         records = MetricsWriter(out).records()
         if records:
             plot_training_curves(records, out.name, out / CURVES)
+        chosen = (
+            f"best validation ML FDE {state.best_val_fde:.3f} m"
+            if len(val_part.samples)
+            else "no validation data: the last epoch is best.safetensors"
+        )
         print(
-            f"done: {state.epoch} epochs, {state.iteration} steps; best validation ML FDE "
-            f"{state.best_val_fde:.3f} m; checkpoints in {out}"
+            f"done: {state.epoch} epochs, {state.iteration} steps; {chosen}; checkpoints in {out}"
         )
     return 0
 
@@ -229,7 +242,11 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "      --init-from runs/trajectron++-eth-central/last.safetensors",
     )
     train_cmd.add_argument(
-        "--split", choices=SPLITS, help="the ETH/UCY split (its location is held out)"
+        "--split",
+        choices=(*SPLITS, ALL_LOCATIONS),
+        help=f"the ETH/UCY split (its location is held out); {ALL_LOCATIONS}: the train and "
+        "val parts of all five locations, nothing held out and no validation (the last epoch "
+        "is kept): a model for use, never for benchmark tables",
     )
     train_cmd.add_argument(
         "--dataset",

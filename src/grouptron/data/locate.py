@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from grouptron.constants import PARTS, SPLITS
+from grouptron.constants import ALL_LOCATIONS, PARTS, SPLITS
 from grouptron.errors import GrouptronError
 
 DATA_ENV = "GROUPTRON_DATA"
@@ -41,6 +41,8 @@ def split_files(data_dir: Path, split: str, part: str) -> list[Path]:
         GrouptronError: for an unknown split or part, or when the folder has no files, with a
             hint on how to get the data.
     """
+    if split == ALL_LOCATIONS:
+        return _all_locations_files(data_dir, part)
     if split not in SPLITS:
         raise GrouptronError(f"unknown split {split!r}; choose from {', '.join(SPLITS)}")
     if part not in PARTS:
@@ -53,3 +55,19 @@ def split_files(data_dir: Path, split: str, part: str) -> list[Path]:
             f"(or point --data-dir / ${DATA_ENV} at a copy of the benchmark)"
         )
     return files
+
+
+def _all_locations_files(data_dir: Path, part: str) -> list[Path]:
+    """The train and val parts of every location (each file once: a location's parts sit in
+    the folders of all four other splits); there is no held-out part."""
+    if part != "train":
+        raise GrouptronError(
+            f"{ALL_LOCATIONS} has no {part} part: it trains on the train and val parts of "
+            "every location"
+        )
+    by_name: dict[str, Path] = {}
+    for split in SPLITS:
+        for name in ("train", "val"):
+            for path in split_files(data_dir, split, name):
+                by_name.setdefault(path.name, path)
+    return [by_name[name] for name in sorted(by_name)]

@@ -11,6 +11,7 @@ import numpy as np
 import torch
 
 from grouptron.config import DataConfig, ExperimentConfig
+from grouptron.constants import ALL_LOCATIONS
 from grouptron.data.download import file_sha256, shipped_checksums
 from grouptron.data.recording import RecordingFormat, read_resampled
 from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
@@ -48,7 +49,8 @@ def recording_samples(files: Sequence[Path], fmt: RecordingFormat, config: DataC
 def training_files(files: Sequence[Path], experiment: ExperimentConfig) -> list[str]:
     """The given files that are (byte for byte) ETH/UCY data the checkpoint was trained or
     validated on: a file of its split's train/val parts, or a whole recording of a location
-    other than its split's test location. Scores on them are not held-out scores."""
+    other than its split's test location (every ETH/UCY file for an all-locations model).
+    Scores on them are not held-out scores."""
     names_of: dict[str, list[str]] = {}
     for name, digest in shipped_checksums().items():
         names_of.setdefault(digest, []).append(name)
@@ -57,6 +59,8 @@ def training_files(files: Sequence[Path], experiment: ExperimentConfig) -> list[
         for name in names_of.get(file_sha256(Path(path)), []):
             folder, part = Path(name).parts[-3:-1] if len(Path(name).parts) >= 3 else ("", "")
             seen_in_split = folder == experiment.split and part in ("train", "val")
+            if experiment.split == ALL_LOCATIONS:  # every ETH/UCY recording, in part or whole
+                seen_in_split = True
             whole = Path(name).parts[-2] == "all_data" and _in_training(name, experiment.split)
             if seen_in_split or whole:
                 found.append(str(path))

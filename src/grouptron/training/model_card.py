@@ -15,6 +15,7 @@ from typing import Any
 import torch
 
 from grouptron.config import ExperimentConfig, non_default_settings
+from grouptron.constants import ALL_LOCATIONS
 from grouptron.io import write_text_atomically
 
 CARD = "README.md"
@@ -75,6 +76,15 @@ def _selection_rows(
 ) -> list[tuple[str, str]]:
     """How ``best.safetensors`` was chosen: on the whole validation part at the end of the
     schedule, or (while training) the best epoch on the per-epoch validation subset."""
+    if selection is not None and not selection["validation_samples"]:
+        return [
+            (
+                "selected",
+                f"epoch {selection['selected_epoch']}, the last: no validation data (all "
+                "locations trained on); in `best.safetensors`",
+            ),
+            ("validation ML ADE / FDE", "-"),
+        ]
     if selection is not None:
         candidates = ", ".join(
             f"{c['epoch']}: {c['full_val_ml_fde']:.3f}" for c in selection["candidates"]
@@ -163,6 +173,10 @@ def render_model_card(
     data = (
         f"{config.split} (a dataset of your own, `{config.dataset}`)"
         if config.dataset
+        else f"{config.split} (the train and val parts of all five locations; nothing held "
+        "out, so its scores on ETH/UCY are not test scores: a model for use, never for "
+        "benchmark tables)"
+        if config.split == ALL_LOCATIONS
         else f"{config.split} (trained on the train parts of the other four locations, "
         "validated on their val parts)"
     )

@@ -161,3 +161,11 @@ def select_final(
     }
     write_text_atomically(out_dir / SELECTION, json.dumps(record, indent=2) + "\n")
     return record
+
+
+def select_last_epoch(out_dir: Path, epoch: int) -> dict[str, Any]:
+    """The selection record of a run without validation data: its final epoch (already in
+    ``best.safetensors``), written to ``selection.json``."""
+    record = {"selected_epoch": epoch, "validation_samples": 0, "candidates": []}
+    write_text_atomically(out_dir / SELECTION, json.dumps(record, indent=2) + "\n")
+    return record

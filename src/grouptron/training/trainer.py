@@ -55,6 +55,7 @@ from grouptron.training.selection import (
     adopt_legacy_best,
     keep_candidate,
     select_final,
+    select_last_epoch,
     validate,
 )
 
@@ -219,9 +220,13 @@ def _finish_epoch(
         if val_fde < state.best_val_fde:
             state.best_val_fde = val_fde
             save_checkpoint(out_dir / BEST, weights)
+    if not len(validation.samples):  # nothing to select on: the newest weights are kept
+        save_checkpoint(out_dir / BEST, checkpoint_of(state, config, weights_only=True))
     selection = None
     if state.epoch == config.train.epochs and state.candidates:
         selection = select_final(config, out_dir, validation, device)
+    elif state.epoch == config.train.epochs and not len(validation.samples):
+        selection = select_last_epoch(out_dir, state.epoch)
     save_checkpoint(out_dir / LAST, checkpoint_of(state, config, weights_only=False))
     write_model_card(out_dir, config, writer.records(), selection)
 
