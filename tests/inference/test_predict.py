@@ -168,3 +168,20 @@ def test_plot_animates_a_range_of_frames_as_a_gif(
         assert code == 2
         assert not (tmp_path / bad_out).exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["forecast.gif"]  # no temporary left
+
+
+def test_without_a_checkpoint_the_default_model_forecasts(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from grouptron.inference.predictor import DEFAULT_CHECKPOINT, Predictor
+
+    predictor = Predictor.from_checkpoint()
+    assert predictor.config.data.derivatives == "backward"  # made for live tracks
+    assert Path(predictor.source).parent.name == DEFAULT_CHECKPOINT
+    rows = [(10 * s, p, 0.4 * s, 1.5 * p) for s in range(9) for p in range(2)]
+    tracks = write_tracks(tmp_path / "pair.txt", rows)
+    out = tmp_path / "f.csv"
+    assert main(["predict", "--tracks", str(tracks), "--out", str(out), "--quiet"]) == 0
+    with out.open() as handle:
+        assert len(list(csv.DictReader(handle))) == 2 * 2 * 12  # 2 walkers, 2 frames with 8 steps
+    assert "look-ahead" not in capsys.readouterr().err

@@ -27,7 +27,7 @@ from grouptron.data.reader import TrackTable
 from grouptron.data.scene import build_scene
 from grouptron.errors import GrouptronError
 from grouptron.inference.forecast import Forecast
-from grouptron.inference.predictor import Predictor, resolve_checkpoint
+from grouptron.inference.predictor import DEFAULT_CHECKPOINT, Predictor, resolve_checkpoint
 from grouptron.inference.tracks import FORECAST_MODES, forecast_scene
 from grouptron.io import (
     refuse_folder,
@@ -189,8 +189,9 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     )
     predict.add_argument(
         "--checkpoint",
-        required=True,
-        help="a .safetensors checkpoint or a shipped name (grouptron-univ-backward)",
+        default=DEFAULT_CHECKPOINT,
+        help="a .safetensors checkpoint or a shipped name (the default is the causal model "
+        "used where none is named)",
     )
     predict.add_argument(
         "--tracks",
@@ -251,8 +252,9 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
     )
     plot.add_argument(
         "--checkpoint",
-        required=True,
-        help="a .safetensors checkpoint or a shipped name (grouptron-univ-backward)",
+        default=DEFAULT_CHECKPOINT,
+        help="a .safetensors checkpoint or a shipped name (the default is the causal model "
+        "used where none is named)",
     )
     plot.add_argument("--compare", help="a second checkpoint drawn beside the first")
     plot.add_argument(

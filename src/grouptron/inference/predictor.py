@@ -66,6 +66,12 @@ OLDER_NAMES = {"mixture-mode": "ml", "argmax-latent": "ml-argmax"}
 """Names these choices had before the vocabulary was unified (still accepted)."""
 
 
+DEFAULT_CHECKPOINT = "trajectron++-univ-backward"
+"""The model used where none is named (``Predictor.from_checkpoint()``, ``grouptron predict``
+and ``plot``): strictly causal inputs, so it forecasts live tracks as it was trained, and on
+held-out data the shipped causal model closest to constant velocity or better (RESULTS.md)."""
+
+
 def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | None = None) -> Path:
     """A checkpoint file from a path or a shipped name such as ``"grouptron-univ-backward"``.
 
@@ -171,7 +177,7 @@ class Predictor:
     @classmethod
     def from_checkpoint(
         cls,
-        name_or_path: str | Path,
+        name_or_path: str | Path = DEFAULT_CHECKPOINT,
         checkpoints_dir: str | Path | None = None,
         threads: int | None = None,
         most_likely: MostLikely = "ml-argmax",
@@ -183,7 +189,8 @@ class Predictor:
         min_points: int = 2,
         max_missed_steps: int = 2,
     ) -> Predictor:
-        """Load a ``.safetensors`` checkpoint (never a pickle) by path or shipped name."""
+        """Load a ``.safetensors`` checkpoint (never a pickle) by path or shipped name
+        (default: :data:`DEFAULT_CHECKPOINT`)."""
         path = resolve_checkpoint(name_or_path, checkpoints_dir)
         model, config = load_trained_model(path)
         if threads is not None:
