@@ -14,7 +14,8 @@ changes machines records each epoch's precision. ``--bf16-ab`` adds the precisio
 copies (``-bf16``) of the three univ Trajectron++ ``backward`` seeds, for a machine where bf16
 pays (on the Intel Xeon of the first campaign sessions it was 1.37x slower than fp32).
 
-Order: univ first (three seeds of both models, both derivatives), then the other splits.
+Order: univ ``backward`` (three seeds of both models), univ ``central`` seed 0, the other
+splits (every shipped checkpoint), then the other univ ``central`` seeds.
 ``central`` runs of seed 0 continue the shipped checkpoints (copied from ``checkpoints/``, same
 configuration, future encoder scale included); other seeds of ``central`` univ use the same
 configuration so that seeds differ in the seed alone. ``backward`` runs start from scratch on
@@ -70,11 +71,13 @@ def queue(bf16_ab: bool = False) -> list[Run]:
     if bf16_ab:
         runs += [Run("trajectron++", "univ", "backward", s, bf16_only=True) for s in (0, 1, 2)]
     runs += [Run("grouptron", "univ", "backward", seed) for seed in (0, 1, 2)]
-    runs += [Run(model, "univ", "central", seed) for seed in (0, 1, 2) for model in MODELS]
+    runs += [Run(model, "univ", "central") for model in MODELS]
     for split in SPLITS[1:]:
         runs += [
             Run(model, split, protocol) for protocol in ("backward", "central") for model in MODELS
         ]
+    # The other central univ seeds last: every shipped checkpoint comes first.
+    runs += [Run(model, "univ", "central", seed) for seed in (1, 2) for model in MODELS]
     return runs
 
 
