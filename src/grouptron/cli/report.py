@@ -116,6 +116,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     return _emit(args, text)
 
 
+# One flat list of options so that `--help` reads in the order a user needs them.
 def add_parser(commands: argparse._SubParsersAction) -> None:
     """Add the command and its options to the ``grouptron`` parser."""
     report = commands.add_parser(

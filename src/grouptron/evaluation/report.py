@@ -165,6 +165,8 @@ def _rows(
     return rows
 
 
+# One function so that every mode, the NLL subsample and the diagnostics score the very same
+# loaded test samples (their per-sample scores are paired later).
 def score_checkpoint(
     entry: ReportCheckpoint,
     data_dir: Path,
@@ -227,18 +229,13 @@ def score_checkpoint(
     run = ScoredRun(entry, time_step_ids(samples), masks, by_mode, keep, rows)
     if not settings.diagnostics:
         return run
-    ablated = {}
-    for ablation in model_ablations(experiment):
-        (ablated[ablation],) = score_samples(
-            model,
-            experiment,
-            samples,
-            ("ml",),
-            batch_size=batch,
-            progress=progress,
-            groups=groups,
-            ablate=(ablation,),
-        )
+    ablated = {
+        ablation: score_samples(
+            model, experiment, samples, ("ml",), batch_size=batch, progress=progress,
+            groups=groups, ablate=(ablation,),
+        )[0]
+        for ablation in model_ablations(experiment)
+    }  # fmt: skip
     return dataclasses.replace(run, density=density_masks(samples), ablated=ablated)
 
 
