@@ -8,9 +8,10 @@ Reads the development set described in ``<ood>/README.md`` with the project's ow
 TrajNet Stanford Drone scenes: ``frame id x y`` at 30 fps in metres; the HERMES corridor runs:
 ``id frame x y z`` at 16 fps in centimetres), resamples them to 0.4 s, and scores every person
 with 8 observed and 12 future points. Prints one Markdown row per recording and model: samples,
-most-likely ADE/FDE with the FDE's 95% interval (time steps resampled), and FDE relative to
-constant velocity on the same samples; then FDE relative to constant velocity by density
-(neighbours within 3 m at t). Never used for training or model selection of benchmark models.
+most-likely ADE/FDE with the FDE's 95% interval (time steps resampled), the paired difference
+to constant velocity on the same samples with its interval, and FDE relative to it; then FDE
+relative to constant velocity by density (neighbours within 3 m at t). Never used for training
+or model selection of benchmark models.
 """
 
 from __future__ import annotations
@@ -59,16 +60,18 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=2)
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
-    models = [load_trained_model(resolve_checkpoint(c)) for c in args.checkpoints.split(",") if c]
-    print("| recording | model | samples | ADE m | FDE m [95% interval] | FDE / CV |")
-    print("|---|---|---|---|---|---|")
+    paths = [resolve_checkpoint(c) for c in args.checkpoints.split(",") if c]
+    models = [(path.parent.name, *load_trained_model(path)) for path in paths]
+    print("| recording | model | samples | ADE m | FDE m [95% interval] "
+          "| FDE - CV m [95% interval] | FDE / CV |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|")
     by_density: dict[str, dict[str, list[float]]] = {}
     for path, fmt in recordings(args.ood, args.sdd_files):
         samples = recording_samples([path], fmt, DataConfig(derivatives="backward"))
         steps = time_step_ids(samples)
         cv = constant_velocity_scores(samples, 12)
         rows = [("constant velocity", cv)]
-        for model, config in models:
+        for label, model, config in models:
             ours = recording_samples([path], fmt, config.data)
             groups = (
                 assign_groups(ours, config.groups, config.data.position_scale_m)
@@ -76,12 +79,18 @@ def main() -> None:
                 else None
             )
             (scores,) = score_samples(model, config, ours, ("ml",), groups=groups)
-            rows.append((f"{config.model_name} ({config.data.derivatives})", scores))
+            if len(ours) != len(samples):
+                raise SystemExit(f"{label}: {len(ours)} samples against constant velocity's "
+                                 f"{len(samples)} on {path.name}")  # fmt: skip
+            rows.append((label, scores))
         for name, scores in rows:
             fde = mean_interval(scores.fde, steps)
+            diff = mean_interval(scores.fde - cv.fde, steps)
             ratio = scores.fde.mean() / cv.fde.mean()
             print(f"| {path.name} | {name} | {len(samples)} | {scores.ade.mean():.3f} | "
-                  f"{fde.mean:.3f} [{fde.low:.3f}, {fde.high:.3f}] | {ratio:.3f} |")  # fmt: skip
+                  f"{fde.mean:.3f} [{fde.low:.3f}, {fde.high:.3f}] | "
+                  f"{diff.mean:+.3f} [{diff.low:+.3f}, {diff.high:+.3f}] | "
+                  f"{ratio:.3f} |")  # fmt: skip
             for bin_name, keep in density_masks(samples).items():
                 if keep.sum() >= 20:
                     entry = by_density.setdefault(name, {}).setdefault(bin_name, [0.0, 0.0])
