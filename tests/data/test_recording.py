@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -288,3 +289,34 @@ def test_the_python_api_reads_any_layout_for_the_predictor(
     assert len(forecast) == 3 and np.isfinite(forecast.most_likely).all()
     with pytest.raises(GrouptronError, match="--units"):
         load_tracks(native, columns="id,frame,x,y", fps=16)
+
+
+def test_density_bins_and_ablations_reach_recordings_and_datasets(
+    tmp_path: Path, tiny_checkpoints: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`--by-density` and `--ablate` act on `--tracks` and `--dataset` as on the benchmark
+    (they were once ignored there without a word)."""
+    path = write_recording(
+        tmp_path / "walk.txt", np.arange(0, 14.0, 0.4), columns="frame,id,x,y", fps=25
+    )
+    checkpoint = str(tiny_checkpoints / "grouptron-eth-backward")
+    common = ["evaluate", "--checkpoint", checkpoint, "--format", "json", "--quiet"]
+    rows = {}
+    for ablate in ([], ["--ablate", "edges,scene"]):
+        argv = [*common, "--tracks", str(path), "--by-density", *ablate]
+        assert main(argv) == 0
+        rows[bool(ablate)] = json.loads(capsys.readouterr().out)["results"]
+    bins = [r for r in rows[False] if r["subset"]]
+    pooled = next(r for r in rows[False] if r["split"] == "all files" and not r["subset"])
+    assert bins and all(r["subset"].startswith("neighbours ") for r in bins)
+    assert sum(r["samples"] for r in bins) == pooled["samples"]  # every sample in one bin
+    assert {r["model"] for r in rows[True]} == {"grouptron without edges and scene"}
+    assert rows[True][0]["fde"] != rows[False][0]["fde"]
+    (tmp_path / "mine.toml").write_text(
+        f'name = "mine"\n[format]\ncolumns = "frame,id,x,y"\n[parts]\ntest = ["{path.name}"]\n'
+    )
+    argv = [*common, "--dataset", str(tmp_path / "mine.toml"), "--by-density"]
+    assert main([*argv, "--ablate", "scene"]) == 0
+    got = json.loads(capsys.readouterr().out)["results"]
+    assert got[0]["subset"] is None and got[0]["samples"] == pooled["samples"]
+    assert {r["model"] for r in got} == {"grouptron without scene"} and len(got) > 1

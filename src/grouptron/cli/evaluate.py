@@ -6,6 +6,7 @@ import argparse
 import dataclasses
 from pathlib import Path
 
+import numpy as np
 import torch
 
 from grouptron.cli.common import (
@@ -34,7 +35,6 @@ from grouptron.evaluation.evaluate import (
     MODES,
     ModeScores,
     constant_velocity_scores,
-    evaluate_model,
     score_samples,
 )
 from grouptron.evaluation.recordings import evaluate_recordings, training_files
@@ -91,9 +91,11 @@ def cmd_evaluate_tracks(args: argparse.Namespace) -> int:
             )
         warn_look_ahead(args.checkpoint, data.derivatives)
     modes = tuple(m for m in eval_modes(args.mode) if m != "nll")
+    ablate = _ablations(args, experiment is not None and uses_groups(experiment))
     results = evaluate_recordings(
         files, fmt, model=model, experiment=experiment, data=data, modes=modes,
         seed=args.seed, progress=show_progress(args), device=args.device,
+        by_density=args.by_density, ablate=ablate,
     )  # fmt: skip
     print(results_json(results) if args.format == "json" else results_table(results))
     return 0
@@ -111,22 +113,31 @@ def cmd_evaluate_dataset(args: argparse.Namespace) -> int:
     part = load_dataset_part(dataset, "test", data, use_cache=not args.no_cache)
     template = EvaluationResult(dataset.name, "constant-velocity", None, 0, 0.0, 0.0)
     template = dataclasses.replace(template, derivatives=data.derivatives)
+    masks: dict[str | None, np.ndarray | None] = {None: None}
+    masks.update(density_masks(part.samples) if args.by_density else {})
+    ablate = _ablations(args, experiment is not None and uses_groups(experiment))
     if model is None or experiment is None:
-        baseline = constant_velocity_scores(part.samples, data.horizon_steps).summary()
-        results = [dataclasses.replace(_row(template, baseline), mode=None)]
+        per_sample = [constant_velocity_scores(part.samples, data.horizon_steps)]
     else:
         groups = None
         if uses_groups(experiment):
             groups = assign_groups(part.samples, experiment.groups, data.position_scale_m)
-        modes = eval_modes(args.mode)
-        scores = evaluate_model(
-            model.to(args.device), experiment, part.samples, modes, seed=args.seed,
-            progress=show_progress(args), groups=groups, device=args.device,
+        per_sample = score_samples(
+            model.to(args.device), experiment, part.samples, eval_modes(args.mode),
+            seed=args.seed, progress=show_progress(args), groups=groups, device=args.device,
+            ablate=ablate,
         )  # fmt: skip
+        suffix = f" without {' and '.join(ablate)}" if ablate else ""
         template = dataclasses.replace(
-            template, model=experiment.model_name, checkpoint=str(args.checkpoint)
+            template, model=experiment.model_name + suffix, checkpoint=str(args.checkpoint)
         )
-        results = [_row(template, s) for s in scores]
+    results = [
+        dataclasses.replace(_row(template, scores.summary(keep)), subset=subset)
+        for scores in per_sample
+        for subset, keep in masks.items()
+    ]
+    if model is None:
+        results = [dataclasses.replace(r, mode=None) for r in results]
     print(results_json(results) if args.format == "json" else results_table(results))
     return 0
 

@@ -16,7 +16,7 @@ from grouptron.data.download import file_sha256, shipped_checksums
 from grouptron.data.recording import RecordingFormat, read_resampled
 from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
 from grouptron.data.scene import build_scene
-from grouptron.data.subsets import time_step_ids
+from grouptron.data.subsets import density_masks, time_step_ids
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
 from grouptron.evaluation.results import EvaluationResult
@@ -24,6 +24,7 @@ from grouptron.evaluation.uncertainty import mean_interval
 from grouptron.groups.assign import assign_groups
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import uses_groups
+from grouptron.model.predict import Ablation
 
 POOLED = "all files"
 CONSTANT_VELOCITY = "constant-velocity"
@@ -86,12 +87,20 @@ def _rows(
     samples: SampleSet,
     scores: SampleScores,
     template: EvaluationResult,
+    by_density: bool = False,
 ) -> list[EvaluationResult]:
-    """One row per file and the pooled row, each with 95% intervals over time steps."""
+    """One row per file and the pooled row, each with 95% intervals over time steps; with
+    ``by_density`` also a pooled row per density bin (its name in ``subset``)."""
     steps = time_step_ids(samples)
     rows = []
-    groups = [(Path(f).name, samples.scene_index == i) for i, f in enumerate(files)]
-    for name, keep in [*groups, (POOLED, np.ones(len(samples), dtype=bool))]:
+    pooled = np.ones(len(samples), dtype=bool)
+    parts: list[tuple[str, str | None, np.ndarray]] = [
+        (Path(f).name, None, samples.scene_index == i) for i, f in enumerate(files)
+    ]
+    parts.append((POOLED, None, pooled))
+    if by_density:
+        parts += [(POOLED, name, keep) for name, keep in density_masks(samples).items()]
+    for name, subset, keep in parts:
         if not keep.any():
             continue
         ade, fde = (
@@ -102,6 +111,7 @@ def _rows(
             dataclasses.replace(
                 template,
                 split=name,
+                subset=subset,
                 samples=int(keep.sum()),
                 ade=ade.mean,
                 fde=fde.mean,
@@ -123,26 +133,29 @@ def evaluate_recordings(
     seed: int = 0,
     progress: bool = False,
     device: torch.device | str = "cpu",
+    by_density: bool = False,
+    ablate: Ablation = (),
 ) -> list[EvaluationResult]:
     """Constant velocity (``model`` None) or a checkpoint on the files: rows per file and mode,
-    then the pooled row. ``data`` is the checkpoint's data settings (or the baseline's); the
-    network runs on ``device``."""
+    then the pooled row (and its density bins with ``by_density``). ``data`` is the
+    checkpoint's data settings (or the baseline's); the network runs on ``device`` with the
+    ``ablate`` inputs taken away."""
     samples = recording_samples(files, fmt, data)
     template = EvaluationResult("", CONSTANT_VELOCITY, None, 0, 0.0, 0.0)
     template = dataclasses.replace(template, derivatives=data.derivatives)
     if model is None or experiment is None:
-        return _rows(
-            files, samples, constant_velocity_scores(samples, data.horizon_steps), template
-        )
+        scores = constant_velocity_scores(samples, data.horizon_steps)
+        return _rows(files, samples, scores, template, by_density)
     groups = None
     if uses_groups(experiment):
         groups = assign_groups(samples, experiment.groups, data.position_scale_m)
     rows = []
     per_mode = score_samples(
         model.to(device), experiment, samples, modes, seed=seed, progress=progress,
-        groups=groups, device=device,
+        groups=groups, device=device, ablate=ablate,
     )  # fmt: skip
+    name = experiment.model_name + (f" without {' and '.join(ablate)}" if ablate else "")
     for scores in per_mode:
-        mode_template = dataclasses.replace(template, model=experiment.model_name, mode=scores.mode)
-        rows += _rows(files, samples, scores, mode_template)
+        mode_template = dataclasses.replace(template, model=name, mode=scores.mode)
+        rows += _rows(files, samples, scores, mode_template, by_density)
     return rows
