@@ -41,6 +41,8 @@ ALL_GROUP_SWITCHES = [
 ]
 MEAN_EDGES = ["model.edge_aggregation=mean", "model.edge_count_feature=true"]
 """The edge encoder's density-robust aggregation (both models have it)."""
+RESIDUAL = ["model.velocity_residual=true"]
+"""The decoder predicts changes of the current velocity (constant velocity when unsure)."""
 
 VARIANTS: dict[str, tuple[str, list[str]]] = {
     "trajectron++": ("trajectron++", []),
@@ -60,6 +62,8 @@ VARIANTS: dict[str, tuple[str, list[str]]] = {
     "mean-edges": ("grouptron", MEAN_EDGES),
     "robust": ("grouptron", ALL_GROUP_SWITCHES + MEAN_EDGES),
     "trajectron++-mean": ("trajectron++", MEAN_EDGES),
+    "trajectron++-residual": ("trajectron++", RESIDUAL),
+    "robust-residual": ("grouptron", ALL_GROUP_SWITCHES + MEAN_EDGES + RESIDUAL),
 }
 """name -> (model, --set switches). Each switch is a setting of the one model (docs)."""
 

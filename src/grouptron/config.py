@@ -126,6 +126,10 @@ class ModelConfig:
     edge_count_feature: bool = False
     """Append log(1 + neighbours observed) per step to the edge encoder's input, so that a
     ``mean`` keeps the density information a sum carried."""
+    velocity_residual: bool = False
+    """Decode each step's velocity as the current velocity plus a learnt change, so that an
+    untrained or unsure decoder falls back on constant velocity (the reference decodes the
+    velocity itself)."""
     rnn_dropout_keep: float = 0.75
     mlp_dropout_keep: float = 0.9
     log_sigma_min: float = -10.0

@@ -77,9 +77,12 @@ def centre_logits(logits: torch.Tensor, clip: float | None) -> torch.Tensor:
 class TrajectronCVAE(nn.Module):
     """History LSTM + edge LSTM -> discrete latent -> GRU decoder of velocity Gaussians."""
 
-    def __init__(self, config: ModelConfig, extra_condition_dim: int = 0):
+    def __init__(
+        self, config: ModelConfig, extra_condition_dim: int = 0, velocity_scale_mps: float = 2.0
+    ):
         super().__init__()
         self.config = config
+        self.velocity_scale_mps = velocity_scale_mps  # standardised -> m/s (the residual)
         c = config
         self.history_encoder = nn.LSTMCell(c.state_dim, c.history_hidden)
         edge_input_dim = 2 * c.state_dim + int(c.edge_count_feature)
@@ -208,11 +211,15 @@ class TrajectronCVAE(nn.Module):
         gates_zx = self.decoder.input_gates(x, z_index).reshape(B * M, -1)  # (B*M, 3h)
         h = self.decoder.initial_state(x, z_index).reshape(B * M, -1)  # (B*M, h)
         action = self.initial_action(state_now_st)[:, None, :].expand(B, M, -1).reshape(B * M, -1)
+        offset: torch.Tensor | float = 0.0  # velocity_residual: means relative to now
+        if c.velocity_residual:
+            now_mps = state_now_st[:, 2:4].float() * self.velocity_scale_mps  # (B, 2)
+            offset = now_mps[:, None, :].expand(B, M, -1).reshape(B * M, 2)
         means, log_sigmas, corrs, fed = [], [], [], []
         for k in range(horizon):  # the recurrence; batched over B*M rows
             h = self.decoder.step(gates_zx, action, h)
             head = self.gaussian_head(h).float()  # (B*M, 5)
-            mean = head[:, :2]
+            mean = head[:, :2] + offset
             log_sigma = head[:, 2:4].clamp(c.log_sigma_min, c.log_sigma_max)
             corr = torch.tanh(head[:, 4]).clamp(-c.corr_max, c.corr_max)
             if feedback == "sample":

@@ -19,10 +19,11 @@ def uses_groups(config: ExperimentConfig) -> bool:
 
 def build_model(config: ExperimentConfig) -> TrajectronCVAE:
     """The model named by ``config.model_name`` (Grouptron is Trajectron++ plus encoders)."""
+    scale = config.data.velocity_scale_mps
     if config.model_name == "trajectron++":
-        return TrajectronCVAE(config.model)
+        return TrajectronCVAE(config.model, velocity_scale_mps=scale)
     if config.model_name == "grouptron":
-        return GrouptronCVAE(config.model, config.group_encoder)
+        return GrouptronCVAE(config.model, config.group_encoder, scale)
     raise GrouptronError(
         f"unknown model {config.model_name!r}; choose from {', '.join(MODEL_NAMES)}"
     )

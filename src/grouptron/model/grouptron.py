@@ -22,9 +22,11 @@ from grouptron.model.stgcn import STGCNBlock, segment_mean
 class GrouptronCVAE(TrajectronCVAE):
     """Trajectron++ plus the group- and scene-level encoders (weights shared by all groups)."""
 
-    def __init__(self, config: ModelConfig, groups: GroupEncoderConfig):
+    def __init__(
+        self, config: ModelConfig, groups: GroupEncoderConfig, velocity_scale_mps: float = 2.0
+    ):
         counted = 1 if groups.count_feature else 0  # log(1 + count) channels
-        super().__init__(config, extra_condition_dim=groups.group_dim + counted)
+        super().__init__(config, groups.group_dim + counted, velocity_scale_mps)
         self.groups_config = groups
         width, adjacency, layers = groups.group_dim, groups.group_adjacency, groups.temporal_layers
         self.group_encoder = STGCNBlock(config.state_dim, width, adjacency, temporal_layers=layers)
