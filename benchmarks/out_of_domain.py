@@ -17,6 +17,7 @@ or model selection of benchmark models.
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import torch
@@ -58,6 +59,12 @@ def main() -> None:
     )
     parser.add_argument("--sdd-files", type=int, default=6, help="first N Stanford Drone files")
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument(
+        "--json",
+        type=Path,
+        help="also write the pooled sums (model and constant velocity FDE by density bin and "
+        "overall, per model) to this file, for campaign/screen.py --table --ood",
+    )
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     paths = [resolve_checkpoint(c) for c in args.checkpoints.split(",") if c]
@@ -91,14 +98,22 @@ def main() -> None:
                   f"{fde.mean:.3f} [{fde.low:.3f}, {fde.high:.3f}] | "
                   f"{diff.mean:+.3f} [{diff.low:+.3f}, {diff.high:+.3f}] | "
                   f"{ratio:.3f} |")  # fmt: skip
+            pooled = by_density.setdefault(name, {}).setdefault("all", [0.0, 0.0])
+            pooled[0] += float(scores.fde.sum())
+            pooled[1] += float(cv.fde.sum())
             for bin_name, keep in density_masks(samples).items():
                 if keep.sum() >= 20:
                     entry = by_density.setdefault(name, {}).setdefault(bin_name, [0.0, 0.0])
                     entry[0] += float(scores.fde[keep].sum())
                     entry[1] += float(cv.fde[keep].sum())
+    if args.json:
+        ratios = {m: {b: s[0] / s[1] for b, s in per.items()} for m, per in by_density.items()}
+        args.json.write_text(json.dumps({"fde_over_cv": ratios}, indent=2) + "\n")
     print("\nFDE relative to constant velocity by density (all recordings pooled):\n")
     order = {b: i for i, b in enumerate(density_masks(samples))}
-    names = sorted({b for per in by_density.values() for b in per}, key=order.__getitem__)
+    names = sorted(
+        {b for per in by_density.values() for b in per if b != "all"}, key=order.__getitem__
+    )
     print("| model | " + " | ".join(names) + " |")
     print("|---|" + "---|" * len(names))
     for model_name, per in by_density.items():

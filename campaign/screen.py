@@ -13,8 +13,10 @@ already trained the same run (``REFERENCES/<model>-<split>-backward[-s<seed>]``,
 configuration) it is read from there instead of trained twice. ``--table`` prints, per split
 and variant, the validation ML FDE (the trainer's re-scoring of its best epochs on the whole
 validation part) of each seed, their mean, and the mean paired difference to Trajectron++ over
-the seeds both have, and constant velocity's FDE on the same samples. Only validation is looked
-at: test waits for the winner.
+the seeds both have, and constant velocity's FDE on the same samples; ``--ood DIR`` adds the
+FDE over constant velocity's on the out-of-domain development set, overall and with 25+
+neighbours (univ's validation data is sparse, so it cannot show how a variant copes with a
+crowd). Only validation and the development set are looked at: test waits for the winner.
 """
 
 from __future__ import annotations
@@ -98,11 +100,39 @@ def validation_fde(run: Path) -> float | None:
     return float(json.loads(selection.read_text())["full_val_ml_fde"])
 
 
+def ood_ratios(run: Path, args: argparse.Namespace) -> dict[str, float] | None:
+    """A finished run's FDE over constant velocity's on the out-of-domain development set,
+    overall and by density bin (``benchmarks/out_of_domain.py``, scored once into
+    ``ood.json``); None while the run trains or without ``--ood``."""
+    if not args.ood or not (run / "selection.json").exists():
+        return None
+    cached = run / "ood.json"
+    if not cached.exists():
+        script = REPO / "benchmarks" / "out_of_domain.py"
+        command = [sys.executable, str(script), "--ood", args.ood, "--checkpoints", str(run)]
+        command += ["--sdd-files", "3", "--threads", str(args.threads), "--json", str(cached)]
+        subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+    ratios = json.loads(cached.read_text())["fde_over_cv"]
+    (model,) = [name for name in ratios if name != "constant velocity"]
+    return dict(ratios[model])
+
+
+def _ood_cells(ratios: list[dict[str, float] | None]) -> str:
+    """Mean over seeds of the out-of-domain FDE / CV, overall and with 25+ neighbours."""
+    done = [r for r in ratios if r is not None]
+    if not done:
+        return " - | - |"
+    overall = np.mean([r["all"] for r in done])
+    dense = [r["neighbours 25+"] for r in done if "neighbours 25+" in r]
+    return f" {overall:.3f} | {np.mean(dense):.3f} |" if dense else f" {overall:.3f} | - |"
+
+
 def table(args: argparse.Namespace) -> None:
     seeds = [int(s) for s in args.seeds.split(",")]
+    ood = " out-of-domain FDE / CV | the same, 25+ neighbours |" if args.ood else ""
     print("| split | variant | " + " | ".join(f"seed {s}" for s in seeds) + " | mean | "
-          "mean paired difference to Trajectron++ |")  # fmt: skip
-    print("|---|---|" + "---|" * (len(seeds) + 2))
+          "mean paired difference to Trajectron++ |" + ood)  # fmt: skip
+    print("|---|---|" + "---|" * (len(seeds) + 2 + (2 if args.ood else 0)))
     for split in args.splits.split(","):
         runs = {
             (v, s): validation_fde(run_folder(v, split, s, args)) for v in VARIANTS for s in seeds
@@ -118,7 +148,11 @@ def table(args: argparse.Namespace) -> None:
             cells = " | ".join("-" if v is None else f"{v:.3f}" for v in values)
             mean = f"{np.mean(done):.3f}" if done else "-"
             diff = f"{np.mean(paired):+.3f} ({len(paired)} seeds)" if paired else "-"
-            print(f"| {split} | {variant} | {cells} | {mean} | {diff} |")
+            row = f"| {split} | {variant} | {cells} | {mean} | {diff} |"
+            if args.ood:
+                row += _ood_cells([ood_ratios(run_folder(variant, split, s, args), args)
+                                   for s in seeds])  # fmt: skip
+            print(row)
         cv = [
             json.loads((run / "selection.json").read_text())["full_val_cv_fde"]
             for run in (run_folder(v, split, s, args) for v in VARIANTS for s in seeds)
@@ -126,7 +160,7 @@ def table(args: argparse.Namespace) -> None:
         ]
         if cv:  # the same validation samples for every run of a split
             print(f"| {split} | constant velocity | " + " | ".join(["-"] * len(seeds))
-                  + f" | {cv[0]:.3f} | - |")  # fmt: skip
+                  + f" | {cv[0]:.3f} | - |" + (" 1.000 | 1.000 |" if args.ood else ""))  # fmt: skip
 
 
 def main() -> None:
@@ -144,6 +178,11 @@ def main() -> None:
     )
     parser.add_argument("--dry-run", action="store_true", help="print the commands only")
     parser.add_argument("--table", action="store_true", help="print the validation table")
+    parser.add_argument(
+        "--ood",
+        help="with --table: the out-of-domain development set (../shared/data/ood); adds each "
+        "variant's FDE over constant velocity there (scored once per run into ood.json)",
+    )
     args = parser.parse_args()
     if args.table:
         table(args)
