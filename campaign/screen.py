@@ -66,6 +66,8 @@ VARIANTS: dict[str, tuple[str, list[str]]] = {
     "trajectron++-mean": ("trajectron++", MEAN_EDGES),
     "trajectron++-residual": ("trajectron++", RESIDUAL),
     "robust-residual": ("grouptron", ALL_GROUP_SWITCHES + MEAN_EDGES + RESIDUAL),
+    # A diagnostic, never a candidate: neighbours chosen by contacts up to 4 steps after t.
+    "leak-window": ("grouptron", ["data.neighbour_window_steps=[-2,4]"]),
 }
 """name -> (model, --set switches). Each switch is a setting of the one model (docs)."""
 

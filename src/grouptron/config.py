@@ -41,8 +41,16 @@ class DataConfig:
     q(z|x,y) reads: 1 m as in the reference. Runs trained before this field existed used the
     position scale (3 m); their stored configs are read with that value."""
     on_gap: Literal["split", "error"] = "split"
+    neighbour_window_steps: tuple[int, int] = (0, 0)
+    """(first, last) steps relative to t: whoever is within the perception radius at any of
+    them is a neighbour. (0, 0): the causal rule. (-2, 4) copies the reference scene graph's
+    window (its adjacency is a maximum over t-2..t+4), which looks 1.6 s into the future: a
+    diagnostic of a possible leak in published numbers, never for a model to use."""
 
     def __post_init__(self) -> None:
+        first, last = self.neighbour_window_steps
+        if not first <= 0 <= last:
+            raise GrouptronError("neighbour_window_steps must be (first <= 0, last >= 0)")
         if self.derivatives not in DERIVATIVE_SCHEMES:
             raise GrouptronError(
                 f"derivatives must be one of {', '.join(DERIVATIVE_SCHEMES)}, "

@@ -91,9 +91,12 @@ def cache_key(
 ) -> str:
     """Hash of the input files' contents, their layout, the data settings and the cache
     format."""
+    settings = config_to_dict(config)
+    if config.neighbour_window_steps == (0, 0):  # keys from before the setting stay valid
+        del settings["neighbour_window_steps"]
     payload: dict[str, object] = {
         "format": CACHE_FORMAT_VERSION,
-        "config": config_to_dict(config),
+        "config": settings,
         "min_history": min_history,
         "files": [[f.name, _file_digest(f)] for f in files],
     }

@@ -166,16 +166,29 @@ def _neighbours_at(
     """The neighbours of S samples at their step: (E,) tracks and edge weights, flat in sample
     order, and (S,) counts. ``only_step`` limits the edge search to the steps it needs."""
     ramp = config.edge_ramp_weights
-    from_step = 0 if only_step is None else max(0, only_step - (len(ramp) - 1))
+    first, last = config.neighbour_window_steps
+    from_step = 0 if only_step is None else max(0, only_step + first - (len(ramp) - 1))
     edges = perception_edges(scene, config.perception_radius_m, ramp, from_step)
-    # The ego's outgoing edges at its step, already sorted by (src, step).
+    # The ego's outgoing edges at its steps, already sorted by (src, step, dst).
     edge_key = edges.src.astype(np.int64) * scene.num_steps + edges.step
-    sample_key = track.astype(np.int64) * scene.num_steps + step
-    lo = np.searchsorted(edge_key, sample_key, side="left")
-    hi = np.searchsorted(edge_key, sample_key, side="right")
+    track_key = track.astype(np.int64) * scene.num_steps
+    lo = np.searchsorted(edge_key, track_key + np.maximum(step + first, 0), side="left")
+    hi = np.searchsorted(
+        edge_key, track_key + np.minimum(step + last, scene.num_steps - 1), "right"
+    )
     counts = hi - lo
     edge_index = ranges_to_indices(lo, counts)
-    return edges.dst[edge_index], edges.weight[edge_index], counts
+    dst, weight = edges.dst[edge_index], edges.weight[edge_index]
+    if (first, last) == (0, 0):
+        return dst, weight, counts
+    # A window: everyone met at any of its steps once, with their largest weight.
+    sample = np.repeat(np.arange(len(step)), counts)
+    order = np.lexsort((-weight, dst, sample))
+    sample, dst, weight = sample[order], dst[order], weight[order]
+    first_of_pair = np.ones(len(dst), dtype=bool)
+    first_of_pair[1:] = (sample[1:] != sample[:-1]) | (dst[1:] != dst[:-1])
+    kept = sample[first_of_pair]
+    return dst[first_of_pair], weight[first_of_pair], np.bincount(kept, minlength=len(step))
 
 
 # Longer than 60 lines on purpose: a 20-line docstring and the 17 named fields of the

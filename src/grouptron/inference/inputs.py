@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from grouptron.config import DataConfig
 from grouptron.errors import GrouptronError
 
 TRACK_COLUMNS = ("frame", "id", "x", "y")
@@ -54,3 +55,12 @@ def frame_arrays(frame: int, ids: Any, xy: Any) -> tuple[np.ndarray, np.ndarray]
     if len(np.unique(ids_arr)) != len(ids_arr):
         raise GrouptronError(f"frame {frame}: an id appears twice in one frame")
     return ids_arr, xy_arr
+
+
+def refuse_future_neighbours(data: DataConfig, source: str) -> None:
+    """A model whose neighbours were chosen by later contacts cannot run on live tracks."""
+    if data.neighbour_window_steps[1] > 0:
+        raise GrouptronError(
+            f"{source or 'this model'} picks neighbours by whom they meet after t "
+            "(data.neighbour_window_steps, a leak diagnostic): it cannot forecast live"
+        )

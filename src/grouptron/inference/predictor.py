@@ -34,7 +34,7 @@ from grouptron.errors import GrouptronError
 from grouptron.groups.assign import assign_groups_at_step
 from grouptron.groups.scene import groups_at_step
 from grouptron.inference.forecast import Forecast
-from grouptron.inference.inputs import as_track_array
+from grouptron.inference.inputs import as_track_array, refuse_future_neighbours
 from grouptron.inference.stream import StreamSession
 from grouptron.model.batch import Batch, batches
 from grouptron.model.checkpoint import load_trained_model
@@ -146,6 +146,7 @@ class Predictor:
             raise GrouptronError(
                 f"most_likely must be one of {', '.join(MOST_LIKELY_CHOICES)}, not {most_likely!r}"
             )
+        refuse_future_neighbours(config.data, source)
         self.device = available_device(device)
         self.model = model.eval().to(self.device)
         self.config = config
