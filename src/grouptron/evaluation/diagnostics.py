@@ -37,9 +37,7 @@ class DensityRow:
     difference: Interval
 
     def to_dict(self) -> dict[str, object]:
-        row = dataclasses.asdict(self)
-        row["difference"] = dataclasses.asdict(self.difference)
-        return row
+        return dataclasses.asdict(self)  # the Interval becomes a {mean, low, high} dict
 
 
 @dataclass(frozen=True)
@@ -56,9 +54,7 @@ class AblationRow:
     difference: Interval
 
     def to_dict(self) -> dict[str, object]:
-        row = dataclasses.asdict(self)
-        row["difference"] = dataclasses.asdict(self.difference)
-        return row
+        return dataclasses.asdict(self)  # the Interval becomes a {mean, low, high} dict
 
 
 def density_rows(primary: Sequence[ScoredRun]) -> list[DensityRow]:

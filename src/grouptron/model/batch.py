@@ -48,10 +48,12 @@ def make_group_batch(
     hist_st: np.ndarray,
     *,
     rotation: np.ndarray | None,
+    edges: np.ndarray,
+    counts: np.ndarray,
 ) -> GroupBatch:
     """Flatten the nodes and groups of samples ``index`` (``hist_st`` already gathered and,
-    with ``rotation`` (B, 2, 2), rotated)."""
-    edges, counts = edge_rows(samples.nbr_offsets, index)  # (E_b,), (B,)
+    with ``rotation`` (B, 2, 2), rotated; ``edges`` (E_b,) and ``counts`` (B,) their edge rows
+    from ``edge_rows``)."""
     nbr_st = samples.nbr_hist_st[edges]
     if rotation is not None:
         nbr_st = rotate_rows(nbr_st, np.repeat(rotation, counts, axis=0))
@@ -159,7 +161,9 @@ def make_batch(
         fut_rel_m=fut,
         fut_st=fut / config.future_scale_m,
         groups=(
-            make_group_batch(samples, groups, index, hist_st, rotation=rotation)
+            make_group_batch(
+                samples, groups, index, hist_st, rotation=rotation, edges=edges, counts=counts
+            )
             if groups is not None
             else None
         ),
