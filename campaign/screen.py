@@ -13,7 +13,7 @@ already trained the same run (``REFERENCES/<model>-<split>-backward[-s<seed>]``,
 configuration) it is read from there instead of trained twice. ``--table`` prints, per split
 and variant, the validation ML FDE (the trainer's re-scoring of its best epochs on the whole
 validation part) of each seed, their mean, and the mean paired difference to Trajectron++ over
-the seeds both have, and constant velocity's FDE on the same samples; ``--ood DIR`` adds the
+the seeds both have, and constant velocity's FDE on the same samples; ``--ood`` adds the
 FDE over constant velocity's on the out-of-domain development set, overall and with 25+
 neighbours (univ's validation data is sparse, so it cannot show how a variant copes with a
 crowd). Only validation and the development set are looked at: test waits for the winner.
@@ -111,11 +111,11 @@ def ood_ratios(run: Path, args: argparse.Namespace) -> dict[str, float] | None:
     cached = run / "ood.json"
     if not cached.exists():
         script = REPO / "benchmarks" / "out_of_domain.py"
-        command = [sys.executable, str(script), "--ood", args.ood, "--checkpoints", str(run)]
-        command += ["--sdd-files", "3", "--threads", str(args.threads), "--json", str(cached)]
+        command = [sys.executable, str(script), "--checkpoints", str(run)]
+        command += ["--threads", str(args.threads), "--json", str(cached)]
         subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
     ratios = json.loads(cached.read_text())["fde_over_cv"]
-    (model,) = [name for name in ratios if name != "constant velocity"]
+    (model,) = [name for name in ratios if name not in ("constant velocity", "constant-velocity")]
     return dict(ratios[model])
 
 
@@ -182,8 +182,9 @@ def main() -> None:
     parser.add_argument("--table", action="store_true", help="print the validation table")
     parser.add_argument(
         "--ood",
-        help="with --table: the out-of-domain development set (../shared/data/ood); adds each "
-        "variant's FDE over constant velocity there (scored once per run into ood.json)",
+        action="store_true",
+        help="with --table: add each variant's FDE over constant velocity on the out-of-domain "
+        "development set (benchmarks/ood/*.toml; scored once per run into ood.json)",
     )
     args = parser.parse_args()
     if args.table:

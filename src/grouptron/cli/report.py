@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
 
 import torch
@@ -18,8 +19,13 @@ from grouptron.cli.common import (
 )
 from grouptron.data.custom import read_dataset
 from grouptron.data.locate import resolve_data_dir
+from grouptron.errors import GrouptronError
 from grouptron.evaluation.dataset_report import dataset_report
 from grouptron.evaluation.evaluate import MODES
+from grouptron.evaluation.out_of_domain import (
+    causal_checkpoints,
+    score_out_of_domain,
+)
 from grouptron.evaluation.report import (
     ReportSettings,
     find_checkpoints,
@@ -28,6 +34,7 @@ from grouptron.evaluation.report import (
 from grouptron.evaluation.report_tables import report_markdown
 from grouptron.evaluation.results import results_json
 from grouptron.geometry import DERIVATIVE_SCHEMES
+from grouptron.inference.predictor import DEFAULT_CHECKPOINT
 from grouptron.io import (
     refuse_folder,
     write_text_atomically,
@@ -45,6 +52,8 @@ def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
         parts.append(f"--seed {args.seed}")
     if args.diagnostics:
         parts.append("--diagnostics")
+    if args.out_of_domain:
+        parts.append(f"--out-of-domain {' '.join(args.out_of_domain)}")
     if args.out:
         parts.append(f"--out {args.out}")
     return " ".join(parts)
@@ -88,7 +97,11 @@ def cmd_report(args: argparse.Namespace) -> int:
     if args.out:
         refuse_folder(Path(args.out))  # before the work, not after it
     if args.dataset:
+        if args.out_of_domain:
+            raise GrouptronError("--out-of-domain goes with the benchmark report, not --dataset")
         return cmd_report_dataset(args)
+    # Read before the long work, so that a bad description fails at once.
+    out_of_domain = [read_dataset(path) for path in args.out_of_domain or ()]
     schemes = DERIVATIVE_SCHEMES if args.derivatives == "both" else (args.derivatives,)
     modes = eval_modes(args.mode)
     settings = ReportSettings(
@@ -109,6 +122,10 @@ def cmd_report(args: argparse.Namespace) -> int:
         progress=show_progress(args),
         announce=not args.quiet,
     )
+    if out_of_domain:
+        causal = causal_checkpoints(Path(args.checkpoints))
+        ood = score_out_of_domain(out_of_domain, causal, DEFAULT_CHECKPOINT, show_progress(args))
+        report = dataclasses.replace(report, out_of_domain=ood)
     if args.format == "json":
         text = report.to_json() + "\n"
     else:
@@ -173,6 +190,15 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         help="also the density table (model minus constant velocity by neighbours within "
         "3 m) and the ablation table (edges, scene inputs taken away); needs the ml mode and "
         "one more ML pass per input a model has",
+    )
+    report.add_argument(
+        "--out-of-domain",
+        nargs="+",
+        metavar="DATASET",
+        help="also an out-of-domain section: every causal checkpoint under --checkpoints and "
+        "constant velocity on the test part of each dataset description (recordings from "
+        "elsewhere; docs/recordings.md), and whether the default model "
+        f"({DEFAULT_CHECKPOINT}) is at or below constant velocity on every recording",
     )
     add_threads_option(report)
     report.add_argument("--quiet", action="store_true", help="no progress output")

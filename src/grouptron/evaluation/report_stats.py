@@ -23,6 +23,7 @@ from grouptron.evaluation.diagnostics import (
     ablation_rows,
     density_rows,
 )
+from grouptron.evaluation.out_of_domain import OutOfDomain
 from grouptron.evaluation.results import MEAN_ROW, EvaluationResult, mean_over_splits
 from grouptron.evaluation.scored import CONSTANT_VELOCITY, ScoredRun
 from grouptron.evaluation.uncertainty import (
@@ -92,8 +93,10 @@ class Report:
     seeds: list[SeedSpread]
     density: list[DensityRow] = dataclasses.field(default_factory=list)
     ablations: list[AblationRow] = dataclasses.field(default_factory=list)
+    out_of_domain: OutOfDomain | None = None
 
     def to_json(self) -> str:
+        ood = self.out_of_domain
         return json.dumps(
             {
                 "results": [r.to_dict() for r in self.rows],
@@ -101,6 +104,7 @@ class Report:
                 "seeds": [s.to_dict() for s in self.seeds],
                 "density": [d.to_dict() for d in self.density],
                 "ablations": [a.to_dict() for a in self.ablations],
+                **({"out_of_domain": ood.to_dict()} if ood is not None else {}),
             },
             indent=2,
         )

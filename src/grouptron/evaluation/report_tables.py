@@ -12,6 +12,7 @@ from collections.abc import Sequence
 
 from grouptron.constants import SPLITS, UNIV_N_PAPER
 from grouptron.evaluation.diagnostics import diagnostics_markdown
+from grouptron.evaluation.out_of_domain import out_of_domain_markdown
 from grouptron.evaluation.published import TABLE_I, TABLE_II
 from grouptron.evaluation.report_stats import PairedDifference, Report, SeedSpread
 from grouptron.evaluation.results import MEAN_ROW, EvaluationResult
@@ -414,10 +415,6 @@ def _other_modes(
     return out
 
 
-def _is_used(row: EvaluationResult) -> bool:
-    return bool(row.checkpoint) and not row.subset and row.mode == "ml"
-
-
 def report_markdown(report: Report, schemes: Sequence[str], command: str) -> str:
     """The whole report as a Markdown document."""
     results = report.rows
@@ -438,11 +435,13 @@ def report_markdown(report: Report, schemes: Sequence[str], command: str) -> str
         *_certainty_sections(report, rows, schemes),
         *_other_modes(rows, modes, schemes),
         *diagnostics_markdown(report.density, report.ablations, DISPLAY),
+        *out_of_domain_markdown(report.out_of_domain),
     ]
     checks = target_checks(rows, schemes, report.paired)
     if checks:
         out += ["", "## Targets", "", *checks]
-    used = sorted({(r.checkpoint, r.samples) for r in results if _is_used(r)})
+    whole = [r for r in results if r.checkpoint and not r.subset and r.mode == "ml"]
+    used = sorted({(r.checkpoint, r.samples) for r in whole})
     if used:
         out += ["", "## Checkpoints", ""]
         out += _table(["checkpoint", "test samples"], [[f"`{p}`", str(n)] for p, n in used])

@@ -1,0 +1,113 @@
+"""The out-of-domain section: causal checkpoints and constant velocity on datasets of one's own."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grouptron.cli.app import main
+from grouptron.data.custom import read_dataset
+from grouptron.evaluation.out_of_domain import (
+    causal_checkpoints,
+    out_of_domain_markdown,
+    score_out_of_domain,
+)
+from grouptron.evaluation.scored import CONSTANT_VELOCITY
+from tests.conftest import synthetic_recording
+
+BACKWARD = "grouptron-eth-backward"
+
+
+@pytest.fixture(scope="module")
+def corridor(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A dataset description of two recordings in another layout (id first, centimetres,
+    16 fps), like a corridor experiment from elsewhere."""
+    root = tmp_path_factory.mktemp("elsewhere")
+    for seed in (11, 12):
+        plain = synthetic_recording(root / f"plain{seed}.txt", seed, pedestrians=10)
+        rows = [line.split("\t") for line in plain.read_text().splitlines()]
+        # frame (ETH/UCY: 10 per 0.4 s) -> 16 fps frames; metres -> centimetres; id first
+        (root / f"run{seed}.txt").write_text(
+            "".join(
+                f"{i} {int(f) * 16 * 0.4 / 10:g} {float(x) * 100:g} {float(y) * 100:g} 170\n"
+                for f, i, x, y in rows
+            )
+        )
+    (root / "corridor.toml").write_text(
+        'name = "corridor"\n[format]\ncolumns = "id,frame,x,y,z"\nfps = 16\nunits = "cm"\n'
+        '[parts]\ntest = ["run11.txt", "run12.txt"]\n'
+    )
+    return root / "corridor.toml"
+
+
+def test_only_causal_checkpoints_are_scored(tiny_checkpoints: Path) -> None:
+    assert [p.parent.name for p in causal_checkpoints(tiny_checkpoints)] == [BACKWARD]
+
+
+def test_rows_are_paired_with_constant_velocity_per_recording_and_density_bin(
+    tiny_checkpoints: Path, corridor: Path
+) -> None:
+    dataset = read_dataset(corridor)
+    result = score_out_of_domain(
+        [dataset], causal_checkpoints(tiny_checkpoints), default_model=BACKWARD
+    )
+    by = {(r.model, r.recording): r for r in result.recordings}
+    assert set(by) == {(m, f"run{s}.txt") for m in (CONSTANT_VELOCITY, BACKWARD) for s in (11, 12)}
+    for recording in ("run11.txt", "run12.txt"):
+        cv, ours = by[CONSTANT_VELOCITY, recording], by[BACKWARD, recording]
+        assert cv.samples == ours.samples > 0
+        assert cv.difference.mean == 0.0 and cv.ratio == 1.0
+        assert ours.fde_constant_velocity == pytest.approx(cv.fde.mean)
+        assert ours.difference.mean == pytest.approx(ours.fde.mean - cv.fde.mean)
+        assert ours.difference.low <= ours.difference.mean <= ours.difference.high
+    pooled = {(p.model, p.bin): p for p in result.pooled}
+    total = sum(by[BACKWARD, f"run{s}.txt"].samples for s in (11, 12))
+    assert pooled[BACKWARD, "all"].samples == total
+    bins = [p for p in result.pooled if p.model == BACKWARD and p.bin != "all"]
+    assert bins and sum(p.samples for p in bins) <= total  # bins under 20 samples are left out
+    ratio = pooled[BACKWARD, "all"].ratio
+    assert np.isclose(
+        ratio, pooled[BACKWARD, "all"].fde / pooled[BACKWARD, "all"].fde_constant_velocity
+    )
+
+    text = "\n".join(out_of_domain_markdown(result))
+    assert "## Out of domain" in text and "- corridor: run11.txt, run12.txt" in text
+    worst = max(by[BACKWARD, f"run{s}.txt"].ratio for s in (11, 12))
+    verdict = "met" if worst <= 1.0 else "NOT met"
+    assert f"on every recording: {verdict} (highest FDE / CV {worst:.3f}" in text
+    json.dumps(result.to_dict())  # serialisable as the report's JSON carries it
+
+
+def test_the_report_command_refuses_out_of_domain_with_a_dataset_and_bad_descriptions(
+    tmp_path: Path, corridor: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["report", "--dataset", str(corridor), "--out-of-domain", str(corridor)]) == 2
+    assert "--out-of-domain goes with the benchmark report" in capsys.readouterr().err
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "x"\n[parts]\ntest = ["missing.txt"]\n')
+    assert main(["report", "--out-of-domain", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "test files not found" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.realdata
+def test_the_report_command_appends_the_section(
+    tiny_checkpoints: Path,
+    eth_ucy_dir: Path,
+    corridor: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    folder = tmp_path / "ckpt"
+    shutil.copytree(tiny_checkpoints / BACKWARD, folder / BACKWARD)
+    out = tmp_path / "RESULTS.md"
+    argv = ["report", "--checkpoints", str(folder), "--data-dir", str(eth_ucy_dir)]
+    argv += ["--derivatives", "backward", "--mode", "ml", "--quiet", "--out", str(out)]
+    assert main([*argv, "--out-of-domain", str(corridor)]) == 0
+    text = out.read_text()
+    assert f"--out-of-domain {corridor}" in text  # the command that regenerates it
+    assert f"| run12.txt | {BACKWARD} |" in text
