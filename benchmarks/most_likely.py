@@ -21,7 +21,7 @@ import torch
 from grouptron.data.locate import resolve_data_dir, split_files
 from grouptron.data.recording import RecordingFormat
 from grouptron.evaluation.recordings import recording_samples
-from grouptron.inference.predictor import resolve_checkpoint
+from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.inference.tracks import groups_for_model
 from grouptron.model.batch import batches
 from grouptron.model.checkpoint import load_trained_model

@@ -2,7 +2,8 @@
 
 Usage:
     python benchmarks/out_of_domain.py [--datasets benchmarks/ood/stanford_drone.toml,...]
-        [--checkpoints trajectron++-univ-backward,grouptron-univ-backward] [--json FILE]
+        [--checkpoints trajectron++-univ-backward,grouptron-univ-backward]
+        [--modes ml,ml-argmax,mean] [--json FILE]
 
 Scores the test parts of the development set's dataset descriptions (``benchmarks/ood/``: the
 first three TrajNet Stanford Drone scenes and the three HERMES corridor runs of
@@ -24,7 +25,7 @@ import torch
 
 from grouptron.data.custom import read_dataset
 from grouptron.evaluation.out_of_domain import out_of_domain_markdown, score_out_of_domain
-from grouptron.inference.predictor import DEFAULT_CHECKPOINT, resolve_checkpoint
+from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 
 HERE = Path(__file__).resolve().parent
 DEVELOPMENT_SET = ",".join(
@@ -38,23 +39,29 @@ def main() -> None:
     parser.add_argument(
         "--checkpoints", default="trajectron++-univ-backward,grouptron-univ-backward"
     )
+    parser.add_argument(
+        "--modes", default="ml", help="comma-separated point forecasts: ml, ml-argmax, mean"
+    )
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument(
         "--json",
         type=Path,
-        help="also write FDE over constant velocity's per model, pooled and by density bin "
+        help="also write FDE over constant velocity's per model (first of --modes), pooled and "
+        "by density bin "
         "(``{'fde_over_cv': {model: {bin: ratio}}}``), for campaign/screen.py --table --ood",
     )
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     datasets = [read_dataset(path) for path in args.datasets.split(",") if path]
     paths = [resolve_checkpoint(c) for c in args.checkpoints.split(",") if c]
-    result = score_out_of_domain(datasets, paths, DEFAULT_CHECKPOINT)
+    modes = args.modes.split(",")
+    result = score_out_of_domain(datasets, paths, modes, DEFAULT_CHECKPOINT)
     print("\n".join(out_of_domain_markdown(result)))
     if args.json:
         ratios: dict[str, dict[str, float]] = {}
         for row in result.pooled:
-            ratios.setdefault(row.model, {})[row.bin] = row.ratio
+            if row.mode in (None, modes[0]):
+                ratios.setdefault(row.model, {})[row.bin] = row.ratio
         args.json.write_text(json.dumps({"fde_over_cv": ratios}, indent=2) + "\n")
 
 

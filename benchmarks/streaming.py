@@ -3,7 +3,7 @@
 Usage:
     python benchmarks/streaming.py [--checkpoint NAME_OR_PATH] [--people 10,50,100,200]
                                    [--frames 60] [--threads 2]
-                                   [--most-likely ml|ml-argmax] [--latent-values K]
+                                   [--most-likely ml|ml-argmax|mean] [--latent-values K]
                                    [--mixture] [--min-points 2] [--max-missed-steps 2]
 
 A synthetic scene of N pedestrians walking in pairs and alone through a square sized for about
@@ -47,9 +47,9 @@ def add_predictor_options(parser: argparse.ArgumentParser, most_likely: str) -> 
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument(
         "--most-likely",
-        choices=("ml", "ml-argmax"),
+        choices=("ml", "ml-argmax", "mean"),
         default=most_likely,
-        help="the Predictor's most-likely definition (ml-argmax also skips the mixture)",
+        help="the Predictor's point forecast (ml-argmax skips the mixture; mean decodes all Z)",
     )
     parser.add_argument(
         "--latent-values", type=int, help="Predictor(latent_values=...) for --most-likely ml"

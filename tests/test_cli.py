@@ -125,10 +125,10 @@ def test_train_then_evaluate_a_checkpoint(
     assert len((out / "metrics.jsonl").read_text().splitlines()) == 2
 
     evaluate = ["evaluate", "--checkpoint", str(out / "best.safetensors"), *common]
-    rows = json_rows([*evaluate, "--mode", "ml,ml-argmax,best-of-20"], capsys)
-    assert [r["mode"] for r in rows] == ["ml", "ml-argmax", "best-of-20"]
+    rows = json_rows([*evaluate, "--mode", "ml,ml-argmax,mean,best-of-20"], capsys)
+    assert [r["mode"] for r in rows] == ["ml", "ml-argmax", "mean", "best-of-20"]
     assert all(r["split"] == "eth" and r["model"] == "trajectron++" for r in rows)
-    assert rows[2]["ade"] <= rows[0]["ade"]  # the best of 20 beats a single guess
+    assert rows[3]["ade"] <= rows[0]["ade"]  # the best of 20 beats a single guess
     (nll,) = json_rows([*evaluate, "--mode", "nll"], capsys)
     assert nll["ade"] is None and math.isfinite(nll["nll"]) and nll["nll"] < 20.0
     message = run_error([*evaluate, "--derivatives", "backward"], capsys)

@@ -48,37 +48,43 @@ def test_only_causal_checkpoints_are_scored(tiny_checkpoints: Path) -> None:
     assert [p.parent.name for p in causal_checkpoints(tiny_checkpoints)] == [BACKWARD]
 
 
-def test_rows_are_paired_with_constant_velocity_per_recording_and_density_bin(
+def test_rows_are_paired_with_constant_velocity_per_recording_mode_and_density_bin(
     tiny_checkpoints: Path, corridor: Path
 ) -> None:
     dataset = read_dataset(corridor)
     result = score_out_of_domain(
-        [dataset], causal_checkpoints(tiny_checkpoints), default_model=BACKWARD
+        [dataset], causal_checkpoints(tiny_checkpoints), ("ml", "mean"), default_model=BACKWARD
     )
-    by = {(r.model, r.recording): r for r in result.recordings}
-    assert set(by) == {(m, f"run{s}.txt") for m in (CONSTANT_VELOCITY, BACKWARD) for s in (11, 12)}
+    by = {(r.model, r.mode, r.recording): r for r in result.recordings}
+    runs = [(CONSTANT_VELOCITY, None), (BACKWARD, "ml"), (BACKWARD, "mean")]
+    assert set(by) == {(m, mode, f"run{s}.txt") for m, mode in runs for s in (11, 12)}
     for recording in ("run11.txt", "run12.txt"):
-        cv, ours = by[CONSTANT_VELOCITY, recording], by[BACKWARD, recording]
-        assert cv.samples == ours.samples > 0
+        cv = by[CONSTANT_VELOCITY, None, recording]
         assert cv.difference.mean == 0.0 and cv.ratio == 1.0
-        assert ours.fde_constant_velocity == pytest.approx(cv.fde.mean)
-        assert ours.difference.mean == pytest.approx(ours.fde.mean - cv.fde.mean)
-        assert ours.difference.low <= ours.difference.mean <= ours.difference.high
-    pooled = {(p.model, p.bin): p for p in result.pooled}
-    total = sum(by[BACKWARD, f"run{s}.txt"].samples for s in (11, 12))
-    assert pooled[BACKWARD, "all"].samples == total
-    bins = [p for p in result.pooled if p.model == BACKWARD and p.bin != "all"]
-    assert bins and sum(p.samples for p in bins) <= total  # bins under 20 samples are left out
-    ratio = pooled[BACKWARD, "all"].ratio
-    assert np.isclose(
-        ratio, pooled[BACKWARD, "all"].fde / pooled[BACKWARD, "all"].fde_constant_velocity
+        for mode in ("ml", "mean"):
+            ours = by[BACKWARD, mode, recording]
+            assert cv.samples == ours.samples > 0
+            assert ours.fde_constant_velocity == pytest.approx(cv.fde.mean)
+            assert ours.difference.mean == pytest.approx(ours.fde.mean - cv.fde.mean)
+            assert ours.difference.low <= ours.difference.mean <= ours.difference.high
+        assert by[BACKWARD, "ml", recording].fde.mean != by[BACKWARD, "mean", recording].fde.mean
+    pooled = {(p.model, p.mode, p.bin): p for p in result.pooled}
+    total = sum(by[BACKWARD, "ml", f"run{s}.txt"].samples for s in (11, 12))
+    whole = pooled[BACKWARD, "ml", "all"]
+    assert whole.samples == total and np.isclose(
+        whole.ratio, whole.fde / whole.fde_constant_velocity
     )
+    bins = [p for p in result.pooled if p.model == BACKWARD and p.mode == "ml" and p.bin != "all"]
+    assert bins and sum(p.samples for p in bins) <= total  # bins under 20 samples are left out
 
     text = "\n".join(out_of_domain_markdown(result))
     assert "## Out of domain" in text and "- corridor: run11.txt, run12.txt" in text
-    worst = max(by[BACKWARD, f"run{s}.txt"].ratio for s in (11, 12))
-    verdict = "met" if worst <= 1.0 else "NOT met"
-    assert f"on every recording: {verdict} (highest FDE / CV {worst:.3f}" in text
+    assert f"| run12.txt | {BACKWARD} (mean) |" in text
+    for mode in ("ml", "mean"):
+        worst = max(by[BACKWARD, mode, f"run{s}.txt"].ratio for s in (11, 12))
+        verdict = "met" if worst <= 1.0 else "NOT met"
+        expected = f"({mode}) at or below constant velocity's FDE on every recording: {verdict}"
+        assert f"{expected} (highest FDE / CV {worst:.3f}" in text
     json.dumps(result.to_dict())  # serialisable as the report's JSON carries it
 
 
@@ -87,6 +93,9 @@ def test_the_report_command_refuses_out_of_domain_with_a_dataset_and_bad_descrip
 ) -> None:
     assert main(["report", "--dataset", str(corridor), "--out-of-domain", str(corridor)]) == 2
     assert "--out-of-domain goes with the benchmark report" in capsys.readouterr().err
+    no_point = ["report", "--out-of-domain", str(corridor), "--mode", "best-of-20"]
+    assert main(no_point) == 2
+    assert "add one of ml, ml-argmax, mean to --mode" in capsys.readouterr().err
     bad = tmp_path / "bad.toml"
     bad.write_text('name = "x"\n[parts]\ntest = ["missing.txt"]\n')
     assert main(["report", "--out-of-domain", str(bad)]) == 2
@@ -110,4 +119,4 @@ def test_the_report_command_appends_the_section(
     assert main([*argv, "--out-of-domain", str(corridor)]) == 0
     text = out.read_text()
     assert f"--out-of-domain {corridor}" in text  # the command that regenerates it
-    assert f"| run12.txt | {BACKWARD} |" in text
+    assert f"| run12.txt | {BACKWARD} (ml) |" in text

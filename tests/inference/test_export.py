@@ -17,13 +17,13 @@ from grouptron.data.reader import table_from_values
 from grouptron.data.samples import scene_samples
 from grouptron.data.scene import build_scene
 from grouptron.errors import GrouptronError
+from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.inference.export import (
     ForecastNetwork,
     batch_inputs,
     export_onnx,
     run_onnx,
 )
-from grouptron.inference.predictor import resolve_checkpoint
 from grouptron.inference.tracks import groups_for_model
 from grouptron.model.batch import make_batch
 from grouptron.model.checkpoint import load_trained_model

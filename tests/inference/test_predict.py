@@ -173,7 +173,8 @@ def test_plot_animates_a_range_of_frames_as_a_gif(
 def test_without_a_checkpoint_the_default_model_forecasts(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from grouptron.inference.predictor import DEFAULT_CHECKPOINT, Predictor
+    from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT
+    from grouptron.inference.predictor import Predictor
 
     predictor = Predictor.from_checkpoint()
     assert predictor.config.data.derivatives == "backward"  # made for live tracks

@@ -68,7 +68,27 @@ def test_argmax_latent_fast_path_follows_the_most_probable_latent(
     # The two definitions of "most likely" differ for a trained multimodal model.
     assert not np.allclose(quick.most_likely, full.most_likely, atol=1e-4)
     with pytest.raises(GrouptronError, match="most_likely must be one of"):
-        Predictor(causal.model, causal.config, most_likely="mean")
+        Predictor(causal.model, causal.config, most_likely="median")  # type: ignore[arg-type]
+
+
+def test_the_mean_forecast_is_the_weighted_mean_of_the_mixture_means(
+    causal: Predictor, recording: np.ndarray, synthetic_data_dir: Path
+) -> None:
+    frame = int(np.median(recording[:, 0]))
+    full = causal.predict(recording, t=frame)
+    mean = Predictor(causal.model, causal.config, most_likely="mean").predict(recording, t=frame)
+    weights = np.exp(full.mixture_log_weights)[:, :, None, None]  # (N, Z, 1, 1)
+    expected = (weights * full.mixture_means).sum(axis=1)  # (N, H, 2)
+    np.testing.assert_allclose(mean.most_likely, expected, atol=1e-4)
+    assert not np.allclose(mean.most_likely, full.most_likely, atol=1e-4)
+    # The track-file path gives the same mean forecast.
+    (scene,) = load_scenes(split_files(synthetic_data_dir, "eth", "test"), causal.config.data)
+    whole = forecast_scene(causal.model, causal.config, scene, "mean", min_points=2)
+    at_frame = whole.frames == frame
+    order = np.argsort(whole.ids[at_frame])
+    np.testing.assert_allclose(mean.most_likely, whole.most_likely[at_frame][order], atol=1e-5)
+    with pytest.raises(GrouptronError, match="latent_values is for most_likely='ml'"):
+        Predictor(causal.model, causal.config, most_likely="mean", latent_values=3)
 
 
 def test_streaming_equals_predicting_from_all_rows(
@@ -169,7 +189,7 @@ def test_shipped_names_resolve_from_any_working_directory(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from grouptron.errors import GrouptronError
-    from grouptron.inference.predictor import resolve_checkpoint
+    from grouptron.inference.checkpoints import resolve_checkpoint
 
     monkeypatch.chdir(tmp_path)
     monkeypatch.delenv("GROUPTRON_CHECKPOINTS", raising=False)

@@ -46,7 +46,7 @@ from grouptron.evaluation.results import (
 )
 from grouptron.evaluation.test_sets import load_test_set
 from grouptron.groups.assign import assign_groups
-from grouptron.inference.predictor import resolve_checkpoint
+from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import uses_groups
@@ -237,7 +237,8 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         description="Score a trained checkpoint or the constant-velocity baseline on the test "
         "samples of one or all splits (exactly 8 observed and 12 future steps). Modes: 'ml' "
         "(the mode of the latent mixture at every step, the papers' 'most likely'), "
-        "'ml-argmax' (the most probable latent value's mean), 'best-of-20' (min ADE and min "
+        "'ml-argmax' (the most probable latent value's mean), 'mean' (the p(z|x)-weighted "
+        "mean of every latent value's trajectory), 'best-of-20' (min ADE and min "
         "FDE over 20 samples, taken independently) and 'nll' (KDE NLL of 2000 samples). "
         "With --split all the unweighted mean over the five splits is added.",
         formatter_class=Formatter,

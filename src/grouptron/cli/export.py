@@ -9,6 +9,7 @@ import numpy as np
 import torch
 
 from grouptron.cli.common import Formatter, add_threads_option
+from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.inference.export import (
     EXPORT_FORMATS,
     ForecastNetwork,
@@ -17,7 +18,6 @@ from grouptron.inference.export import (
     export_onnx,
     run_onnx,
 )
-from grouptron.inference.predictor import resolve_checkpoint
 from grouptron.io import refuse_folder
 from grouptron.model.checkpoint import load_trained_model
 

@@ -26,8 +26,9 @@ from grouptron.data.ndjson import write_forecast_ndjson
 from grouptron.data.reader import TrackTable
 from grouptron.data.scene import build_scene
 from grouptron.errors import GrouptronError
+from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.inference.forecast import Forecast
-from grouptron.inference.predictor import DEFAULT_CHECKPOINT, Predictor, resolve_checkpoint
+from grouptron.inference.predictor import Predictor
 from grouptron.inference.tracks import FORECAST_MODES, forecast_scene
 from grouptron.io import (
     refuse_folder,
@@ -208,7 +209,9 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--mode",
         choices=FORECAST_MODES,
         default="ml",
-        help="ml: the most likely future per pedestrian; samples: --samples sampled futures",
+        help="ml: the most likely future per pedestrian; mean: the p(z|x)-weighted mean "
+        "future (the least expected squared error under the model); samples: "
+        "--samples sampled futures",
     )
     predict.add_argument(
         "--samples", type=positive_int, default=20, help="futures per pedestrian (samples)"

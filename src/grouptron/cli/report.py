@@ -21,7 +21,7 @@ from grouptron.data.custom import read_dataset
 from grouptron.data.locate import resolve_data_dir
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.dataset_report import dataset_report
-from grouptron.evaluation.evaluate import MODES
+from grouptron.evaluation.evaluate import MODES, POINT_FORECASTS
 from grouptron.evaluation.out_of_domain import (
     causal_checkpoints,
     score_out_of_domain,
@@ -34,7 +34,7 @@ from grouptron.evaluation.report import (
 from grouptron.evaluation.report_tables import report_markdown
 from grouptron.evaluation.results import results_json
 from grouptron.geometry import DERIVATIVE_SCHEMES
-from grouptron.inference.predictor import DEFAULT_CHECKPOINT
+from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT
 from grouptron.io import (
     refuse_folder,
     write_text_atomically,
@@ -100,10 +100,16 @@ def cmd_report(args: argparse.Namespace) -> int:
         if args.out_of_domain:
             raise GrouptronError("--out-of-domain goes with the benchmark report, not --dataset")
         return cmd_report_dataset(args)
+    modes = eval_modes(args.mode)
     # Read before the long work, so that a bad description fails at once.
     out_of_domain = [read_dataset(path) for path in args.out_of_domain or ()]
+    point_modes = [m for m in modes if m in POINT_FORECASTS]
+    if out_of_domain and not point_modes:
+        raise GrouptronError(
+            f"--out-of-domain scores point forecasts: add one of {', '.join(POINT_FORECASTS)} "
+            "to --mode"
+        )
     schemes = DERIVATIVE_SCHEMES if args.derivatives == "both" else (args.derivatives,)
-    modes = eval_modes(args.mode)
     settings = ReportSettings(
         modes=modes,
         seed=args.seed,
@@ -124,7 +130,9 @@ def cmd_report(args: argparse.Namespace) -> int:
     )
     if out_of_domain:
         causal = causal_checkpoints(Path(args.checkpoints))
-        ood = score_out_of_domain(out_of_domain, causal, DEFAULT_CHECKPOINT, show_progress(args))
+        ood = score_out_of_domain(
+            out_of_domain, causal, point_modes, DEFAULT_CHECKPOINT, show_progress(args)
+        )
         report = dataclasses.replace(report, out_of_domain=ood)
     if args.format == "json":
         text = report.to_json() + "\n"
@@ -197,7 +205,8 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         metavar="DATASET",
         help="also an out-of-domain section: every causal checkpoint under --checkpoints and "
         "constant velocity on the test part of each dataset description (recordings from "
-        "elsewhere; docs/recordings.md), and whether the default model "
+        "elsewhere; docs/recordings.md) in each point-forecast --mode, and whether the default "
+        "model "
         f"({DEFAULT_CHECKPOINT}) is at or below constant velocity on every recording",
     )
     add_threads_option(report)

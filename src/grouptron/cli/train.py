@@ -32,7 +32,7 @@ from grouptron.data.locate import resolve_data_dir
 from grouptron.errors import GrouptronError
 from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.groups.cache import load_groups
-from grouptron.inference.predictor import resolve_checkpoint
+from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.model.checkpoint import load_checkpoint
 from grouptron.model.factory import MODEL_NAMES, uses_groups
 from grouptron.training import distributed

@@ -15,10 +15,8 @@ from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.uncertainty import mean_interval
 from grouptron.groups.assign import assign_groups
-from grouptron.model.checkpoint import load_checkpoint, load_trained_model
+from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_checkpoint, load_trained_model
 from grouptron.model.factory import uses_groups
-
-WEIGHTS_FILE = "best.safetensors"
 
 
 def checkpoints_of(dataset: DatasetDescription, root: Path) -> list[Path]:
@@ -27,7 +25,7 @@ def checkpoints_of(dataset: DatasetDescription, root: Path) -> list[Path]:
     if not root.is_dir():
         raise GrouptronError(f"checkpoint folder {root} does not exist; pass --checkpoints DIR")
     found = []
-    for path in sorted(root.glob(f"*/{WEIGHTS_FILE}")):
+    for path in sorted(root.glob(f"*/{BEST_WEIGHTS_FILE}")):
         stored = load_checkpoint(path).config.dataset
         if stored and Path(stored).resolve() == dataset.source:
             found.append(path)

@@ -19,11 +19,19 @@ from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.predict import (
     Ablation,
     predict_argmax_latent,
+    predict_mixture_mean,
     predict_most_likely,
     predict_samples,
 )
 
-MODES = ("ml", "ml-argmax", "best-of-20", "nll")
+MODES = ("ml", "ml-argmax", "mean", "best-of-20", "nll")
+POINT_FORECASTS = {
+    "ml": predict_most_likely,
+    "ml-argmax": predict_argmax_latent,
+    "mean": predict_mixture_mean,
+}
+"""Single-trajectory modes: the mixture mode per step (the benchmark's most likely), the argmax
+latent value's means, and the p(z|x)-weighted mean trajectory."""
 BEST_OF = 20
 NLL_SAMPLES = 2000
 
@@ -105,8 +113,8 @@ def score_samples(
         ):
             batch = batch.to(device)
             truth = batch.fut_rel_m.double().cpu().numpy()  # (B, H, 2)
-            if mode in ("ml", "ml-argmax"):
-                predict = predict_most_likely if mode == "ml" else predict_argmax_latent
+            if mode in POINT_FORECASTS:
+                predict = POINT_FORECASTS[mode]
                 pred = predict(model, batch, horizon, dt, ablate).double().cpu().numpy()
                 ade[index], fde[index] = metrics.ade(pred, truth), metrics.fde(pred, truth)
                 continue

@@ -42,13 +42,11 @@ from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.scored import CONSTANT_VELOCITY, ReportCheckpoint, ScoredRun
 from grouptron.evaluation.test_sets import load_test_set, subset_with_groups
 from grouptron.geometry import DerivativeScheme
-from grouptron.model.checkpoint import load_checkpoint, load_trained_model
+from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_checkpoint, load_trained_model
 from grouptron.model.factory import MODEL_NAMES, uses_groups
 from grouptron.model.predict import ABLATIONS
 
 log = logging.getLogger(__name__)
-
-WEIGHTS_FILE = "best.safetensors"
 
 
 @dataclass(frozen=True)
@@ -86,7 +84,7 @@ def find_checkpoints(root: Path, schemes: Sequence[DerivativeScheme]) -> list[Re
     if not root.is_dir():
         raise GrouptronError(f"checkpoint folder {root} does not exist; pass --checkpoints DIR")
     found = []
-    for path in sorted(root.glob(f"*/{WEIGHTS_FILE}")):
+    for path in sorted(root.glob(f"*/{BEST_WEIGHTS_FILE}")):
         config = load_checkpoint(path).config
         derivatives = config.data.derivatives
         if derivatives in schemes and config.split in SPLITS and config.model_name in MODEL_NAMES:
@@ -98,7 +96,7 @@ def find_checkpoints(root: Path, schemes: Sequence[DerivativeScheme]) -> list[Re
     if not found:
         raise GrouptronError(
             f"no checkpoints in {root} for the {'/'.join(schemes)} derivatives: expected "
-            f"folders with a {WEIGHTS_FILE} of {' or '.join(MODEL_NAMES)} on an ETH/UCY split"
+            f"folders with a {BEST_WEIGHTS_FILE} of {' or '.join(MODEL_NAMES)} on an ETH/UCY split"
         )
     order = {name: i for i, name in enumerate((*schemes, *MODEL_NAMES, *SPLITS))}
     found.sort(key=lambda c: (order[c.derivatives], order[c.model], order[c.split], c.seed))

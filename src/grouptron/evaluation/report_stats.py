@@ -34,7 +34,7 @@ from grouptron.evaluation.uncertainty import (
 )
 
 BOOTSTRAP_SEED = 0
-INTERVAL_MODES = ("ml", "ml-argmax", "best-of-20")
+INTERVAL_MODES = ("ml", "ml-argmax", "mean", "best-of-20")
 PAIRS = (
     ("grouptron", "trajectron++"),
     ("trajectron++", CONSTANT_VELOCITY),

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import os
 import warnings
 from pathlib import Path
 from typing import Any, Literal
@@ -33,6 +32,7 @@ from grouptron.devices import available_device
 from grouptron.errors import GrouptronError
 from grouptron.groups.assign import assign_groups_at_step
 from grouptron.groups.scene import groups_at_step
+from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.inputs import as_track_array, refuse_future_neighbours
 from grouptron.inference.stream import StreamSession
@@ -47,6 +47,7 @@ from grouptron.model.gaussians import (
 )
 from grouptron.model.predict import (
     decode_every_latent,
+    mixture_mean_positions,
     most_likely_positions,
     predict_most_likely_of_top,
     predict_samples,
@@ -55,52 +56,10 @@ from grouptron.model.predict import (
 
 log = logging.getLogger(__name__)
 
-CHECKPOINTS_ENV = "GROUPTRON_CHECKPOINTS"
-WEIGHTS_FILE = "best.safetensors"
-PACKAGE_CHECKPOINTS = Path(__file__).resolve().parents[1] / "checkpoints"
-"""The shipped checkpoints installed with the package (weights and configs only; in a source
-checkout a link to the repository's checkpoints/)."""
-MostLikely = Literal["ml", "ml-argmax"]
-MOST_LIKELY_CHOICES = ("ml", "ml-argmax")
+MostLikely = Literal["ml", "ml-argmax", "mean"]
+MOST_LIKELY_CHOICES = ("ml", "ml-argmax", "mean")
 OLDER_NAMES = {"mixture-mode": "ml", "argmax-latent": "ml-argmax"}
 """Names these choices had before the vocabulary was unified (still accepted)."""
-
-
-DEFAULT_CHECKPOINT = "trajectron++-univ-backward"
-"""The model used where none is named (``Predictor.from_checkpoint()``, ``grouptron predict``
-and ``plot``): strictly causal inputs, so it forecasts live tracks as it was trained, and on
-held-out data the shipped causal model closest to constant velocity or better (RESULTS.md)."""
-
-
-def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | None = None) -> Path:
-    """A checkpoint file from a path or a shipped name such as ``"grouptron-univ-backward"``.
-
-    Names are looked up in ``checkpoints_dir``, ``$GROUPTRON_CHECKPOINTS``, ``./checkpoints`` and
-    the shipped checkpoints installed with the package, so shipped names resolve from any
-    working directory.
-    """
-    path = Path(name_or_path)
-    if path.is_file():
-        return path
-    if path.is_dir() and (path / WEIGHTS_FILE).is_file():
-        return path / WEIGHTS_FILE
-    if path.suffix == ".safetensors" or len(path.parts) > 1:  # a path, not a shipped name
-        raise GrouptronError(f"{path}: checkpoint not found")
-    folders = [Path(d) for d in (checkpoints_dir, os.environ.get(CHECKPOINTS_ENV)) if d]
-    folders += [Path("checkpoints"), PACKAGE_CHECKPOINTS]
-    for folder in folders:
-        candidate = folder / str(name_or_path) / WEIGHTS_FILE
-        if candidate.is_file():
-            return candidate
-    known = sorted(
-        {p.parent.name for f in folders if f.is_dir() for p in f.glob(f"*/{WEIGHTS_FILE}")}
-    )
-    hint = f"; known names: {', '.join(known)}" if known else ""
-    raise GrouptronError(
-        f"no checkpoint {name_or_path!s}: not a file, and no {WEIGHTS_FILE} under "
-        f"{', '.join(str(f) for f in dict.fromkeys(folders))}{hint} (set ${CHECKPOINTS_ENV} to "
-        "a folder of <name>/best.safetensors)"
-    )
 
 
 class Predictor:
@@ -112,7 +71,9 @@ class Predictor:
             ``"ml"``: per step the mode of the p(z|x)-weighted mixture of the latent values'
             Gaussians, integrated (with all Z of them, the benchmark's most likely
             trajectory). On validation data ``ml-argmax`` is about 5% worse in FDE than
-            ``ml`` (benchmarks/RESULTS.md).
+            ``ml`` (benchmarks/RESULTS.md). ``"mean"``: the p(z|x)-weighted mean of every
+            latent value's trajectory (the forecast with the least expected squared error
+            under the model; it never switches latent value between steps).
         latent_values: for ``"ml"``, the mixture of only this many of the most probable
             latent values (None: all Z); 5 comes within 1% of all 25 on validation FDE.
             Only these are decoded unless ``mixture`` is asked for.
@@ -159,6 +120,8 @@ class Predictor:
             raise GrouptronError(
                 f"latent_values must be an integer from 1 to {Z} or None, not {latent_values!r}"
             )
+        if most_likely == "mean" and latent_values not in (None, Z):
+            raise GrouptronError("latent_values is for most_likely='ml'; the mean uses all")
         self.latent_values = latent_values
         self.mixture = mixture
         self.check_speed = check_speed
@@ -211,7 +174,7 @@ class Predictor:
 
     @property
     def decoded_latent_values(self) -> int:
-        """How many latent values the most likely forecast is the mixture mode of."""
+        """How many latent values the point forecast decodes (the mean: all of them)."""
         if self.most_likely == "ml-argmax":
             return 1
         return self.latent_values or self.config.model.latent_modes
@@ -375,7 +338,10 @@ class Predictor:
             top = predict_most_likely_of_top(self.model, batch, H, dt, latent_values=M)
             return top.double().cpu().numpy(), None, None, None
         encoding, velocity = decode_every_latent(self.model, batch, H)
-        most_likely = most_likely_positions(*top_latent_values(encoding, velocity, M), H, dt)
+        if self.most_likely == "mean":
+            most_likely = mixture_mean_positions(encoding, velocity, dt)
+        else:
+            most_likely = most_likely_positions(*top_latent_values(encoding, velocity, M), H, dt)
         if not self.mixture:
             return most_likely.double().cpu().numpy(), None, None, None
         mean = positions_from_velocities(velocity.mean, dt)  # (N, Z, H, 2)

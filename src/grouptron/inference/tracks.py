@@ -19,9 +19,9 @@ from grouptron.inference.forecast import Forecast
 from grouptron.model.batch import batches
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import uses_groups
-from grouptron.model.predict import predict_most_likely, predict_samples
+from grouptron.model.predict import predict_mixture_mean, predict_most_likely, predict_samples
 
-FORECAST_MODES = ("ml", "samples")
+FORECAST_MODES = ("ml", "mean", "samples")
 
 
 def groups_for_model(samples: SampleSet, config: ExperimentConfig) -> SampleGroups | None:
@@ -65,8 +65,9 @@ def forecast_scene(
     """Forecast every (pedestrian, step) of ``scene`` with ``min_points`` observed positions in
     a row up to it (default ``history_steps``: the samples the evaluator scores; 2 at least).
 
-    ``ml`` is the evaluator's most likely prediction; ``samples`` also draws ``num_samples``
-    futures per pedestrian from the model (seeded). Grouptron clusters the neighbours first.
+    ``ml`` is the evaluator's most likely prediction, ``mean`` the p(z|x)-weighted mean
+    trajectory (in ``most_likely``); ``samples`` adds ``num_samples`` futures per pedestrian
+    drawn from the model (seeded) to the most likely one. Grouptron clusters the neighbours first.
     The forecasts carry no mixture and no scene-wide groups (``Predictor`` gives those).
     """
     if mode not in FORECAST_MODES:
@@ -84,7 +85,8 @@ def forecast_scene(
         batches(samples, config, batch_size, groups), total=total, disable=not progress
     ):
         batch = batch.to(device)
-        most_likely[index] = predict_most_likely(model, batch, H, data.dt_s).double().cpu().numpy()
+        point = predict_mixture_mean if mode == "mean" else predict_most_likely
+        most_likely[index] = point(model, batch, H, data.dt_s).double().cpu().numpy()
         if K:
             pred = predict_samples(model, batch, H, data.dt_s, num_samples=K, generator=generator)
             drawn[index] = pred.double().cpu().numpy()

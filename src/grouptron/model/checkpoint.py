@@ -23,6 +23,8 @@ from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import build_model, load_weights
 
 FORMAT_VERSION = 1
+BEST_WEIGHTS_FILE = "best.safetensors"
+"""The selected weights of a run folder: what every command loads from ``<run>/``."""
 TEMPORARY_CHECKPOINTS = ".*.safetensors.*.tmp"
 """Glob of the temporary files :func:`save_checkpoint` renames into place."""
 FORMAT_NAME = "grouptron-checkpoint"

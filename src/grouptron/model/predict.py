@@ -1,4 +1,5 @@
-"""Predictions of a trained CVAE: most likely (mixture mode or argmax latent) and samples."""
+"""Predictions of a trained CVAE: most likely (mixture mode or argmax latent), the mixture's
+mean, and samples."""
 
 from __future__ import annotations
 
@@ -73,6 +74,29 @@ def most_likely_positions(
         velocity.cov.transpose(1, 2).reshape(B * horizon, M, 3),
     ).reshape(B, horizon, 2)
     return positions_from_velocities(mode, dt_s).float()
+
+
+def predict_mixture_mean(
+    model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float, ablate: Ablation = ()
+) -> torch.Tensor:
+    """(B, H, 2): the p(z|x)-weighted mean of every latent value's trajectory (each decoded
+    following its means), relative to ``t``.
+
+    The mean, unlike the per-step mixture mode, never jumps between latent values from one step
+    to the next, and it is the forecast with the least expected squared error under the model.
+    """
+    encoding, velocity = decode_every_latent(model, batch, horizon, ablate)
+    return mixture_mean_positions(encoding, velocity, dt_s)
+
+
+def mixture_mean_positions(
+    encoding: Encoding, velocity: VelocityGaussians, dt_s: float
+) -> torch.Tensor:
+    """(B, H, 2): the ``encoding.p_logits``-weighted mean of the (B, M, H, 2) decoded velocity
+    means, integrated (integration is linear, so this is the mean of the positions)."""
+    weights = torch.softmax(encoding.p_logits, dim=-1)  # (B, M)
+    mean_velocity = (weights[:, :, None, None] * velocity.mean).sum(dim=1)  # (B, H, 2)
+    return positions_from_velocities(mean_velocity, dt_s).float()
 
 
 def predict_most_likely_of_top(

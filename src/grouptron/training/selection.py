@@ -21,11 +21,16 @@ from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import constant_velocity_scores, evaluate_model
 from grouptron.groups.assign import SampleGroups
 from grouptron.io import write_text_atomically
-from grouptron.model.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
+from grouptron.model.checkpoint import (
+    BEST_WEIGHTS_FILE,
+    Checkpoint,
+    load_checkpoint,
+    save_checkpoint,
+)
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import build_model, load_weights
 
-BEST = "best.safetensors"
+BEST = BEST_WEIGHTS_FILE
 
 VALIDATION_SUBSET_SEED = 0
 """The validation subset is drawn with this seed, not the run's, so that runs of every seed

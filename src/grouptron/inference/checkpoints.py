@@ -1,0 +1,50 @@
+"""Checkpoints by path or shipped name, and the model used where none is named."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from grouptron.errors import GrouptronError
+from grouptron.model.checkpoint import BEST_WEIGHTS_FILE
+
+CHECKPOINTS_ENV = "GROUPTRON_CHECKPOINTS"
+PACKAGE_CHECKPOINTS = Path(__file__).resolve().parents[1] / "checkpoints"
+"""The shipped checkpoints installed with the package (weights and configs only; in a source
+checkout a link to the repository's checkpoints/)."""
+
+DEFAULT_CHECKPOINT = "trajectron++-univ-backward"
+"""The model used where none is named (``Predictor.from_checkpoint()``, ``grouptron predict``
+and ``plot``): strictly causal inputs, so it forecasts live tracks as it was trained, and on
+held-out data the shipped causal model closest to constant velocity or better (RESULTS.md)."""
+
+
+def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | None = None) -> Path:
+    """A checkpoint file from a path or a shipped name such as ``"grouptron-univ-backward"``.
+
+    Names are looked up in ``checkpoints_dir``, ``$GROUPTRON_CHECKPOINTS``, ``./checkpoints`` and
+    the shipped checkpoints installed with the package, so shipped names resolve from any
+    working directory.
+    """
+    path = Path(name_or_path)
+    if path.is_file():
+        return path
+    if path.is_dir() and (path / BEST_WEIGHTS_FILE).is_file():
+        return path / BEST_WEIGHTS_FILE
+    if path.suffix == ".safetensors" or len(path.parts) > 1:  # a path, not a shipped name
+        raise GrouptronError(f"{path}: checkpoint not found")
+    folders = [Path(d) for d in (checkpoints_dir, os.environ.get(CHECKPOINTS_ENV)) if d]
+    folders += [Path("checkpoints"), PACKAGE_CHECKPOINTS]
+    for folder in folders:
+        candidate = folder / str(name_or_path) / BEST_WEIGHTS_FILE
+        if candidate.is_file():
+            return candidate
+    known = sorted(
+        {p.parent.name for f in folders if f.is_dir() for p in f.glob(f"*/{BEST_WEIGHTS_FILE}")}
+    )
+    hint = f"; known names: {', '.join(known)}" if known else ""
+    raise GrouptronError(
+        f"no checkpoint {name_or_path!s}: not a file, and no {BEST_WEIGHTS_FILE} under "
+        f"{', '.join(str(f) for f in dict.fromkeys(folders))}{hint} (set ${CHECKPOINTS_ENV} to "
+        "a folder of <name>/best.safetensors)"
+    )
