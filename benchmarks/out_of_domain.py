@@ -3,7 +3,7 @@
 Usage:
     python benchmarks/out_of_domain.py [--datasets benchmarks/ood/stanford_drone.toml,...]
         [--checkpoints trajectron++-univ-backward,grouptron-univ-backward]
-        [--modes ml,ml-argmax,mean] [--json FILE]
+        [--modes ml,ml-argmax,mean] [--default-model NAME] [--json FILE]
 
 Scores the test parts of the development set's dataset descriptions (``benchmarks/ood/``: the
 first three TrajNet Stanford Drone scenes and the three HERMES corridor runs of
@@ -42,6 +42,11 @@ def main() -> None:
     parser.add_argument(
         "--modes", default="ml", help="comma-separated point forecasts: ml, ml-argmax, mean"
     )
+    parser.add_argument(
+        "--default-model",
+        default=DEFAULT_CHECKPOINT,
+        help="the checkpoint folder whose rows per recording and targets are shown",
+    )
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument(
         "--json",
@@ -55,7 +60,7 @@ def main() -> None:
     datasets = [read_dataset(path) for path in args.datasets.split(",") if path]
     paths = [resolve_checkpoint(c) for c in args.checkpoints.split(",") if c]
     modes = args.modes.split(",")
-    result = score_out_of_domain(datasets, paths, modes, DEFAULT_CHECKPOINT)
+    result = score_out_of_domain(datasets, paths, modes, args.default_model)
     print("\n".join(out_of_domain_markdown(result)))
     if args.json:
         ratios: dict[str, dict[str, float]] = {}

@@ -13,7 +13,7 @@ already trained the same run (``REFERENCES/<model>-<split>-backward[-s<seed>]``,
 configuration) it is read from there instead of trained twice. ``--table`` prints, per split
 and variant, the validation ML FDE (the trainer's re-scoring of its best epochs on the whole
 validation part) of each seed, their mean, and the mean paired difference to Trajectron++ over
-the seeds both have, and constant velocity's FDE on the same samples; ``--ood`` adds the
+the seeds both have, and constant velocity's FDE on the same samples; ``--ood [FORECAST]`` adds the
 FDE over constant velocity's on the out-of-domain development set, overall and with 25+
 neighbours (univ's validation data is sparse, so it cannot show how a variant copes with a
 crowd). Only validation and the development set are looked at: test waits for the winner.
@@ -105,14 +105,15 @@ def validation_fde(run: Path) -> float | None:
 def ood_ratios(run: Path, args: argparse.Namespace) -> dict[str, float] | None:
     """A finished run's FDE over constant velocity's on the out-of-domain development set,
     overall and by density bin (``benchmarks/out_of_domain.py``, scored once into
-    ``ood.json``); None while the run trains or without ``--ood``."""
+    ``ood-<mode>.json``, the point forecast ``--ood`` names); None while the run trains or
+    without ``--ood``."""
     if not args.ood or not (run / "selection.json").exists():
         return None
-    cached = run / "ood.json"
+    cached = run / f"ood-{args.ood}.json"
     if not cached.exists():
         script = REPO / "benchmarks" / "out_of_domain.py"
         command = [sys.executable, str(script), "--checkpoints", str(run)]
-        command += ["--threads", str(args.threads), "--json", str(cached)]
+        command += ["--modes", args.ood, "--threads", str(args.threads), "--json", str(cached)]
         subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
     ratios = json.loads(cached.read_text())["fde_over_cv"]
     (model,) = [name for name in ratios if name not in ("constant velocity", "constant-velocity")]
@@ -131,7 +132,7 @@ def _ood_cells(ratios: list[dict[str, float] | None]) -> str:
 
 def table(args: argparse.Namespace) -> None:
     seeds = [int(s) for s in args.seeds.split(",")]
-    ood = " out-of-domain FDE / CV | the same, 25+ neighbours |" if args.ood else ""
+    ood = f" out-of-domain FDE / CV ({args.ood}) | the same, 25+ neighbours |" if args.ood else ""
     print("| split | variant | " + " | ".join(f"seed {s}" for s in seeds) + " | mean | "
           "mean paired difference to Trajectron++ |" + ood)  # fmt: skip
     print("|---|---|" + "---|" * (len(seeds) + 2 + (2 if args.ood else 0)))
@@ -182,9 +183,12 @@ def main() -> None:
     parser.add_argument("--table", action="store_true", help="print the validation table")
     parser.add_argument(
         "--ood",
-        action="store_true",
+        nargs="?",
+        const="ml-argmax",
+        choices=("ml", "ml-argmax", "mean"),
         help="with --table: add each variant's FDE over constant velocity on the out-of-domain "
-        "development set (benchmarks/ood/*.toml; scored once per run into ood.json)",
+        "development set (benchmarks/ood/*.toml) for this point forecast (default ml-argmax, "
+        "the Predictor's; scored once per run into ood-<forecast>.json)",
     )
     args = parser.parse_args()
     if args.table:
