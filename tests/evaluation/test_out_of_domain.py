@@ -115,8 +115,9 @@ def test_the_report_command_appends_the_section(
     shutil.copytree(tiny_checkpoints / BACKWARD, folder / BACKWARD)
     out = tmp_path / "RESULTS.md"
     argv = ["report", "--checkpoints", str(folder), "--data-dir", str(eth_ucy_dir)]
-    argv += ["--derivatives", "backward", "--mode", "ml", "--quiet", "--out", str(out)]
+    argv += ["--derivatives", "backward", "--mode", "ml,mean", "--quiet", "--out", str(out)]
     assert main([*argv, "--out-of-domain", str(corridor)]) == 0
     text = out.read_text()
     assert f"--out-of-domain {corridor}" in text  # the command that regenerates it
-    assert f"| run12.txt | {BACKWARD} (ml) |" in text
+    assert f"| run12.txt | {BACKWARD} (ml) |" in text and f"| {BACKWARD} (mean) |" in text
+    assert "## Mean trajectory (every latent value's, weighted by p(z|x))" in text
