@@ -22,9 +22,9 @@ from grouptron.data.locate import resolve_data_dir, split_files
 from grouptron.data.recording import RecordingFormat
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.inference.checkpoints import resolve_checkpoint
-from grouptron.inference.tracks import groups_for_model
 from grouptron.model.batch import batches
 from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.factory import groups_for_model
 from grouptron.model.predict import decode_every_latent, most_likely_positions, top_latent_values
 
 

@@ -8,11 +8,12 @@ Usage:
 Scores the test parts of the development set's dataset descriptions (``benchmarks/ood/``: the
 first three TrajNet Stanford Drone scenes and the three HERMES corridor runs of
 ``../shared/data/ood``, each read in its own format and resampled to 0.4 s) with the same code
-as ``grouptron report --out-of-domain``, and prints that section: per recording and model the
-most-likely ADE/FDE with 95% intervals (time steps resampled), the paired difference to
-constant velocity and FDE relative to it; then FDE relative to constant velocity by density
-(neighbours within 3 m at t), all recordings pooled. Never used for training or for choosing
-a benchmark model.
+as ``grouptron report --out-of-domain``, and prints that section: per recording (of
+``--default-model``, or of every model with ``--default-model ''``) and point forecast of
+``--modes`` the ADE/FDE with 95% intervals (time steps resampled), the paired difference to
+constant velocity and FDE relative to it; then every model's FDE relative to constant velocity
+by density (neighbours within 3 m at t), all recordings pooled. Never used for training or for
+choosing a benchmark model.
 """
 
 from __future__ import annotations
@@ -24,7 +25,11 @@ from pathlib import Path
 import torch
 
 from grouptron.data.custom import read_dataset
-from grouptron.evaluation.out_of_domain import out_of_domain_markdown, score_out_of_domain
+from grouptron.evaluation.out_of_domain import (
+    out_of_domain_markdown,
+    prepare_out_of_domain,
+    score_out_of_domain,
+)
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 
 HERE = Path(__file__).resolve().parent
@@ -45,7 +50,8 @@ def main() -> None:
     parser.add_argument(
         "--default-model",
         default=DEFAULT_CHECKPOINT,
-        help="the checkpoint folder whose rows per recording and targets are shown",
+        help="the checkpoint folder whose rows per recording and targets are shown ('': every "
+        "model's rows, no targets)",
     )
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument(
@@ -60,7 +66,9 @@ def main() -> None:
     datasets = [read_dataset(path) for path in args.datasets.split(",") if path]
     paths = [resolve_checkpoint(c) for c in args.checkpoints.split(",") if c]
     modes = args.modes.split(",")
-    result = score_out_of_domain(datasets, paths, modes, args.default_model)
+    recordings = prepare_out_of_domain(datasets)
+    default = args.default_model or None  # '' shows every model's rows per recording
+    result = score_out_of_domain(recordings, paths, modes, default_model=default)
     print("\n".join(out_of_domain_markdown(result)))
     if args.json:
         ratios: dict[str, dict[str, float]] = {}

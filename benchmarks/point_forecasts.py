@@ -14,6 +14,7 @@ resampled time steps (samples of one step share a scene).
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import torch
 
@@ -21,16 +22,18 @@ from grouptron.constants import SPLITS
 from grouptron.data.locate import resolve_data_dir, split_files
 from grouptron.data.recording import RecordingFormat
 from grouptron.data.subsets import time_step_ids
-from grouptron.evaluation.evaluate import POINT_FORECASTS, constant_velocity_scores, score_samples
+from grouptron.evaluation.evaluate import constant_velocity_scores, score_samples
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.evaluation.uncertainty import mean_interval
 from grouptron.inference.checkpoints import resolve_checkpoint
-from grouptron.inference.tracks import groups_for_model
 from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.factory import groups_for_model
+from grouptron.model.predict import POINT_FORECASTS
 
-DEFAULT = (
-    "trajectron++-univ-backward,grouptron-univ-backward,campaign/runs/trajectron++-univ-backward-s1,"
-    "campaign/runs/trajectron++-univ-backward-s2,campaign/runs/grouptron-univ-backward-s1"
+RUNS = Path(__file__).resolve().parents[1] / "campaign" / "runs"
+DEFAULT = ",".join(
+    ["trajectron++-univ-backward", "grouptron-univ-backward"]
+    + [str(RUNS / f"{m}-univ-backward-s{s}") for m, s in (("trajectron++", 1), ("trajectron++", 2))]
 )
 
 
@@ -54,7 +57,7 @@ def main() -> None:
         groups = groups_for_model(samples, config)
         steps = time_step_ids(samples)
         scored = score_samples(model, config, samples, modes, groups=groups)
-        ml = scored[0].fde
+        (ml,) = [s.fde for s in scored if s.mode == "ml"]
         cv = constant_velocity_scores(samples, config.data.horizon_steps)
         for label, scores in [(s.mode, s) for s in scored] + [("constant velocity", cv)]:
             diff = mean_interval(scores.fde - ml, steps)

@@ -21,6 +21,7 @@ import numpy as np
 import torch
 
 from grouptron import Predictor
+from grouptron.model.predict import POINT_FORECASTS
 
 
 def synthetic_frames(
@@ -47,7 +48,7 @@ def add_predictor_options(parser: argparse.ArgumentParser, most_likely: str) -> 
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument(
         "--most-likely",
-        choices=("ml", "ml-argmax", "mean"),
+        choices=tuple(POINT_FORECASTS),
         default=most_likely,
         help="the Predictor's point forecast (ml-argmax skips the mixture; mean decodes all Z)",
     )

@@ -68,6 +68,17 @@ class DataConfig:
             raise GrouptronError("history_steps must be >= 2 and horizon_steps >= 1")
 
     @property
+    def neighbours_look_ahead(self) -> bool:
+        """Whether neighbours are picked by contacts after t (the leak diagnostic)."""
+        return self.neighbour_window_steps[1] > 0
+
+    @property
+    def causal(self) -> bool:
+        """Whether a forecast at t reads nothing after t: backward derivatives and neighbours
+        picked at or before t (what a live tracker can give)."""
+        return self.derivatives == "backward" and not self.neighbours_look_ahead
+
+    @property
     def state_scale(self) -> tuple[float, ...]:
         """Divisors of the 6 state components (x, y, vx, vy, ax, ay) in standardisation."""
         p, v, a = self.position_scale_m, self.velocity_scale_mps, self.acceleration_scale_mps2

@@ -11,12 +11,18 @@ import pytest
 
 from grouptron.cli.app import main
 from grouptron.data.custom import read_dataset
+from grouptron.errors import GrouptronError
+from grouptron.evaluation.evaluate import score_samples
 from grouptron.evaluation.out_of_domain import (
     causal_checkpoints,
     out_of_domain_markdown,
+    prepare_out_of_domain,
     score_out_of_domain,
 )
+from grouptron.evaluation.recordings import recording_samples
 from grouptron.evaluation.scored import CONSTANT_VELOCITY
+from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.factory import groups_for_model
 from tests.conftest import synthetic_recording
 
 BACKWARD = "grouptron-eth-backward"
@@ -44,16 +50,75 @@ def corridor(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root / "corridor.toml"
 
 
-def test_only_causal_checkpoints_are_scored(tiny_checkpoints: Path) -> None:
+def _describe(folder: Path, name: str, files: list[str]) -> Path:
+    path = folder / f"{name}.toml"
+    path.write_text(
+        f'name = "{name}"\n[format]\ncolumns = "id,frame,x,y,z"\nfps = 16\nunits = "cm"\n'
+        f"[parts]\ntest = {json.dumps(files)}\n"
+    )
+    return path
+
+
+def test_only_causal_checkpoints_are_scored(tiny_checkpoints: Path, tmp_path: Path) -> None:
     assert [p.parent.name for p in causal_checkpoints(tiny_checkpoints)] == [BACKWARD]
+    with pytest.raises(GrouptronError, match="does not exist"):
+        causal_checkpoints(tmp_path / "missing")
+
+
+def test_bad_recordings_are_refused_before_any_model_runs(
+    corridor: Path, tmp_path: Path, tiny_checkpoints: Path
+) -> None:
+    other = _describe(corridor.parent, "again", ["run11.txt"])  # a second run11.txt
+    with pytest.raises(GrouptronError, match=r"distinct file names: \['run11.txt'\]"):
+        prepare_out_of_domain([read_dataset(corridor), read_dataset(other)])
+    train_only = tmp_path / "train.toml"
+    train_only.write_text(
+        read_dataset(corridor)
+        .source.read_text()
+        .replace("test =", "train =")
+        .replace('["run11', f'["{corridor.parent}/run11')
+        .replace(', "run12', f', "{corridor.parent}/run12')
+    )
+    with pytest.raises(GrouptronError, match="has no 'test' part"):
+        prepare_out_of_domain([read_dataset(train_only)])
+    prepared = prepare_out_of_domain([read_dataset(corridor)])
+    with pytest.raises(GrouptronError, match=r"need point forecasts .* not best-of-20"):
+        score_out_of_domain(prepared, causal_checkpoints(tiny_checkpoints), ("best-of-20",))
+
+
+def test_a_tiny_recording_and_an_absent_default_model_are_said_not_hidden(
+    corridor: Path, tiny_checkpoints: Path
+) -> None:
+    # Two people walking 22 steps side by side: 6 samples, too few for any density bin, but
+    # the pooled row stays.
+    root = corridor.parent
+    steps = [(k, i) for k in range(22) for i in (0, 1)]
+    (root / "tiny.txt").write_text(
+        "".join(f"{i} {k * 6.4:g} {40 * k + 3 * i} {150 * i} 170\n" for k, i in steps)
+    )
+    prepared = prepare_out_of_domain([read_dataset(_describe(root, "tiny", ["tiny.txt"]))])
+    assert 0 < len(prepared.baseline) < 20
+    checkpoints = causal_checkpoints(tiny_checkpoints)
+    result = score_out_of_domain(prepared, checkpoints, default_model=BACKWARD)
+    assert [p.bin for p in result.pooled if p.model == BACKWARD] == ["all"]
+    text = "\n".join(out_of_domain_markdown(result))
+    assert "FDE / CV not growing with density: not judged (fewer than 20 samples" in text
+    assert f"- tiny: tiny.txt ({len(prepared.baseline)})" in text
+    elsewhere = score_out_of_domain(prepared, checkpoints, default_model="no-such-model")
+    text = "\n".join(out_of_domain_markdown(elsewhere))
+    assert "The default model `no-such-model` was not among the checkpoints." in text
+    assert f"| tiny.txt | {BACKWARD} (ml) |" in text  # every model's rows instead
+    alone = "\n".join(out_of_domain_markdown(score_out_of_domain(prepared, [])))
+    assert "No causal checkpoint was found: constant velocity only." in alone
 
 
 def test_rows_are_paired_with_constant_velocity_per_recording_mode_and_density_bin(
     tiny_checkpoints: Path, corridor: Path
 ) -> None:
     dataset = read_dataset(corridor)
+    (path,) = causal_checkpoints(tiny_checkpoints)
     result = score_out_of_domain(
-        [dataset], causal_checkpoints(tiny_checkpoints), ("ml", "mean"), default_model=BACKWARD
+        prepare_out_of_domain([dataset]), [path], ("ml", "mean"), default_model=BACKWARD
     )
     by = {(r.model, r.mode, r.recording): r for r in result.recordings}
     runs = [(CONSTANT_VELOCITY, None), (BACKWARD, "ml"), (BACKWARD, "mean")]
@@ -68,6 +133,12 @@ def test_rows_are_paired_with_constant_velocity_per_recording_mode_and_density_b
             assert ours.difference.mean == pytest.approx(ours.fde.mean - cv.fde.mean)
             assert ours.difference.low <= ours.difference.mean <= ours.difference.high
         assert by[BACKWARD, "ml", recording].fde.mean != by[BACKWARD, "mean", recording].fde.mean
+    # One row recomputed on its own recording: labels and recordings are not mixed up.
+    model, config = load_trained_model(path)
+    alone = recording_samples([dataset.files("test")[1]], dataset.recording, config.data)
+    groups = groups_for_model(alone, config)
+    (mean,) = score_samples(model, config, alone, ("mean",), groups=groups)
+    assert by[BACKWARD, "mean", "run12.txt"].fde.mean == pytest.approx(mean.fde.mean())
     pooled = {(p.model, p.mode, p.bin): p for p in result.pooled}
     total = sum(by[BACKWARD, "ml", f"run{s}.txt"].samples for s in (11, 12))
     whole = pooled[BACKWARD, "ml", "all"]
@@ -75,10 +146,12 @@ def test_rows_are_paired_with_constant_velocity_per_recording_mode_and_density_b
         whole.ratio, whole.fde / whole.fde_constant_velocity
     )
     bins = [p for p in result.pooled if p.model == BACKWARD and p.mode == "ml" and p.bin != "all"]
-    assert bins and sum(p.samples for p in bins) <= total  # bins under 20 samples are left out
+    assert bins and all(p.samples >= 20 for p in bins)  # smaller bins are left out
 
     text = "\n".join(out_of_domain_markdown(result))
-    assert "## Out of domain" in text and "- corridor: run11.txt, run12.txt" in text
+    counts = [by[CONSTANT_VELOCITY, None, f"run{s}.txt"].samples for s in (11, 12)]
+    assert "## Out of domain" in text
+    assert f"- corridor: run11.txt ({counts[0]}), run12.txt ({counts[1]}); columns id,fr" in text
     assert f"| run12.txt | {BACKWARD} (mean) |" in text
     for mode in ("ml", "mean"):
         worst = max(by[BACKWARD, mode, f"run{s}.txt"].ratio for s in (11, 12))

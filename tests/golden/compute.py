@@ -19,9 +19,9 @@ from grouptron.data.reader import table_from_values
 from grouptron.data.samples import scene_samples
 from grouptron.data.scene import build_scene
 from grouptron.inference.predictor import Predictor
-from grouptron.inference.tracks import groups_for_model
 from grouptron.model.batch import make_batch
 from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.factory import groups_for_model
 from grouptron.model.noise import draw_training_noise
 from grouptron.training import schedules
 from grouptron.training.losses import elbo_loss

@@ -24,11 +24,10 @@ from grouptron.inference.export import (
     export_onnx,
     run_onnx,
 )
-from grouptron.inference.tracks import groups_for_model
 from grouptron.model.batch import make_batch
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
-from grouptron.model.factory import build_model
+from grouptron.model.factory import build_model, groups_for_model
 from tests.golden.compute import synthetic_tracks
 from tests.model.test_cvae import SMALL
 

@@ -209,9 +209,10 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--mode",
         choices=FORECAST_MODES,
         default="ml",
-        help="ml: the most likely future per pedestrian; mean: the p(z|x)-weighted mean "
-        "future (the least expected squared error under the model); samples: "
-        "--samples sampled futures",
+        help="ml: the most likely future per pedestrian (the evaluator's); ml-argmax: the most "
+        "probable latent value's (the Python API's default); mean: the p(z|x)-weighted mean "
+        "future; samples: --samples sampled futures (and the ml one). On recordings from "
+        "elsewhere ml-argmax and mean were closer to the truth (benchmarks/RESULTS.md)",
     )
     predict.add_argument(
         "--samples", type=positive_int, default=20, help="futures per pedestrian (samples)"

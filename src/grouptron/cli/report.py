@@ -21,9 +21,10 @@ from grouptron.data.custom import read_dataset
 from grouptron.data.locate import resolve_data_dir
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.dataset_report import dataset_report
-from grouptron.evaluation.evaluate import MODES, POINT_FORECASTS
+from grouptron.evaluation.evaluate import MODES
 from grouptron.evaluation.out_of_domain import (
     causal_checkpoints,
+    prepare_out_of_domain,
     score_out_of_domain,
 )
 from grouptron.evaluation.report import (
@@ -39,6 +40,7 @@ from grouptron.io import (
     refuse_folder,
     write_text_atomically,
 )
+from grouptron.model.predict import POINT_FORECASTS
 
 
 def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
@@ -101,14 +103,18 @@ def cmd_report(args: argparse.Namespace) -> int:
             raise GrouptronError("--out-of-domain goes with the benchmark report, not --dataset")
         return cmd_report_dataset(args)
     modes = eval_modes(args.mode)
-    # Read before the long work, so that a bad description fails at once.
-    out_of_domain = [read_dataset(path) for path in args.out_of_domain or ()]
     point_modes = [m for m in modes if m in POINT_FORECASTS]
-    if out_of_domain and not point_modes:
+    if args.out_of_domain and not point_modes:
         raise GrouptronError(
             f"--out-of-domain scores point forecasts: add one of {', '.join(POINT_FORECASTS)} "
             "to --mode"
         )
+    # Read before the long work, so that bad recordings fail at once.
+    out_of_domain = (
+        prepare_out_of_domain([read_dataset(path) for path in args.out_of_domain])
+        if args.out_of_domain
+        else None
+    )
     schemes = DERIVATIVE_SCHEMES if args.derivatives == "both" else (args.derivatives,)
     settings = ReportSettings(
         modes=modes,
@@ -128,10 +134,14 @@ def cmd_report(args: argparse.Namespace) -> int:
         progress=show_progress(args),
         announce=not args.quiet,
     )
-    if out_of_domain:
+    if out_of_domain is not None:
         causal = causal_checkpoints(Path(args.checkpoints))
         ood = score_out_of_domain(
-            out_of_domain, causal, point_modes, DEFAULT_CHECKPOINT, show_progress(args)
+            out_of_domain,
+            causal,
+            point_modes,
+            default_model=DEFAULT_CHECKPOINT,
+            progress=show_progress(args),
         )
         report = dataclasses.replace(report, out_of_domain=ood)
     if args.format == "json":
@@ -205,8 +215,8 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         metavar="DATASET",
         help="also an out-of-domain section: every causal checkpoint under --checkpoints and "
         "constant velocity on the test part of each dataset description (recordings from "
-        "elsewhere; docs/recordings.md) in each point-forecast --mode, and whether the default "
-        "model "
+        "elsewhere; docs/recordings.md) in each point-forecast --mode (ml-argmax is the "
+        "Python API's), and whether the default model "
         f"({DEFAULT_CHECKPOINT}) is at or below constant velocity on every recording",
     )
     add_threads_option(report)

@@ -17,21 +17,12 @@ from grouptron.groups.assign import SampleGroups
 from grouptron.model.batch import batches
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.predict import (
+    POINT_FORECASTS,
     Ablation,
-    predict_argmax_latent,
-    predict_mixture_mean,
-    predict_most_likely,
     predict_samples,
 )
 
-MODES = ("ml", "ml-argmax", "mean", "best-of-20", "nll")
-POINT_FORECASTS = {
-    "ml": predict_most_likely,
-    "ml-argmax": predict_argmax_latent,
-    "mean": predict_mixture_mean,
-}
-"""Single-trajectory modes: the mixture mode per step (the benchmark's most likely), the argmax
-latent value's means, and the p(z|x)-weighted mean trajectory."""
+MODES = (*POINT_FORECASTS, "best-of-20", "nll")
 BEST_OF = 20
 NLL_SAMPLES = 2000
 

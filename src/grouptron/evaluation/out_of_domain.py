@@ -6,9 +6,9 @@ difference is paired.
 
 from __future__ import annotations
 
-import dataclasses
+from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -17,22 +17,35 @@ from grouptron.config import DataConfig
 from grouptron.data.custom import DatasetDescription
 from grouptron.data.samples import SampleSet, concatenate_samples
 from grouptron.data.subsets import density_masks, time_step_ids
-from grouptron.evaluation.evaluate import (
-    SampleScores,
-    constant_velocity_scores,
-    score_samples,
-)
+from grouptron.errors import GrouptronError
+from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.evaluation.scored import CONSTANT_VELOCITY
 from grouptron.evaluation.uncertainty import Interval, mean_interval
-from grouptron.groups.assign import assign_groups
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_checkpoint, load_trained_model
-from grouptron.model.factory import uses_groups
+from grouptron.model.factory import groups_for_model
+from grouptron.model.predict import POINT_FORECASTS
 
 POOLED_BIN = "all"
 MIN_BIN_SAMPLES = 20
-"""Density bins with fewer samples than this are left out of the pooled table."""
+"""Density bins with fewer samples than this are left out of the pooled table (``all`` never)."""
 TEST_PART = "test"
+BASELINE_DATA = DataConfig(derivatives="backward")
+
+
+@dataclass(frozen=True)
+class OutOfDomainSet:
+    """The recordings to score, read and checked before any model runs.
+
+    Attributes:
+        datasets: the descriptions whose test parts are scored.
+        names: (F,) every test file's name, unique; scene ``i`` of a sample set is ``names[i]``.
+        baseline: constant velocity's samples (every person with a full history and future).
+    """
+
+    datasets: tuple[DatasetDescription, ...]
+    names: tuple[str, ...]
+    baseline: SampleSet
 
 
 @dataclass(frozen=True)
@@ -56,7 +69,7 @@ class RecordingRow:
         return self.fde.mean / self.fde_constant_velocity
 
     def to_dict(self) -> dict[str, object]:
-        return {**dataclasses.asdict(self), "fde_over_constant_velocity": self.ratio}
+        return {**asdict(self), "fde_over_constant_velocity": self.ratio}
 
 
 @dataclass(frozen=True)
@@ -76,86 +89,112 @@ class PooledRow:
         return self.fde / self.fde_constant_velocity
 
     def to_dict(self) -> dict[str, object]:
-        return {**dataclasses.asdict(self), "fde_over_constant_velocity": self.ratio}
+        return {**asdict(self), "fde_over_constant_velocity": self.ratio}
 
 
 @dataclass(frozen=True)
 class OutOfDomain:
     """Everything the out-of-domain section shows."""
 
-    datasets: tuple[DatasetDescription, ...]
-    recordings: list[RecordingRow]
-    pooled: list[PooledRow]
+    recordings_read: OutOfDomainSet
+    checkpoints: tuple[str, ...]
+    recordings: tuple[RecordingRow, ...]
+    pooled: tuple[PooledRow, ...]
     default_model: str | None = None
     """The checkpoint folder whose targets the section checks (the library's default model)."""
 
     def to_dict(self) -> dict[str, object]:
         return {
+            "datasets": [
+                {
+                    "name": d.name,
+                    "source": str(d.source),
+                    "files": [str(f) for f in d.files("test")],
+                }
+                for d in self.recordings_read.datasets
+            ],
+            "checkpoints": list(self.checkpoints),
+            "default_model": self.default_model,
+            "targets": default_model_checks(self),
             "recordings": [r.to_dict() for r in self.recordings],
             "pooled": [p.to_dict() for p in self.pooled],
         }
 
 
+def prepare_out_of_domain(datasets: Sequence[DatasetDescription]) -> OutOfDomainSet:
+    """Read every test file once and check what can fail (a missing test part, two files of
+    one name, nobody with a full history and future), before the long work."""
+    files = [f for d in datasets for f in d.files(TEST_PART)]
+    doubled = sorted(name for name, n in Counter(f.name for f in files).items() if n > 1)
+    if doubled:
+        raise GrouptronError(f"out-of-domain recordings need distinct file names: {doubled}")
+    return OutOfDomainSet(tuple(datasets), tuple(f.name for f in files), _samples(datasets))
+
+
 def causal_checkpoints(root: Path) -> list[Path]:
-    """Every ``*/best.safetensors`` under ``root`` that forecasts from causal inputs (backward
-    derivatives, neighbours at the forecast step only), in folder-name order."""
-    found = []
-    for path in sorted(Path(root).glob(f"*/{BEST_WEIGHTS_FILE}")):
-        data = load_checkpoint(path).config.data
-        if data.derivatives == "backward" and tuple(data.neighbour_window_steps) == (0, 0):
-            found.append(path)
-    return found
+    """Every ``*/best.safetensors`` under ``root`` that forecasts from causal inputs
+    (:attr:`DataConfig.causal`), in folder-name order."""
+    if not Path(root).is_dir():
+        raise GrouptronError(f"checkpoint folder {root} does not exist")
+    paths = sorted(Path(root).glob(f"*/{BEST_WEIGHTS_FILE}"))
+    return [path for path in paths if load_checkpoint(path).config.data.causal]
 
 
-def _samples(datasets: Sequence[DatasetDescription], data: DataConfig) -> SampleSet:
+def _samples(datasets: Sequence[DatasetDescription], data: DataConfig = BASELINE_DATA) -> SampleSet:
     """Every test file's samples in one set, one scene per file (ids unique across datasets)."""
     parts = [recording_samples(d.files(TEST_PART), d.recording, data) for d in datasets]
     return concatenate_samples(parts)
 
 
 def score_out_of_domain(
-    datasets: Sequence[DatasetDescription],
+    recordings: OutOfDomainSet,
     checkpoints: Sequence[Path],
     modes: Sequence[str] = ("ml",),
+    *,
     default_model: str | None = None,
     progress: bool = False,
 ) -> OutOfDomain:
     """Constant velocity and every checkpoint (rows named by its folder) in each point-forecast
-    ``mode`` on every test file of ``datasets``: per-recording rows and pooled rows by density
-    bin, 95% intervals over resampled time steps; ``default_model`` names the folder whose
-    targets are checked."""
-    names = [f.name for d in datasets for f in d.files(TEST_PART)]
-    samples = _samples(datasets, DataConfig(derivatives="backward"))
-    recordings, pooled = _rows(CONSTANT_VELOCITY, None, samples, None, names)
+    ``mode`` on every prepared recording: per-recording rows and pooled rows by density bin,
+    95% intervals over resampled time steps; ``default_model`` names the folder whose targets
+    are checked."""
+    unknown = [m for m in modes if m not in POINT_FORECASTS]
+    if unknown or not modes:
+        raise GrouptronError(
+            f"out-of-domain scores need point forecasts ({', '.join(POINT_FORECASTS)}), "
+            f"not {', '.join(unknown) or 'none'}"
+        )
+    names = recordings.names
+    rows, pooled = _rows(CONSTANT_VELOCITY, None, recordings.baseline, BASELINE_DATA, None, names)
     for path in checkpoints:
         model, config = load_trained_model(path)
-        samples = _samples(datasets, config.data)
-        groups = (
-            assign_groups(samples, config.groups, config.data.position_scale_m)
-            if uses_groups(config)
-            else None
-        )
-        per_mode = score_samples(
+        samples = _samples(recordings.datasets, config.data)
+        groups = groups_for_model(samples, config)
+        scored = score_samples(
             model, config, samples, tuple(modes), groups=groups, progress=progress
         )
-        for scores in per_mode:
-            rows = _rows(path.parent.name, scores.mode, samples, scores, names)
-            recordings += rows[0]
-            pooled += rows[1]
-    recordings.sort(key=lambda r: names.index(r.recording))  # stable: models stay in order
-    return OutOfDomain(tuple(datasets), recordings, pooled, default_model)
+        for scores in scored:
+            per_recording, per_bin = _rows(
+                path.parent.name, scores.mode, samples, config.data, scores, names
+            )
+            rows += per_recording
+            pooled += per_bin
+    rows.sort(key=lambda r: names.index(r.recording))  # stable: models stay in order
+    folders = tuple(p.parent.name for p in checkpoints)
+    return OutOfDomain(recordings, folders, tuple(rows), tuple(pooled), default_model)
 
 
 def _rows(
     label: str,
     mode: str | None,
     samples: SampleSet,
+    data: DataConfig,
     scores: SampleScores | None,
     names: Sequence[str],
 ) -> tuple[list[RecordingRow], list[PooledRow]]:
     """One model's rows in one mode (constant velocity's with ``scores`` None): per recording
     (scene ``i`` of ``samples`` is recording ``names[i]``) and pooled per density bin."""
-    cv = constant_velocity_scores(samples, DataConfig().horizon_steps)
+    cv = constant_velocity_scores(samples, data.horizon_steps)
     ade, fde = (cv.ade, cv.fde) if scores is None else (scores.ade, scores.fde)
     steps = time_step_ids(samples)
     recordings = [
@@ -184,34 +223,35 @@ def _rows(
             mean_interval(fde[keep] - cv.fde[keep], steps[keep]),
         )
         for bin_name, keep in bins.items()
-        if keep.sum() >= MIN_BIN_SAMPLES
+        if bin_name == POOLED_BIN or keep.sum() >= MIN_BIN_SAMPLES
     ]
     return recordings, pooled
 
 
-def _signed(value: Interval) -> str:
-    return f"{value.mean:+.3f} [{value.low:+.3f}, {value.high:+.3f}]"
-
-
 def default_model_checks(result: OutOfDomain) -> list[str]:
-    """The target lines for the default model in each mode scored (none when it was not
-    scored): at or below constant velocity's FDE on every recording, and FDE over constant
-    velocity's not growing with density (the densest bin's ratio at or below the pooled one)."""
+    """The default model's target lines in each mode scored (none when it was not scored): at
+    or below constant velocity's FDE on every recording, and FDE over constant velocity's not
+    growing with density (the densest bin's ratio at or below that of all samples)."""
     name = result.default_model
+    densest = list(density_masks(result.recordings_read.baseline))[-1]
     lines = []
     for mode in dict.fromkeys(r.mode for r in result.recordings if r.model == name):
         rows = [r for r in result.recordings if (r.model, r.mode) == (name, mode)]
-        bins = [p for p in result.pooled if (p.model, p.mode) == (name, mode)]
+        bins = {p.bin: p for p in result.pooled if (p.model, p.mode) == (name, mode)}
         worst = max(rows, key=lambda r: r.ratio)
-        pooled, densest = bins[0], bins[-1]
-        lines += [
+        lines.append(
             f"- Default model `{name}` ({mode}) at or below constant velocity's FDE on every "
             f"recording: {_verdict(all(r.ratio <= 1.0 for r in rows))} (highest FDE / CV "
-            f"{worst.ratio:.3f}, {worst.recording})",
-            f"- `{name}` ({mode}) FDE / CV not growing with density: "
-            f"{_verdict(densest.ratio <= pooled.ratio)} ({densest.bin} {densest.ratio:.3f}, "
-            f"all {pooled.ratio:.3f})",
-        ]
+            f"{worst.ratio:.3f}, {worst.recording})"
+        )
+        whole, dense = bins[POOLED_BIN], bins.get(densest)
+        verdict = (
+            f"{_verdict(dense.ratio <= whole.ratio)} ({densest} {dense.ratio:.3f}, "
+            f"all {whole.ratio:.3f})"
+            if dense
+            else f"not judged (fewer than {MIN_BIN_SAMPLES} samples with {densest})"
+        )
+        lines.append(f"- `{name}` ({mode}) FDE / CV not growing with density: {verdict}")
     return lines
 
 
@@ -223,12 +263,28 @@ def _label(model: str, mode: str | None) -> str:
     return model if mode is None else f"{model} ({mode})"
 
 
+def _signed(value: Interval) -> str:
+    star = "*" if value.excludes_zero() else ""
+    return f"{value.mean:+.3f} [{value.low:+.3f}, {value.high:+.3f}]{star}"
+
+
+def _notes(result: OutOfDomain) -> list[str]:
+    """What the section could not show, said rather than left out."""
+    if not result.checkpoints:
+        return ["", "No causal checkpoint was found: constant velocity only."]
+    if result.default_model and result.default_model not in result.checkpoints:
+        return ["", f"The default model `{result.default_model}` was not among the checkpoints."]
+    return []
+
+
+# One Markdown section: the header text, three tables and the target lines, in order.
 def out_of_domain_markdown(result: OutOfDomain | None) -> list[str]:
-    """The report section (none without a result): the sets read, the per-recording table (of
-    the default model when it was scored, else of every model), the pooled table by density of
-    every model and the default model's targets."""
+    """The report section (none without a result): the recordings read (with their samples),
+    the per-recording table (of the default model when it was scored, else of every model),
+    the pooled table by density of every model and the default model's targets."""
     if result is None:
         return []
+    data = BASELINE_DATA
     out = [
         "",
         "## Out of domain",
@@ -236,30 +292,31 @@ def out_of_domain_markdown(result: OutOfDomain | None) -> list[str]:
         "Causal checkpoints (named by folder; in brackets the point forecast: `ml` the",
         "benchmark's most likely, `ml-argmax` the most probable latent value's, `mean` the",
         "p(z|x)-weighted mean) and constant velocity on recordings from elsewhere, resampled to",
-        "0.4 s; every person with 8 observed and 12 future points. FDE in metres with its 95%",
-        "interval over resampled time steps; the difference to constant velocity is paired on",
-        "the same samples (`*`: the interval excludes zero).",
+        f"{data.dt_s} s; every person with {data.history_steps} observed and "
+        f"{data.horizon_steps} future points (in brackets",
+        "after each file). FDE in metres with its 95% interval over resampled time steps; the",
+        "difference to constant velocity is paired on the same samples (`*`: the interval",
+        "excludes zero).",
         "",
     ]
-    for d in result.datasets:
+    counts = np.bincount(result.recordings_read.baseline.scene_index, minlength=0)
+    count = dict(zip(result.recordings_read.names, counts.tolist(), strict=False))
+    for d in result.recordings_read.datasets:
         fmt = d.recording
-        out.append(
-            f"- {d.name}: {', '.join(f.name for f in d.files(TEST_PART))} (columns "
-            f"{','.join(fmt.columns)}, {fmt.fps if fmt.fps is not None else 'ETH/UCY'} fps, "
-            f"{fmt.units})"
-        )
+        files = ", ".join(f"{f.name} ({count.get(f.name, 0)})" for f in d.files(TEST_PART))
+        fps = fmt.fps if fmt.fps is not None else "ETH/UCY"
+        out.append(f"- {d.name}: {files}; columns {','.join(fmt.columns)}, {fps} fps, {fmt.units}")
     shown = {CONSTANT_VELOCITY, result.default_model}
     rows = [r for r in result.recordings if r.model in shown]
     if len({r.model for r in rows}) < 2:  # the default model was not scored: show them all
-        rows = result.recordings
+        rows = list(result.recordings)
     out += ["", "| recording | model | samples | ADE m | FDE m | FDE - CV m | FDE / CV |"]
     out += ["|---|---|---|---|---|---|---|"]
     for r in rows:
-        star = "*" if r.difference.low > 0 or r.difference.high < 0 else ""
         out.append(
             f"| {r.recording} | {_label(r.model, r.mode)} | {r.samples} | {r.ade:.3f} | "
-            f"{r.fde.mean:.3f} [{r.fde.low:.3f}, {r.fde.high:.3f}] | "
-            f"{_signed(r.difference)}{star} | {r.ratio:.3f} |"
+            f"{r.fde.mean:.3f} [{r.fde.low:.3f}, {r.fde.high:.3f}] | {_signed(r.difference)} | "
+            f"{r.ratio:.3f} |"
         )
     bins = list(dict.fromkeys(p.bin for p in result.pooled))
     out += ["", "FDE over constant velocity's, every recording pooled, by neighbours within 3 m"]
@@ -274,4 +331,4 @@ def out_of_domain_markdown(result: OutOfDomain | None) -> list[str]:
         label = _label(model, mode)
         out.append(f"| {label} | " + " | ".join(cells.get(b, "-") for b in bins) + " |")
     checks = default_model_checks(result)
-    return out + (["", *checks] if checks else [])
+    return out + _notes(result) + (["", *checks] if checks else [])

@@ -21,9 +21,8 @@ from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.uncertainty import mean_interval
-from grouptron.groups.assign import assign_groups
 from grouptron.model.cvae import TrajectronCVAE
-from grouptron.model.factory import uses_groups
+from grouptron.model.factory import groups_for_model
 from grouptron.model.predict import Ablation
 
 POOLED = "all files"
@@ -146,9 +145,7 @@ def evaluate_recordings(
     if model is None or experiment is None:
         scores = constant_velocity_scores(samples, data.horizon_steps)
         return _rows(files, samples, scores, template, by_density)
-    groups = None
-    if uses_groups(experiment):
-        groups = assign_groups(samples, experiment.groups, data.position_scale_m)
+    groups = groups_for_model(samples, experiment)
     rows = []
     per_mode = score_samples(
         model.to(device), experiment, samples, modes, seed=seed, progress=progress,

@@ -21,11 +21,10 @@ from grouptron.data.reader import table_from_values
 from grouptron.data.samples import scene_samples
 from grouptron.data.scene import build_scene
 from grouptron.errors import GrouptronError
-from grouptron.inference.tracks import groups_for_model
 from grouptron.io import save_atomically
 from grouptron.model.batch import Batch, GroupBatch, make_batch
 from grouptron.model.cvae import TrajectronCVAE
-from grouptron.model.factory import uses_groups
+from grouptron.model.factory import groups_for_model, uses_groups
 from grouptron.model.gaussians import (
     covariance_matrices,
     position_covariances,

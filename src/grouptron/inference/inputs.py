@@ -59,7 +59,7 @@ def frame_arrays(frame: int, ids: Any, xy: Any) -> tuple[np.ndarray, np.ndarray]
 
 def refuse_future_neighbours(data: DataConfig, source: str) -> None:
     """A model whose neighbours were chosen by later contacts cannot run on live tracks."""
-    if data.neighbour_window_steps[1] > 0:
+    if data.neighbours_look_ahead:
         raise GrouptronError(
             f"{source or 'this model'} picks neighbours by whom they meet after t "
             "(data.neighbour_window_steps, a leak diagnostic): it cannot forecast live"

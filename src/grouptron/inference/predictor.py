@@ -46,6 +46,7 @@ from grouptron.model.gaussians import (
     positions_from_velocities,
 )
 from grouptron.model.predict import (
+    POINT_FORECASTS,
     decode_every_latent,
     mixture_mean_positions,
     most_likely_positions,
@@ -57,7 +58,7 @@ from grouptron.model.predict import (
 log = logging.getLogger(__name__)
 
 MostLikely = Literal["ml", "ml-argmax", "mean"]
-MOST_LIKELY_CHOICES = ("ml", "ml-argmax", "mean")
+MOST_LIKELY_CHOICES = tuple(POINT_FORECASTS)
 OLDER_NAMES = {"mixture-mode": "ml", "argmax-latent": "ml-argmax"}
 """Names these choices had before the vocabulary was unified (still accepted)."""
 
@@ -72,8 +73,8 @@ class Predictor:
             Gaussians, integrated (with all Z of them, the benchmark's most likely
             trajectory). On validation data ``ml-argmax`` is about 5% worse in FDE than
             ``ml`` (benchmarks/RESULTS.md). ``"mean"``: the p(z|x)-weighted mean of every
-            latent value's trajectory (the forecast with the least expected squared error
-            under the model; it never switches latent value between steps).
+            latent value's trajectory (the mean of the decoded mixture; it never switches
+            latent value between steps).
         latent_values: for ``"ml"``, the mixture of only this many of the most probable
             latent values (None: all Z); 5 comes within 1% of all 25 on validation FDE.
             Only these are decoded unless ``mixture`` is asked for.

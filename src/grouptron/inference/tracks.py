@@ -14,21 +14,13 @@ from grouptron.config import ExperimentConfig
 from grouptron.data.samples import SampleSet, scene_samples
 from grouptron.data.scene import Scene
 from grouptron.errors import GrouptronError
-from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.inference.forecast import Forecast
 from grouptron.model.batch import batches
 from grouptron.model.cvae import TrajectronCVAE
-from grouptron.model.factory import uses_groups
-from grouptron.model.predict import predict_mixture_mean, predict_most_likely, predict_samples
+from grouptron.model.factory import groups_for_model
+from grouptron.model.predict import POINT_FORECASTS, predict_most_likely, predict_samples
 
-FORECAST_MODES = ("ml", "mean", "samples")
-
-
-def groups_for_model(samples: SampleSet, config: ExperimentConfig) -> SampleGroups | None:
-    """The samples' groups when the model reads them (Grouptron), else None."""
-    if not uses_groups(config):
-        return None
-    return assign_groups(samples, config.groups, config.data.position_scale_m)
+FORECAST_MODES = (*POINT_FORECASTS, "samples")
 
 
 def _samples_to_forecast(
@@ -65,10 +57,11 @@ def forecast_scene(
     """Forecast every (pedestrian, step) of ``scene`` with ``min_points`` observed positions in
     a row up to it (default ``history_steps``: the samples the evaluator scores; 2 at least).
 
-    ``ml`` is the evaluator's most likely prediction, ``mean`` the p(z|x)-weighted mean
-    trajectory (in ``most_likely``); ``samples`` adds ``num_samples`` futures per pedestrian
-    drawn from the model (seeded) to the most likely one. Grouptron clusters the neighbours first.
-    The forecasts carry no mixture and no scene-wide groups (``Predictor`` gives those).
+    The point forecast (in ``most_likely``) is ``mode``'s (:data:`POINT_FORECASTS`: ``ml`` the
+    evaluator's most likely, ``ml-argmax``, ``mean``); ``samples`` adds ``num_samples``
+    futures per pedestrian drawn from the model (seeded) to the ``ml`` one. Grouptron clusters
+    the neighbours first. The forecasts carry no mixture and no scene-wide groups
+    (``Predictor`` gives those).
     """
     if mode not in FORECAST_MODES:
         raise GrouptronError(f"unknown forecast mode {mode!r}; choose from {FORECAST_MODES}")
@@ -85,8 +78,8 @@ def forecast_scene(
         batches(samples, config, batch_size, groups), total=total, disable=not progress
     ):
         batch = batch.to(device)
-        point = predict_mixture_mean if mode == "mean" else predict_most_likely
-        most_likely[index] = point(model, batch, H, data.dt_s).double().cpu().numpy()
+        point = POINT_FORECASTS.get(mode, predict_most_likely)  # samples: with the ml one
+        most_likely[index] = point(model, batch, H, data.dt_s, ()).double().cpu().numpy()
         if K:
             pred = predict_samples(model, batch, H, data.dt_s, num_samples=K, generator=generator)
             drawn[index] = pred.double().cpu().numpy()

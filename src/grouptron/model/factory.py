@@ -5,7 +5,9 @@ from __future__ import annotations
 import torch
 
 from grouptron.config import ExperimentConfig
+from grouptron.data.samples import SampleSet
 from grouptron.errors import GrouptronError
+from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.grouptron import GrouptronCVAE
 
@@ -15,6 +17,13 @@ MODEL_NAMES = ("trajectron++", "grouptron")
 def uses_groups(config: ExperimentConfig) -> bool:
     """Whether the model's batches need the samples' groups."""
     return config.model_name == "grouptron"
+
+
+def groups_for_model(samples: SampleSet, config: ExperimentConfig) -> SampleGroups | None:
+    """The samples' groups when the model reads them (Grouptron), else None."""
+    if not uses_groups(config):
+        return None
+    return assign_groups(samples, config.groups, config.data.position_scale_m)
 
 
 def build_model(config: ExperimentConfig) -> TrajectronCVAE:

@@ -4,6 +4,7 @@ mean, and samples."""
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 
 import torch
 
@@ -17,6 +18,8 @@ ABLATIONS = ("edges", "scene")
 """Inputs an evaluation can take away to see what a model uses: ``edges`` zeroes the
 neighbour input of the edge encoder, ``scene`` zeroes Grouptron's scene encoding E_scene."""
 Ablation = tuple[str, ...]
+PointForecast = Callable[[TrajectronCVAE, Batch, int, float, Ablation], torch.Tensor]
+"""(model, batch, horizon steps, dt in s, ablation) -> (B, H, 2) positions relative to t."""
 
 
 def encode_prior(model: TrajectronCVAE, batch: Batch, ablate: Ablation = ()) -> Encoding:
@@ -83,7 +86,8 @@ def predict_mixture_mean(
     following its means), relative to ``t``.
 
     The mean, unlike the per-step mixture mode, never jumps between latent values from one step
-    to the next, and it is the forecast with the least expected squared error under the model.
+    to the next; it is the mean of the mixture these decoded trajectories make (under that
+    mixture, the forecast with the least expected squared error).
     """
     encoding, velocity = decode_every_latent(model, batch, horizon, ablate)
     return mixture_mean_positions(encoding, velocity, dt_s)
@@ -158,3 +162,12 @@ def predict_samples(
         encoding.x, batch.state_now_st, z_index, horizon, feedback="sample", generator=generator
     )
     return positions_from_velocities(velocity.fed_back, dt_s)
+
+
+POINT_FORECASTS: dict[str, PointForecast] = {
+    "ml": predict_most_likely,
+    "ml-argmax": predict_argmax_latent,
+    "mean": predict_mixture_mean,
+}
+"""The single-trajectory forecasts: the mixture mode per step (the benchmark's most likely),
+the most probable latent value's means, and the p(z|x)-weighted mean trajectory."""
