@@ -83,6 +83,15 @@ def test_predict_command_writes_ml_and_sample_rows(
     with out.open() as handle:
         drawn = list(csv.DictReader(handle))
     assert len(drawn) == 2 * 3 * 12 and {r["sample"] for r in drawn} == {"0", "1", "2"}
+    for mode in ("mean", "ml-argmax"):  # the other point forecasts: same rows, other positions
+        out = tmp_path / f"{mode}.csv"
+        assert main([*common, "--out", str(out), "--mode", mode]) == 0
+        with out.open() as handle:
+            point = list(csv.DictReader(handle))
+        assert [(r["frame"], r["id"], r["step"]) for r in point] == [
+            (r["frame"], r["id"], r["step"]) for r in ml
+        ]
+        assert [r["x"] for r in point] != [r["x"] for r in ml]
 
 
 def test_predict_refuses_short_tracks_and_missing_files(

@@ -46,5 +46,5 @@ def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | N
     raise GrouptronError(
         f"no checkpoint {name_or_path!s}: not a file, and no {BEST_WEIGHTS_FILE} under "
         f"{', '.join(str(f) for f in dict.fromkeys(folders))}{hint} (set ${CHECKPOINTS_ENV} to "
-        "a folder of <name>/best.safetensors)"
+        f"a folder of <name>/{BEST_WEIGHTS_FILE})"
     )
