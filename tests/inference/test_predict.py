@@ -152,6 +152,10 @@ def test_plot_draws_one_panel_per_model_and_refuses_an_empty_frame(
         == 0
     )
     assert out.read_bytes()[:4] == b"\x89PNG"
+    mean = tmp_path / "mean.png"  # another point forecast, drawn where the ml one was
+    at = ["--compare", b, "--frame", str(int(frames.max()) - 50), "--forecast", "mean"]
+    assert main([*argv, *at, "--out", str(mean)]) == 0
+    assert mean.read_bytes()[:4] == b"\x89PNG" and mean.read_bytes() != out.read_bytes()
     assert main([*argv, "--frame", str(int(frames.min())), "--out", str(tmp_path / "x.png")]) == 2
     assert not (tmp_path / "x.png").exists()
 

@@ -35,6 +35,7 @@ from grouptron.io import (
     write_array_csv_atomically,
 )
 from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.predict import POINT_FORECASTS
 from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tracks_around
 
 
@@ -97,7 +98,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     refuse_folder(out)  # before the work, not after it
     torch.set_num_threads(args.threads)
     predictors = [
-        Predictor.from_checkpoint(c, most_likely="ml", device=args.device)
+        Predictor.from_checkpoint(c, most_likely=args.forecast, device=args.device)
         for c in (args.checkpoint, args.compare)
         if c
     ]
@@ -276,6 +277,13 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
         "or a .mp4 when ffmpeg is installed; 2.5 pictures per second = real time)",
     )
     plot.add_argument("--out", required=True, help="PNG file to write (.gif/.mp4 with --until)")
+    plot.add_argument(
+        "--forecast",
+        choices=tuple(POINT_FORECASTS),
+        default="ml",
+        help="the dashed point forecast: ml (most likely, the evaluator's), ml-argmax (the "
+        "most probable latent value's) or mean (the p(z|x)-weighted mean)",
+    )
     plot.add_argument("--samples", type=non_negative_int, default=20, help="sampled futures")
     plot.add_argument("--seed", type=int, default=0, help="seed of the samples")
     plot.add_argument("--quiet", action="store_true", help="no progress bar")
