@@ -1,0 +1,75 @@
+"""Where each point forecast goes wrong: its final error split along and across the direction
+of travel, and how much its velocity changes from step to step.
+
+Usage:
+    python benchmarks/forecast_errors.py [--checkpoint trajectron++-univ-backward]
+        [--datasets benchmarks/ood/hermes_corridor.toml] [--threads 1]
+
+On the test parts of the dataset descriptions (every person with 8 observed and 12 future
+steps), for ``ml``, ``ml-argmax``, ``mean`` and constant velocity: FDE, the mean absolute error
+of the final position along the current velocity (too fast or too slow) and across it (off to
+the side), and the mean change of the forecast velocity between consecutive steps (m/s).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from grouptron.data.custom import read_dataset
+from grouptron.evaluation.recordings import recording_samples
+from grouptron.inference.checkpoints import resolve_checkpoint
+from grouptron.model.batch import batches
+from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.factory import groups_for_model
+from grouptron.model.predict import POINT_FORECASTS
+
+HERE = Path(__file__).resolve().parent
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--checkpoint", default="trajectron++-univ-backward")
+    parser.add_argument("--datasets", default=str(HERE / "ood" / "hermes_corridor.toml"))
+    parser.add_argument("--threads", type=int, default=1)
+    args = parser.parse_args()
+    torch.set_num_threads(args.threads)
+    model, config = load_trained_model(resolve_checkpoint(args.checkpoint))
+    H, dt = config.data.horizon_steps, config.data.dt_s
+    for dataset in (read_dataset(path) for path in args.datasets.split(",")):
+        samples = recording_samples(dataset.files("test"), dataset.recording, config.data)
+        groups = groups_for_model(samples, config)
+        forecasts: dict[str, list[np.ndarray]] = {mode: [] for mode in POINT_FORECASTS}
+        with torch.inference_mode():
+            for _, batch in batches(samples, config, 512, groups):
+                for mode, forecast in POINT_FORECASTS.items():
+                    positions = forecast(model.eval(), batch, H, dt, ())
+                    forecasts[mode].append(positions.double().numpy())  # (B, H, 2)
+        truth = samples.fut_rel_m.astype(np.float64)  # (S, H, 2), relative to t
+        velocity = (samples.hist_rel_m[:, -1] - samples.hist_rel_m[:, -2]) / dt  # (S, 2)
+        steps = np.arange(1, H + 1)[None, :, None] * dt
+        rows = {m: np.concatenate(v) for m, v in forecasts.items()}
+        rows["constant velocity"] = velocity[:, None, :] * steps
+        heading = velocity / np.maximum(np.linalg.norm(velocity, axis=1, keepdims=True), 1e-6)
+        side = np.stack([-heading[:, 1], heading[:, 0]], axis=1)
+        print(f"\n{dataset.name} ({len(samples)} samples), {Path(args.checkpoint).name}\n")
+        print("| forecast | FDE m | along m | across m | velocity change per step m/s |")
+        print("|---|---|---|---|---|")
+        for name, positions in rows.items():
+            error = positions[:, -1] - truth[:, -1]  # (S, 2)
+            speeds = np.diff(
+                np.concatenate([np.zeros_like(positions[:, :1]), positions], 1), axis=1
+            )
+            change = np.linalg.norm(np.diff(speeds / dt, axis=1), axis=-1).mean()
+            print(
+                f"| {name} | {np.linalg.norm(error, axis=1).mean():.3f} | "
+                f"{np.abs((error * heading).sum(1)).mean():.3f} | "
+                f"{np.abs((error * side).sum(1)).mean():.3f} | {change:.3f} |"
+            )
+
+
+if __name__ == "__main__":
+    main()
