@@ -6,9 +6,10 @@ Usage:
         [--datasets benchmarks/ood/hermes_corridor.toml] [--threads 1]
 
 On the test parts of the dataset descriptions (every person with 8 observed and 12 future
-steps), for ``ml``, ``ml-argmax``, ``mean`` and constant velocity: FDE, the mean absolute error
-of the final position along the current velocity (too fast or too slow) and across it (off to
-the side), and the mean change of the forecast velocity between consecutive steps (m/s).
+steps who moves at least 0.1 m/s at t, so that the direction of travel is defined), for
+``ml``, ``ml-argmax``, ``mean`` and constant velocity: FDE, the mean absolute error of the final
+position along the current velocity (too fast or too slow) and across it (off to the side),
+and the mean change of the forecast velocity between consecutive steps (m/s).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from grouptron.model.factory import groups_for_model
 from grouptron.model.predict import POINT_FORECASTS
 
 HERE = Path(__file__).resolve().parent
+MIN_SPEED_MPS = 0.1
 
 
 def main() -> None:
@@ -37,7 +39,8 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=1)
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
-    model, config = load_trained_model(resolve_checkpoint(args.checkpoint))
+    path = resolve_checkpoint(args.checkpoint)
+    model, config = load_trained_model(path)
     H, dt = config.data.horizon_steps, config.data.dt_s
     for dataset in (read_dataset(path) for path in args.datasets.split(",")):
         samples = recording_samples(dataset.files("test"), dataset.recording, config.data)
@@ -53,13 +56,19 @@ def main() -> None:
         steps = np.arange(1, H + 1)[None, :, None] * dt
         rows = {m: np.concatenate(v) for m, v in forecasts.items()}
         rows["constant velocity"] = velocity[:, None, :] * steps
-        heading = velocity / np.maximum(np.linalg.norm(velocity, axis=1, keepdims=True), 1e-6)
+        speed = np.linalg.norm(velocity, axis=1)
+        moving = speed >= MIN_SPEED_MPS
+        heading = velocity[moving] / speed[moving, None]
         side = np.stack([-heading[:, 1], heading[:, 0]], axis=1)
-        print(f"\n{dataset.name} ({len(samples)} samples), {Path(args.checkpoint).name}\n")
+        print(
+            f"\n{dataset.name} ({moving.sum()} samples moving at >= {MIN_SPEED_MPS} m/s, "
+            f"{(~moving).sum()} left out), {path.parent.name}\n"
+        )
         print("| forecast | FDE m | along m | across m | velocity change per step m/s |")
         print("|---|---|---|---|---|")
-        for name, positions in rows.items():
-            error = positions[:, -1] - truth[:, -1]  # (S, 2)
+        for name, all_positions in rows.items():
+            positions = all_positions[moving]
+            error = positions[:, -1] - truth[moving, -1]  # (S, 2)
             speeds = np.diff(
                 np.concatenate([np.zeros_like(positions[:, :1]), positions], 1), axis=1
             )

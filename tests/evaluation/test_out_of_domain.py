@@ -82,6 +82,9 @@ def test_bad_recordings_are_refused_before_any_model_runs(
     with pytest.raises(GrouptronError, match="has no 'test' part"):
         prepare_out_of_domain([read_dataset(train_only)])
     prepared = prepare_out_of_domain([read_dataset(corridor)])
+    (path,) = causal_checkpoints(tiny_checkpoints)
+    with pytest.raises(GrouptronError, match="distinct folder names"):
+        score_out_of_domain(prepared, [path, path])
     with pytest.raises(GrouptronError, match=r"need point forecasts .* not best-of-20"):
         score_out_of_domain(prepared, causal_checkpoints(tiny_checkpoints), ("best-of-20",))
 

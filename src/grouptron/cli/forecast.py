@@ -166,7 +166,8 @@ def _plot_panels(
             after=data.horizon_steps,
         )
         name = f"{predictor.config.model_name} ({predictor.config.data.derivatives})"
-        panels.append(Panel(name, forecast, history, truth))
+        label = {"ml": "most likely", "ml-argmax": "argmax latent"}.get(args.forecast, "mean")
+        panels.append(Panel(name, forecast, history, truth, label))
     return panels
 
 
@@ -212,7 +213,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         default="ml",
         help="ml: the most likely future per pedestrian (the evaluator's); ml-argmax: the most "
         "probable latent value's (the Python API's default); mean: the p(z|x)-weighted mean "
-        "future; samples: --samples sampled futures (and the ml one). On recordings from "
+        "future; samples: --samples sampled futures. On recordings from "
         "elsewhere ml-argmax and mean were closer to the truth (benchmarks/RESULTS.md)",
     )
     predict.add_argument(

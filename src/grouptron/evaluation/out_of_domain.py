@@ -133,11 +133,13 @@ def prepare_out_of_domain(datasets: Sequence[DatasetDescription]) -> OutOfDomain
 
 def causal_checkpoints(root: Path) -> list[Path]:
     """Every ``*/best.safetensors`` under ``root`` that forecasts from causal inputs
-    (:attr:`DataConfig.causal`), in folder-name order."""
+    (:attr:`DataConfig.causal`) with neighbours taken at t alone (so that its density bins
+    count the same people as constant velocity's), in folder-name order."""
     if not Path(root).is_dir():
         raise GrouptronError(f"checkpoint folder {root} does not exist")
     paths = sorted(Path(root).glob(f"*/{BEST_WEIGHTS_FILE}"))
-    return [path for path in paths if load_checkpoint(path).config.data.causal]
+    data = {path: load_checkpoint(path).config.data for path in paths}
+    return [p for p in paths if data[p].causal and tuple(data[p].neighbour_window_steps) == (0, 0)]
 
 
 def _samples(datasets: Sequence[DatasetDescription], data: DataConfig = BASELINE_DATA) -> SampleSet:
@@ -164,6 +166,10 @@ def score_out_of_domain(
             f"out-of-domain scores need point forecasts ({', '.join(POINT_FORECASTS)}), "
             f"not {', '.join(unknown) or 'none'}"
         )
+    labels = [path.parent.name for path in checkpoints]
+    doubled = sorted(label for label, n in Counter(labels).items() if n > 1)
+    if doubled:  # rows are named by folder: two of one name would merge
+        raise GrouptronError(f"out-of-domain checkpoints need distinct folder names: {doubled}")
     names = recordings.names
     rows, pooled = _rows(CONSTANT_VELOCITY, None, recordings.baseline, BASELINE_DATA, None, names)
     for path in checkpoints:
@@ -180,8 +186,7 @@ def score_out_of_domain(
             rows += per_recording
             pooled += per_bin
     rows.sort(key=lambda r: names.index(r.recording))  # stable: models stay in order
-    folders = tuple(p.parent.name for p in checkpoints)
-    return OutOfDomain(recordings, folders, tuple(rows), tuple(pooled), default_model)
+    return OutOfDomain(recordings, tuple(labels), tuple(rows), tuple(pooled), default_model)
 
 
 def _rows(

@@ -30,12 +30,14 @@ class Panel:
         history: (N, T, 2) observed positions up to the frame (NaN where unobserved), aligned
             with ``forecast.ids``.
         truth: (N, H, 2) the recorded future (NaN where the file has none).
+        point_forecast: what the dashed line is (``most likely``, ``argmax latent``, ``mean``).
     """
 
     title: str
     forecast: Forecast
     history: np.ndarray
     truth: np.ndarray
+    point_forecast: str = "most likely"
 
 
 def tracks_around(
@@ -83,11 +85,11 @@ def _draw_panel(ax: plt.Axes, panel: Panel, frame: int) -> None:
     ax.grid(alpha=0.3)
 
 
-def _add_legend(ax: plt.Axes) -> None:
+def _add_legend(ax: plt.Axes, point_forecast: str) -> None:
     legend = [
         plt.Line2D([0], [0], color="grey", lw=2.2, label="observed (3.2 s)"),
         plt.Line2D([0], [0], color="black", ls=":", lw=1.2, label="ground truth"),
-        plt.Line2D([0], [0], color="grey", ls="--", lw=1.8, label="most likely (4.8 s)"),
+        plt.Line2D([0], [0], color="grey", ls="--", lw=1.8, label=f"{point_forecast} (4.8 s)"),
         plt.Line2D([0], [0], color="grey", lw=0.5, alpha=0.6, label="samples"),
     ]
     # Outside the axes: inside, it hides pedestrians in crowded frames.
@@ -113,7 +115,7 @@ def plot_forecasts(panels: Sequence[Panel], frame: int, out: Path) -> None:
     try:
         for ax, panel in zip(axes, panels, strict=True):
             _draw_panel(ax, panel, frame)
-        _add_legend(axes[-1])
+        _add_legend(axes[-1], panels[0].point_forecast)
         fig.tight_layout()
         save_atomically(out, fig.savefig)
     finally:
@@ -165,7 +167,7 @@ def animate_forecasts(
             ax.clear()
             _draw_panel(ax, panel, frame)
             ax.set(xlim=x_lim, ylim=y_lim)
-        _add_legend(axes[-1])
+        _add_legend(axes[-1], panels[0].point_forecast)
 
     try:
         draw(0)
