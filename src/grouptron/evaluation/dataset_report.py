@@ -14,9 +14,8 @@ from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.uncertainty import mean_interval
-from grouptron.groups.assign import assign_groups
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_checkpoint, load_trained_model
-from grouptron.model.factory import uses_groups
+from grouptron.model.factory import groups_for_model
 
 
 def checkpoints_of(dataset: DatasetDescription, root: Path) -> list[Path]:
@@ -72,9 +71,7 @@ def dataset_report(
             baselines_done.add(data.derivatives)
             cv = constant_velocity_scores(samples, data.horizon_steps)
             rows.append(_row(template, cv, steps))
-        groups = None
-        if uses_groups(experiment):
-            groups = assign_groups(samples, experiment.groups, data.position_scale_m)
+        groups = groups_for_model(samples, experiment)
         ours = dataclasses.replace(template, model=experiment.model_name, checkpoint=str(path))
         for scores in score_samples(model, experiment, samples, modes, seed=seed, groups=groups):
             rows.append(_row(ours, scores, steps))
