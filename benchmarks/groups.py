@@ -19,13 +19,13 @@ import time
 import numpy as np
 import torch
 
-from grouptron.config import experiment_preset
 from grouptron.data.augment import draw_rotation_angles
 from grouptron.data.dataset import load_part
 from grouptron.data.locate import resolve_data_dir
 from grouptron.groups.assign import assign_groups
 from grouptron.model.batch import make_batch
 from grouptron.model.factory import build_model
+from grouptron.presets import experiment_preset
 from grouptron.training.losses import elbo_loss
 
 

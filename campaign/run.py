@@ -1,7 +1,7 @@
 """The training campaign behind the shipped checkpoints: a queue of runs, resumable.
 
 Usage:
-    python campaign/run.py [--only NAME_PART] [--dry-run] [--out campaign/runs]
+    python campaign/run.py [--only NAME_PART] [--dry-run] [--out campaign/runs] [--variant]
 
 Every run trains with ``grouptron train`` into ``OUT/<name>`` for 100 epochs (the reference
 recipe) and is skipped once finished (its ``selection.json`` exists). A run that was stopped
@@ -20,6 +20,12 @@ splits (every shipped checkpoint), then the other univ ``central`` seeds.
 configuration, future encoder scale included); other seeds of ``central`` univ use the same
 configuration so that seeds differ in the seed alone. ``backward`` runs start from scratch on
 strictly causal inputs.
+
+``--variant`` queues the named variant ``grouptron-robust`` instead, all from scratch with its
+preset: univ ``central`` seed 0, ``backward`` of the other four splits (the causal targets
+need all five), univ ``central`` seeds 1-2, then ``central`` of the other four splits. Its univ
+``backward`` seeds are the screening runs of ``screen.py --only robust``, named with
+``name_variant.py``.
 """
 
 from __future__ import annotations
@@ -42,6 +48,7 @@ REPO = Path(__file__).resolve().parents[1]
 EPOCHS = 100
 SPLITS = ("univ", "eth", "hotel", "zara1", "zara2")
 MODELS = ("trajectron++", "grouptron")
+VARIANT = "grouptron-robust"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -61,9 +68,17 @@ class Run:
     @property
     def shipped_source(self) -> Path | None:
         """The shipped run this one continues (seed-0 central runs)."""
-        if self.protocol == "central" and self.seed == 0 and not self.bf16_only:
+        continued = self.model in MODELS and self.protocol == "central" and self.seed == 0
+        if continued and not self.bf16_only:
             return REPO / "checkpoints" / f"{self.model}-{self.split}-central"
         return None
+
+
+def variant_queue() -> list[Run]:
+    runs = [Run(VARIANT, "univ", "central")]
+    runs += [Run(VARIANT, split, "backward") for split in SPLITS[1:]]
+    runs += [Run(VARIANT, "univ", "central", seed) for seed in (1, 2)]
+    return runs + [Run(VARIANT, split, "central") for split in SPLITS[1:]]
 
 
 def queue(bf16_ab: bool = False) -> list[Run]:
@@ -109,7 +124,7 @@ def command(run: Run, folder: Path, precision: str, threads: int = 1) -> list[st
         return [*argv, "--resume"]
     if run.shipped_source is not None:  # dry run: prepare() has not copied it
         return [*argv, "--resume"]
-    if run.protocol == "central" and run.seed and run.split == "univ":
+    if run.model in MODELS and run.protocol == "central" and run.seed and run.split == "univ":
         # Same configuration as the seed-0 run it is compared with, another seed.
         stored = load_checkpoint(
             REPO / "checkpoints" / f"{run.model}-univ-central" / "last.safetensors"
@@ -150,10 +165,13 @@ def main() -> int:
         help="CPU threads per run (default 1: leaves a core of a 2-core machine to other work; "
         "two jobs of 2 threads each on 2 cores slow both several-fold)",
     )
+    parser.add_argument(
+        "--variant", action="store_true", help=f"queue the runs of {VARIANT} instead"
+    )
     args = parser.parse_args()
     bf16 = resolve_precision("auto", torch.device("cpu"), threads=args.threads)
     chosen = "bf16" if bf16 else "fp32"
-    for run in queue(args.bf16_ab):
+    for run in variant_queue() if args.variant else queue(args.bf16_ab):
         if args.only and args.only not in run.name:
             continue
         folder = args.out / run.name

@@ -384,26 +384,6 @@ _NESTED: dict[str, type] = {
 }
 
 
-SPLIT_PRESETS: dict[tuple[str, str], dict[str, dict[str, Any]]] = {
-    ("grouptron", "eth"): {"group_encoder": {"group_dim": 8}},
-}
-"""Settings that differ per (model, ETH/UCY split), by section: the paper narrows Grouptron's
-ST-GCNs to 8 on eth, whose test recording rarely has 5 or more people in view. Nothing else
-(no other model, no dataset of one's own) gets a preset."""
-
-
-def preset_values(split: str, model_name: str, dataset: str = "") -> dict[str, Any]:
-    """The preset of a (model, ETH/UCY split) as nested settings; a dataset of one's own
-    (``dataset`` given) gets none, whatever its name."""
-    preset = {} if dataset else SPLIT_PRESETS.get((model_name, split), {})
-    return {"split": split, "model_name": model_name, "dataset": dataset, **preset}
-
-
-def experiment_preset(split: str, model_name: str = "trajectron++") -> ExperimentConfig:
-    """The default experiment of a model on a split, with its preset."""
-    return config_from_dict(ExperimentConfig, preset_values(split, model_name))
-
-
 def merge_settings(base: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
     """``base`` with ``overrides`` laid over it, section by section (nested dicts merge)."""
     merged = dict(base)

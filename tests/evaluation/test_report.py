@@ -106,6 +106,8 @@ def test_report_statistics_on_hand_made_scores() -> None:
         _run("trajectron++", 1, base - 0.2, steps),
         _run("grouptron", 0, base - 0.1, steps),
         _run("grouptron", 1, base - 0.1, steps),
+        _run("grouptron-robust", 0, base - 0.3, steps),
+        _run("grouptron-robust", 1, base - 0.25, steps),
     ]
     report = build_report(runs, ("backward",))
     tables = {(r.model, r.split): r for r in report.rows}
@@ -121,6 +123,8 @@ def test_report_statistics_on_hand_made_scores() -> None:
     assert spreads["trajectron++"].seeds == (0, 1)
     assert spreads["trajectron++"].fde == pytest.approx((base.mean() - 0.1, base.mean() - 0.2))
     assert spreads["grouptron - trajectron++"].fde == pytest.approx((0.0, 0.1))
+    assert spreads["grouptron-robust - trajectron++"].fde == pytest.approx((-0.2, -0.05))
+    assert paired["grouptron-robust", "grouptron"].fde.mean == pytest.approx(-0.2)
     loaded = json.loads(report.to_json())
     assert loaded["seeds"][0]["fde_sd"] == pytest.approx(0.1 / np.sqrt(2))
     assert set(loaded) == {"results", "paired", "seeds", "density", "ablations"}

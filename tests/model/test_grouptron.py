@@ -16,13 +16,13 @@ from grouptron.config import (
     ExperimentConfig,
     GroupConfig,
     GroupEncoderConfig,
-    experiment_preset,
 )
 from grouptron.data.dataset import load_part
 from grouptron.groups.assign import assign_groups
 from grouptron.model.batch import make_batch
 from grouptron.model.factory import build_model
 from grouptron.model.stgcn import STGCNBlock, segment_graph_conv, segment_mean
+from grouptron.presets import experiment_preset
 from tests.model.test_cvae import SMALL
 
 # Two samples: sample 0 has groups {0, 1} and {2}; sample 1 has group {3} alone.

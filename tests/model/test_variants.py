@@ -138,16 +138,9 @@ def test_every_screened_variant_is_a_valid_configuration(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     """The screening campaign's switches are settings `grouptron config show` accepts."""
-    import importlib.util
-
     from grouptron.cli import main
-    from tests.conftest import REPO
 
-    spec = importlib.util.spec_from_file_location("screen", REPO / "campaign" / "screen.py")
-    assert spec is not None and spec.loader is not None
-    screen = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(screen)
-    for model, switches in screen.VARIANTS.values():
+    for model, switches in _screen_module().VARIANTS.values():  # type: ignore[attr-defined]
         argv = ["config", "show", "--model", model, "--split", "univ", "--changes"]
         for switch in switches:
             argv += ["--set", switch]
@@ -157,12 +150,49 @@ def test_every_screened_variant_is_a_valid_configuration(
             assert switch.split("=")[0] in shown
 
 
+def _screen_module() -> object:
+    import importlib.util
+
+    from tests.conftest import REPO
+
+    spec = importlib.util.spec_from_file_location("screen", REPO / "campaign" / "screen.py")
+    assert spec is not None and spec.loader is not None
+    screen = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(screen)
+    return screen
+
+
+def test_the_named_variant_is_the_screened_robust_switches() -> None:
+    """`grouptron-robust` is exactly Grouptron with the screened `robust` switches, so that a
+    screening run and a run of the named model train the same network."""
+    from grouptron.cli.train import parse_setting
+    from grouptron.config import config_from_dict, merge_settings
+    from grouptron.model.factory import uses_groups
+    from grouptron.model.grouptron import GrouptronCVAE
+    from grouptron.presets import experiment_preset, preset_values
+
+    model, switches = _screen_module().VARIANTS["robust"]  # type: ignore[attr-defined]
+    for split in ("univ", "eth"):
+        values = preset_values(split, model)
+        for switch in switches:
+            values = merge_settings(values, parse_setting(switch))
+        screened = config_from_dict(ExperimentConfig, values)
+        named = experiment_preset(split, "grouptron-robust")
+        assert named == dataclasses.replace(screened, model_name="grouptron-robust")
+    assert experiment_preset("eth", "grouptron-robust").group_encoder.group_dim == 8
+    assert experiment_preset("univ", "grouptron-robust").group_encoder.group_dim == 16
+    assert experiment_preset("univ", "grouptron").group_encoder.temporal_layers == 1
+    own = config_from_dict(ExperimentConfig, preset_values("eth", "grouptron-robust", "own.toml"))
+    assert own.group_encoder.group_dim == 16 and own.group_encoder.temporal_layers == 3
+    assert uses_groups(own) and isinstance(build_model(own), GrouptronCVAE)
+
+
 @pytest.mark.slow
-def test_the_all_switches_variant_trains_and_evaluates_from_the_cli(
+def test_the_named_variant_trains_and_evaluates_from_the_cli(
     synthetic_data_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """`grouptron train --set ...` with every switch on (threshold groups, cached by their
-    settings, included), then `evaluate` of its checkpoint: the card lists the switches."""
+    """`grouptron train --model grouptron-robust` (threshold groups, cached by their settings,
+    included), then `evaluate` of its checkpoint: the card names the model and its switches."""
     import json
     import math
 
@@ -173,21 +203,57 @@ def test_the_all_switches_variant_trains_and_evaluates_from_the_cli(
     config.write_text(json.dumps({"model": TINY_MODEL, "train": {"batch_size": 64}}))
     out = tmp_path / "variant"
     common = ["--data-dir", str(synthetic_data_dir), "--quiet"]
-    switches = [
-        "group_encoder.temporal_layers=3", "group_encoder.scene_dropout_keep=0.75",
-        "group_encoder.scene_layer_norm=true", "group_encoder.ego_in_own_group=false",
-        "group_encoder.count_feature=true", "groups.linkage=single",
-        "groups.max_distance_m=1.5", "groups.velocity_weight_s=2.0",
-    ]  # fmt: skip
-    argv = ["train", "--split", "eth", "--model", "grouptron", "--derivatives", "backward"]
+    argv = ["train", "--split", "eth", "--model", "grouptron-robust", "--derivatives", "backward"]
     argv += ["--epochs", "1", "--config", str(config), "--out", str(out)]
-    for switch in switches:
-        argv += ["--set", switch]
     assert main([*argv, *common]) == 0
     capsys.readouterr()
     card = (out / "README.md").read_text()
+    assert "Grouptron (robust)" in card
     assert "temporal_layers" in card and "max_distance_m" in card
     evaluate = ["evaluate", "--checkpoint", str(out / "best.safetensors"), *common]
     assert main([*evaluate, "--format", "json"]) == 0
     (row,) = json.loads(capsys.readouterr().out)["results"]
-    assert row["model"] == "grouptron" and math.isfinite(row["fde"])
+    assert row["model"] == "grouptron-robust" and math.isfinite(row["fde"])
+
+
+def test_a_screened_robust_run_gets_the_variant_name_and_keeps_its_weights(
+    tmp_path: Path,
+) -> None:
+    """campaign/name_variant.py renames a run trained as Grouptron with the robust switches
+    (weights untouched, card and config.json rewritten) and refuses any other run."""
+    import importlib.util
+    import json
+
+    from grouptron.model.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
+    from grouptron.presets import experiment_preset
+    from tests.conftest import REPO
+
+    spec = importlib.util.spec_from_file_location(
+        "name_variant", REPO / "campaign" / "name_variant.py"
+    )
+    assert spec is not None and spec.loader is not None
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+
+    def run(folder: Path, config: ExperimentConfig) -> dict[str, torch.Tensor]:
+        folder.mkdir()
+        state = build_model(config).state_dict()
+        save_checkpoint(folder / "best.safetensors", Checkpoint(config, state, epoch=3))
+        (folder / "metrics.jsonl").write_text(json.dumps({"epoch": 1, "train_loss": 1.0}) + "\n")
+        return state
+
+    small = dataclasses.replace(SMALL, edge_aggregation="mean", edge_count_feature=True)
+    robust = dataclasses.replace(experiment_preset("univ", "grouptron-robust"), model=small)
+    screened = dataclasses.replace(robust, model_name="grouptron")
+    state = run(tmp_path / "screened", screened)
+    assert script.main([str(tmp_path / "screened")]) == 0
+    renamed = load_checkpoint(tmp_path / "screened" / "best.safetensors")
+    assert renamed.config == robust and renamed.epoch == 3
+    assert all(torch.equal(state[k], renamed.model_state[k]) for k in state)
+    stored = json.loads((tmp_path / "screened" / "config.json").read_text())
+    assert stored["model_name"] == "grouptron-robust"
+    assert "Grouptron (robust)" in (tmp_path / "screened" / "README.md").read_text()
+    paper = dataclasses.replace(experiment_preset("univ", "grouptron"), model=small)
+    run(tmp_path / "paper", paper)
+    assert script.main([str(tmp_path / "paper")]) == 2
+    assert load_checkpoint(tmp_path / "paper" / "best.safetensors").config == paper

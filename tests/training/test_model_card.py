@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 
-from grouptron.config import ExperimentConfig, TrainConfig, experiment_preset
+from grouptron.config import ExperimentConfig, TrainConfig
+from grouptron.presets import experiment_preset
 from grouptron.training.model_card import render_model_card
 
 

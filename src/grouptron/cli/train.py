@@ -23,7 +23,6 @@ from grouptron.config import (
     TrainConfig,
     config_from_dict,
     merge_settings,
-    preset_values,
 )
 from grouptron.constants import ALL_LOCATIONS, SPLITS
 from grouptron.data.custom import load_dataset_part, read_dataset
@@ -35,6 +34,7 @@ from grouptron.groups.cache import load_groups
 from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.model.checkpoint import load_checkpoint
 from grouptron.model.factory import MODEL_NAMES, uses_groups
+from grouptron.presets import preset_values
 from grouptron.training import distributed
 from grouptron.training.metrics_log import MetricsWriter
 from grouptron.training.precision import PRECISIONS, precision_name, resolve_precision
@@ -257,7 +257,9 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     train_cmd.add_argument(
         "--model",
         choices=MODEL_NAMES,
-        help="the model (default: a --config file's model_name, else trajectron++)",
+        help="trajectron++ or grouptron (the paper's), or grouptron-robust (Grouptron with "
+        "every density switch on; README, 'Grouptron') (default: a --config file's "
+        "model_name, else trajectron++)",
     )
     train_cmd.add_argument("--epochs", type=int, help="epochs (default 100, as the reference)")
     train_cmd.add_argument("--out", help="output folder (default runs/MODEL-SPLIT-DERIVATIVES)")

@@ -43,7 +43,7 @@ from grouptron.evaluation.scored import CONSTANT_VELOCITY, ReportCheckpoint, Sco
 from grouptron.evaluation.test_sets import load_test_set, subset_with_groups
 from grouptron.geometry import DerivativeScheme
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_checkpoint, load_trained_model
-from grouptron.model.factory import MODEL_NAMES, uses_groups
+from grouptron.model.factory import MODEL_NAMES, PAPER_MODELS, uses_groups
 from grouptron.model.predict import ABLATIONS
 
 log = logging.getLogger(__name__)
@@ -101,12 +101,10 @@ def find_checkpoints(root: Path, schemes: Sequence[DerivativeScheme]) -> list[Re
     order = {name: i for i, name in enumerate((*schemes, *MODEL_NAMES, *SPLITS))}
     found.sort(key=lambda c: (order[c.derivatives], order[c.model], order[c.split], c.seed))
     have = {(c.model, c.split, c.derivatives) for c in found}
+    # The paper's two models are expected on every split; a variant only where it was trained.
+    expected = [m for m in MODEL_NAMES if m in PAPER_MODELS or any(c.model == m for c in found)]
     missing = [
-        f"{m}-{s}-{p}"
-        for p in schemes
-        for m in MODEL_NAMES
-        for s in SPLITS
-        if (m, s, p) not in have
+        f"{m}-{s}-{p}" for p in schemes for m in expected for s in SPLITS if (m, s, p) not in have
     ]
     if missing:
         log.warning(

@@ -32,13 +32,17 @@ from grouptron.evaluation.uncertainty import (
     seed_spread,
     split_average_interval,
 )
+from grouptron.model.factory import GROUP_MODELS
 
 BOOTSTRAP_SEED = 0
 INTERVAL_MODES = ("ml", "ml-argmax", "mean", "best-of-20")
 PAIRS = (
     ("grouptron", "trajectron++"),
+    ("grouptron-robust", "trajectron++"),
+    ("grouptron-robust", "grouptron"),
     ("trajectron++", CONSTANT_VELOCITY),
     ("grouptron", CONSTANT_VELOCITY),
+    ("grouptron-robust", CONSTANT_VELOCITY),
 )
 """(model, baseline): the differences a reader asks about, model minus baseline."""
 
@@ -238,7 +242,7 @@ def paired_differences(
 
 def seed_spreads(runs: Sequence[ScoredRun], columns: Sequence[str]) -> list[SeedSpread]:
     """ML scores per seed where a (model, split, derivatives) has several seed runs, and the
-    Grouptron - Trajectron++ difference of seeds run for both."""
+    difference of each group model and Trajectron++ for the seeds run for both."""
     by_key: dict[tuple[str, str, str], list[ScoredRun]] = {}
     for run in runs:
         if run.entry.model != CONSTANT_VELOCITY:
@@ -263,12 +267,12 @@ def seed_spreads(runs: Sequence[ScoredRun], columns: Sequence[str]) -> list[Seed
 
 
 def _seed_differences(spreads: Sequence[SeedSpread]) -> list[SeedSpread]:
-    """Grouptron - Trajectron++ per seed, for the seeds both models have."""
+    """Each group model - Trajectron++ per seed, for the seeds both models have."""
     out = []
     index = {(s.model, s.derivatives, s.column): s for s in spreads}
     for (model, derivatives, column), grouptron in index.items():
         other = index.get(("trajectron++", derivatives, column))
-        if model != "grouptron" or other is None:
+        if model not in GROUP_MODELS or other is None:
             continue
         common = [s for s in grouptron.seeds if s in other.seeds]
         if len(common) < 2:
@@ -277,7 +281,7 @@ def _seed_differences(spreads: Sequence[SeedSpread]) -> list[SeedSpread]:
         t = dict(zip(other.seeds, zip(other.fde, other.ade, strict=True), strict=True))
         fde = tuple(g[s][0] - t[s][0] for s in common)
         ade = tuple(g[s][1] - t[s][1] for s in common)
-        name = "grouptron - trajectron++"
+        name = f"{model} - trajectron++"
         out.append(SeedSpread(name, derivatives, column, tuple(common), fde, ade))
     return out
 

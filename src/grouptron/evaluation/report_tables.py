@@ -7,89 +7,56 @@ for FDE / ADE; negative is better.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
-from grouptron.constants import SPLITS, UNIV_N_PAPER
 from grouptron.evaluation.diagnostics import diagnostics_markdown
 from grouptron.evaluation.out_of_domain import out_of_domain_markdown
 from grouptron.evaluation.published import TABLE_I, TABLE_II
+from grouptron.evaluation.report_cells import (
+    DISPLAY,
+    OURS_MODELS,
+    PRESENT_COLUMNS,
+    TABLE_I_COLUMNS,
+    TABLE_II_COLUMNS,
+    Key,
+    display_name,
+    fde_ade,
+    index_rows,
+    markdown_table,
+    percent_change,
+    published_pair,
+)
 from grouptron.evaluation.report_stats import PairedDifference, Report, SeedSpread
-from grouptron.evaluation.results import MEAN_ROW, EvaluationResult
+from grouptron.evaluation.report_targets import target_checks
+from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.scored import CONSTANT_VELOCITY
 from grouptron.evaluation.uncertainty import seed_spread
-
-TABLE_I_COLUMNS = (*SPLITS, MEAN_ROW)
-TABLE_II_COLUMNS = ("univ", *(f"univ-{n}" for n in UNIV_N_PAPER))
-"""UNIV-N as the paper's Table II evidently counted it: time steps with >= N predicted agents."""
-PRESENT_COLUMNS = tuple(f"univ-{n}-present" for n in UNIV_N_PAPER)
-"""UNIV-N counting pedestrians present at the time step (this project's earlier definition)."""
-DISPLAY = {
-    "trajectron++": "Trajectron++",
-    "grouptron": "Grouptron",
-    CONSTANT_VELOCITY: "constant velocity",
-    MEAN_ROW: "AVG",
-}
-OURS_MODELS = ("trajectron++", "grouptron")
-TARGET_TOLERANCE = 0.05
-"""The reproduction targets: within 5% of the published row on every split."""
-
-Key = tuple[str, str | None, str, str | None]  # model, derivatives, column, mode
-
-
-def _name(value: str) -> str:
-    if value.endswith("-present"):
-        return value.removesuffix("-present").upper() + " (present)"
-    return DISPLAY.get(value, value.upper())
-
-
-def _column(row: EvaluationResult) -> str:
-    return row.subset if row.subset is not None else row.split
-
-
-def index_rows(rows: Sequence[EvaluationResult]) -> dict[Key, EvaluationResult]:
-    return {(r.model, r.derivatives, _column(r), r.mode): r for r in rows}
-
-
-def _pair(fde: float, ade: float) -> str:
-    if math.isnan(fde) or math.isnan(ade):
-        return "-"
-    return f"{fde:.3f}/{ade:.3f}"
-
-
-def _published(values: tuple[float, float]) -> str:
-    """A published (FDE, ADE) as the paper prints it: two decimals, three where it has them."""
-    return "/".join(f"{v:.3f}"[:-1] if f"{v:.3f}".endswith("0") else f"{v:.3f}" for v in values)
-
-
-def _percent(ours: float, reference: float) -> str:
-    return f"{100.0 * (ours - reference) / reference:+.1f}%"
-
-
-def _table(header: Sequence[str], lines: Sequence[Sequence[str]]) -> list[str]:
-    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    return out + ["| " + " | ".join(line) + " |" for line in lines]
+from grouptron.model.factory import GROUP_MODELS
 
 
 def _versus_lines(
     rows: dict[Key, EvaluationResult], columns: Sequence[str], schemes: Sequence[str]
 ) -> list[list[str]]:
-    """Grouptron against our Trajectron++, in percent, per derivatives."""
+    """Each group model against our Trajectron++, in percent, per derivatives."""
     lines = []
-    for derivatives in schemes:
-        pairs = [
-            (
-                rows.get(("grouptron", derivatives, c, "ml")),
-                rows.get(("trajectron++", derivatives, c, "ml")),
-            )
-            for c in columns
-        ]
-        if any(g and t for g, t in pairs):
-            cells = [
-                f"{_percent(g.fde, t.fde)} / {_percent(g.ade, t.ade)}" if g and t else "-"
-                for g, t in pairs
+    for model in GROUP_MODELS:
+        for derivatives in schemes:
+            pairs = [
+                (
+                    rows.get((model, derivatives, c, "ml")),
+                    rows.get(("trajectron++", derivatives, c, "ml")),
+                )
+                for c in columns
             ]
-            lines.append(["Grouptron vs Trajectron++", f"Δ ours, {derivatives}", *cells])
+            if any(g and t for g, t in pairs):
+                cells = [
+                    f"{percent_change(g.fde, t.fde)} / {percent_change(g.ade, t.ade)}"
+                    if g and t
+                    else "-"
+                    for g, t in pairs
+                ]
+                name = f"{display_name(model)} vs Trajectron++"
+                lines.append([name, f"Δ ours, {derivatives}", *cells])
     return lines
 
 
@@ -108,20 +75,22 @@ def _ml_table(
     for method, values in published.items():
         if method in OURS_MODELS:
             continue
-        lines.append([method, "published", *(_published(values[c]) for c in columns)])
+        lines.append([method, "published", *(published_pair(values[c]) for c in columns)])
     for model in OURS_MODELS:
         if model in published:
             values = published[model]
-            lines.append([_name(model), "published", *(_published(values[c]) for c in columns)])
+            lines.append(
+                [display_name(model), "published", *(published_pair(values[c]) for c in columns)]
+            )
         for derivatives in schemes:
             cells = [ours(model, derivatives, c) for c in columns]
             if not any(cells):
                 continue
             lines.append(
                 [
-                    _name(model),
+                    display_name(model),
                     f"ours, {derivatives}",
-                    *(_pair(r.fde, r.ade) if r else "-" for r in cells),
+                    *(fde_ade(r.fde, r.ade) if r else "-" for r in cells),
                 ]
             )
             if derivatives == "central" and model in published:
@@ -130,8 +99,8 @@ def _ml_table(
                         "",
                         "Δ ours vs published",
                         *(
-                            f"{_percent(r.fde, published[model][c][0])} / "
-                            f"{_percent(r.ade, published[model][c][1])}"
+                            f"{percent_change(r.fde, published[model][c][0])} / "
+                            f"{percent_change(r.ade, published[model][c][1])}"
                             if r
                             else "-"
                             for r, c in zip(cells, columns, strict=True)
@@ -142,9 +111,13 @@ def _ml_table(
     cv = [rows.get((CONSTANT_VELOCITY, schemes[0], c, "ml")) for c in columns]
     if any(cv):
         lines.append(
-            [_name(CONSTANT_VELOCITY), "ours", *(_pair(r.fde, r.ade) if r else "-" for r in cv)]
+            [
+                display_name(CONSTANT_VELOCITY),
+                "ours",
+                *(fde_ade(r.fde, r.ade) if r else "-" for r in cv),
+            ]
         )
-    return _table(["method", "source", *(_name(c) for c in columns)], lines)
+    return markdown_table(["method", "source", *(display_name(c) for c in columns)], lines)
 
 
 def _column_of(key: Key) -> str:
@@ -172,112 +145,11 @@ def _mode_table(
                     f"{r.nll:.3f} ({r.samples})" if r and r.nll is not None else "-" for r in cells
                 ]
             else:
-                text = [_pair(r.fde, r.ade) if r else "-" for r in cells]
-            lines.append([_name(model), derivatives, *text])
+                text = [fde_ade(r.fde, r.ade) if r else "-" for r in cells]
+            lines.append([display_name(model), derivatives, *text])
     if not lines:
         return []
-    return _table(["model", "derivatives", *(_name(c) for c in columns)], lines)
-
-
-def _verdict(ok: bool) -> str:
-    return "met" if ok else "NOT met"
-
-
-def _largest_excess(
-    rows: dict[Key, EvaluationResult],
-    model: str,
-    published: dict[str, tuple[float, float]],
-    columns: Sequence[str],
-) -> tuple[float, str] | None:
-    """The largest (ours / published - 1) over FDE and ADE of ``columns`` (central), or None
-    when a column is missing."""
-    excess = []
-    for column in columns:
-        r = rows.get((model, "central", column, "ml"))
-        if r is None:
-            return None
-        fde_ref, ade_ref = published[column]
-        excess += [
-            (r.fde / fde_ref - 1.0, f"{column} FDE"),
-            (r.ade / ade_ref - 1.0, f"{column} ADE"),
-        ]
-    return max(excess)
-
-
-def _central_targets(rows: dict[Key, EvaluationResult]) -> list[str]:
-    """Our central rows against the published ones."""
-    checks = []
-    for model, published, columns, what in (
-        ("trajectron++", TABLE_I["trajectron++"], SPLITS, "row on every split (central)"),
-        ("grouptron", TABLE_I["grouptron"], SPLITS, "row on every split (central)"),
-        (
-            "trajectron++",
-            TABLE_II["trajectron++"],
-            TABLE_II_COLUMNS[1:],
-            "UNIV-40/45/50 row (central, UNIV-N as the paper counted it)",
-        ),
-    ):
-        found = _largest_excess(rows, model, published, columns)
-        if found is not None:
-            excess, where = found
-            checks.append(
-                f"{_name(model)} within 5% of its published {what}: "
-                f"{_verdict(excess <= TARGET_TOLERANCE)} (largest excess {100 * excess:+.1f}% "
-                f"on {where})"
-            )
-    published = {MEAN_ROW: TABLE_I["grouptron"][MEAN_ROW], **TABLE_II["grouptron"]}
-    for column in (MEAN_ROW, *TABLE_II_COLUMNS[1:]):
-        r = rows.get(("grouptron", "central", column, "ml"))
-        if r is not None:
-            fde_ref, ade_ref = published[column]
-            ok = r.fde <= fde_ref and r.ade <= ade_ref
-            checks.append(
-                f"Grouptron {_name(column)} at or below published "
-                f"{fde_ref:.2f}/{ade_ref:.2f}: {_verdict(ok)} ({_pair(r.fde, r.ade)})"
-            )
-    return checks
-
-
-def _causal_targets(paired: Sequence[PairedDifference]) -> list[str]:
-    """Each model's backward ML FDE against constant velocity's, with paired intervals."""
-    checks = []
-    for model in OURS_MODELS:
-        key = ("backward", "ml", model, CONSTANT_VELOCITY)
-        pairs = [
-            p
-            for p in paired
-            if (p.derivatives, p.mode, p.model, p.baseline) == key and p.column in SPLITS
-        ]
-        if len(pairs) == len(SPLITS):
-            evidence = ", ".join(
-                f"{p.column} {p.fde.mean:+.3f} [{p.fde.low:+.3f}, {p.fde.high:+.3f}]" for p in pairs
-            )
-            ok = all(p.fde.mean <= 0.0 for p in pairs)
-            checks.append(
-                f"{_name(model)} (backward) ML FDE at or below constant velocity's on every "
-                f"split: {_verdict(ok)} (paired FDE differences, m: {evidence})"
-            )
-    return checks
-
-
-def target_checks(
-    rows: dict[Key, EvaluationResult],
-    schemes: Sequence[str],
-    paired: Sequence[PairedDifference] = (),
-) -> list[str]:
-    """The reproduction targets, each with its measured evidence and 'met' or 'NOT met'."""
-    checks = _central_targets(rows) if "central" in schemes else []
-    checks += _causal_targets(paired) if "backward" in schemes else []
-    for derivatives in schemes:
-        for column in (MEAN_ROW, *TABLE_II_COLUMNS):
-            g = rows.get(("grouptron", derivatives, column, "ml"))
-            t = rows.get(("trajectron++", derivatives, column, "ml"))
-            if g is not None and t is not None:
-                checks.append(
-                    f"Grouptron FDE below our Trajectron++ on {_name(column)} ({derivatives}): "
-                    f"{_verdict(g.fde < t.fde)} ({g.fde:.3f} vs {t.fde:.3f})"
-                )
-    return [f"- {check}" for check in checks]
+    return markdown_table(["model", "derivatives", *(display_name(c) for c in columns)], lines)
 
 
 def _ci(row: EvaluationResult | None) -> str:
@@ -295,8 +167,12 @@ def interval_table(
         for model in (*OURS_MODELS, CONSTANT_VELOCITY):
             cells = [rows.get((model, derivatives, c, "ml")) for c in columns]
             if any(cells):
-                lines.append([_name(model), derivatives, *(_ci(r) for r in cells)])
-    return _table(["model", "derivatives", *(_name(c) for c in columns)], lines) if lines else []
+                lines.append([display_name(model), derivatives, *(_ci(r) for r in cells)])
+    return (
+        markdown_table(["model", "derivatives", *(display_name(c) for c in columns)], lines)
+        if lines
+        else []
+    )
 
 
 def paired_table(paired: Sequence[PairedDifference], columns: Sequence[str]) -> list[str]:
@@ -313,8 +189,12 @@ def paired_table(paired: Sequence[PairedDifference], columns: Sequence[str]) -> 
             cells.append(
                 f"{p.fde.mean:+.3f} [{p.fde.low:+.3f}, {p.fde.high:+.3f}]{star}" if p else "-"
             )
-        lines.append([f"{_name(model)} - {_name(baseline)}", f"{derivatives}, {mode}", *cells])
-    return _table(["difference", "derivatives, mode", *(_name(c) for c in columns)], lines)
+        lines.append(
+            [f"{display_name(model)} - {display_name(baseline)}", f"{derivatives}, {mode}", *cells]
+        )
+    return markdown_table(
+        ["difference", "derivatives, mode", *(display_name(c) for c in columns)], lines
+    )
 
 
 def seed_table(seeds: Sequence[SeedSpread]) -> list[str]:
@@ -322,12 +202,12 @@ def seed_table(seeds: Sequence[SeedSpread]) -> list[str]:
     lines = []
     for s in seeds:
         (fde, fde_sd), (ade, ade_sd) = seed_spread(s.fde), seed_spread(s.ade)
-        name = " - ".join(_name(part) for part in s.model.split(" - "))
+        name = " - ".join(display_name(part) for part in s.model.split(" - "))
         lines.append(
             [
                 name,
                 s.derivatives,
-                _name(s.column),
+                display_name(s.column),
                 ", ".join(str(seed) for seed in s.seeds),
                 f"{fde:.3f} ± {fde_sd:.3f}",
                 f"{ade:.3f} ± {ade_sd:.3f}",
@@ -335,7 +215,7 @@ def seed_table(seeds: Sequence[SeedSpread]) -> list[str]:
             ]
         )
     header = ["model", "derivatives", "test set", "seeds", "FDE mean ± sd", "ADE mean ± sd"]
-    return _table([*header, "FDE per seed"], lines)
+    return markdown_table([*header, "FDE per seed"], lines)
 
 
 def _paper_tables(rows: dict[Key, EvaluationResult], schemes: Sequence[str]) -> list[str]:
@@ -438,12 +318,12 @@ def report_markdown(report: Report, schemes: Sequence[str], command: str) -> str
         *diagnostics_markdown(report.density, report.ablations, DISPLAY),
         *out_of_domain_markdown(report.out_of_domain),
     ]
-    checks = target_checks(rows, schemes, report.paired)
+    checks = target_checks(rows, schemes, report.paired, report.seeds)
     if checks:
         out += ["", "## Targets", "", *checks]
     whole = [r for r in results if r.checkpoint and not r.subset and r.mode == "ml"]
     used = sorted({(r.checkpoint, r.samples) for r in whole})
     if used:
         out += ["", "## Checkpoints", ""]
-        out += _table(["checkpoint", "test samples"], [[f"`{p}`", str(n)] for p, n in used])
+        out += markdown_table(["checkpoint", "test samples"], [[f"`{p}`", str(n)] for p, n in used])
     return "\n".join(out) + "\n"

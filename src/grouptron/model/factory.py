@@ -11,12 +11,22 @@ from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.grouptron import GrouptronCVAE
 
-MODEL_NAMES = ("trajectron++", "grouptron")
+MODEL_NAMES = ("trajectron++", "grouptron", "grouptron-robust")
+PAPER_MODELS = ("trajectron++", "grouptron")
+"""The models of the paper's tables (the rest are this project's variants)."""
+GROUP_MODELS = ("grouptron", "grouptron-robust")
+"""The models with group- and scene-level encoders: one network (GrouptronCVAE), whose
+``grouptron-robust`` settings come from its preset (config.MODEL_PRESETS)."""
+DISPLAY_NAMES = {
+    "trajectron++": "Trajectron++",
+    "grouptron": "Grouptron",
+    "grouptron-robust": "Grouptron (robust)",
+}
 
 
 def uses_groups(config: ExperimentConfig) -> bool:
     """Whether the model's batches need the samples' groups."""
-    return config.model_name == "grouptron"
+    return config.model_name in GROUP_MODELS
 
 
 def groups_for_model(samples: SampleSet, config: ExperimentConfig) -> SampleGroups | None:
@@ -31,7 +41,7 @@ def build_model(config: ExperimentConfig) -> TrajectronCVAE:
     scale = config.data.velocity_scale_mps
     if config.model_name == "trajectron++":
         return TrajectronCVAE(config.model, velocity_scale_mps=scale)
-    if config.model_name == "grouptron":
+    if config.model_name in GROUP_MODELS:
         return GrouptronCVAE(config.model, config.group_encoder, scale)
     raise GrouptronError(
         f"unknown model {config.model_name!r}; choose from {', '.join(MODEL_NAMES)}"

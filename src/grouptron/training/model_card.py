@@ -17,9 +17,9 @@ import torch
 from grouptron.config import ExperimentConfig, non_default_settings
 from grouptron.constants import ALL_LOCATIONS
 from grouptron.io import write_text_atomically
+from grouptron.model.factory import DISPLAY_NAMES
 
 CARD = "README.md"
-DISPLAY_NAMES = {"trajectron++": "Trajectron++", "grouptron": "Grouptron"}
 DERIVATIVES_NOTES = {
     "central": "central derivatives (the papers' protocol; the last observed velocity uses "
     "the next position)",

@@ -16,7 +16,7 @@ from grouptron.config import ExperimentConfig
 from grouptron.errors import GrouptronError
 from grouptron.model.checkpoint import Checkpoint, load_checkpoint
 from grouptron.model.cvae import TrajectronCVAE
-from grouptron.model.factory import build_model, load_weights
+from grouptron.model.factory import build_model, load_weights, uses_groups
 
 LAST = "last.safetensors"
 
@@ -108,7 +108,7 @@ def _warm_start(
     same_architecture = (source_config.model_name, source_config.model) == (
         config.model_name,
         config.model,
-    ) and (config.model_name != "grouptron" or source_config.group_encoder == config.group_encoder)
+    ) and (not uses_groups(config) or source_config.group_encoder == config.group_encoder)
     if not same_architecture:
         raise GrouptronError(
             f"{source} holds a {source_config.model_name} model with other settings; "

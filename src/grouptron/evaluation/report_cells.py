@@ -1,0 +1,64 @@
+"""Shared pieces of the report's Markdown: column sets, display names and cell formats.
+
+Cells print FDE/ADE like the paper; a percent change is (ours - reference) / reference.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from grouptron.constants import SPLITS, UNIV_N_PAPER
+from grouptron.evaluation.results import MEAN_ROW, EvaluationResult
+from grouptron.evaluation.scored import CONSTANT_VELOCITY
+from grouptron.model.factory import DISPLAY_NAMES, MODEL_NAMES
+
+TABLE_I_COLUMNS = (*SPLITS, MEAN_ROW)
+TABLE_II_COLUMNS = ("univ", *(f"univ-{n}" for n in UNIV_N_PAPER))
+"""UNIV-N as the paper's Table II evidently counted it: time steps with >= N predicted agents."""
+PRESENT_COLUMNS = tuple(f"univ-{n}-present" for n in UNIV_N_PAPER)
+"""UNIV-N counting pedestrians present at the time step (this project's earlier definition)."""
+DISPLAY = {
+    **DISPLAY_NAMES,
+    CONSTANT_VELOCITY: "constant velocity",
+    MEAN_ROW: "AVG",
+}
+OURS_MODELS = MODEL_NAMES
+TARGET_TOLERANCE = 0.05
+"""The reproduction targets: within 5% of the published row on every split."""
+
+Key = tuple[str, str | None, str, str | None]  # model, derivatives, column, mode
+
+
+def display_name(value: str) -> str:
+    if value.endswith("-present"):
+        return value.removesuffix("-present").upper() + " (present)"
+    return DISPLAY.get(value, value.upper())
+
+
+def column_of(row: EvaluationResult) -> str:
+    return row.subset if row.subset is not None else row.split
+
+
+def index_rows(rows: Sequence[EvaluationResult]) -> dict[Key, EvaluationResult]:
+    return {(r.model, r.derivatives, column_of(r), r.mode): r for r in rows}
+
+
+def fde_ade(fde: float, ade: float) -> str:
+    if math.isnan(fde) or math.isnan(ade):
+        return "-"
+    return f"{fde:.3f}/{ade:.3f}"
+
+
+def published_pair(values: tuple[float, float]) -> str:
+    """A published (FDE, ADE) as the paper prints it: two decimals, three where it has them."""
+    return "/".join(f"{v:.3f}"[:-1] if f"{v:.3f}".endswith("0") else f"{v:.3f}" for v in values)
+
+
+def percent_change(ours: float, reference: float) -> str:
+    return f"{100.0 * (ours - reference) / reference:+.1f}%"
+
+
+def markdown_table(header: Sequence[str], lines: Sequence[Sequence[str]]) -> list[str]:
+    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return out + ["| " + " | ".join(line) + " |" for line in lines]

@@ -1,0 +1,163 @@
+"""The report's targets: each reproduction or project target with its measured evidence and
+"met" or "NOT met"."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from grouptron.constants import SPLITS
+from grouptron.evaluation.published import TABLE_I, TABLE_II
+from grouptron.evaluation.report_cells import (
+    OURS_MODELS,
+    TABLE_II_COLUMNS,
+    TARGET_TOLERANCE,
+    Key,
+    display_name,
+    fde_ade,
+)
+from grouptron.evaluation.report_stats import PairedDifference, SeedSpread
+from grouptron.evaluation.results import MEAN_ROW, EvaluationResult
+from grouptron.evaluation.scored import CONSTANT_VELOCITY
+from grouptron.model.factory import GROUP_MODELS
+
+VARIANT = "grouptron-robust"
+"""The density-robust Grouptron the project's own targets are about."""
+
+
+def _verdict(ok: bool) -> str:
+    return "met" if ok else "NOT met"
+
+
+def _largest_excess(
+    rows: dict[Key, EvaluationResult],
+    model: str,
+    published: dict[str, tuple[float, float]],
+    columns: Sequence[str],
+) -> tuple[float, str] | None:
+    """The largest (ours / published - 1) over FDE and ADE of ``columns`` (central), or None
+    when a column is missing."""
+    excess = []
+    for column in columns:
+        r = rows.get((model, "central", column, "ml"))
+        if r is None:
+            return None
+        fde_ref, ade_ref = published[column]
+        excess += [
+            (r.fde / fde_ref - 1.0, f"{column} FDE"),
+            (r.ade / ade_ref - 1.0, f"{column} ADE"),
+        ]
+    return max(excess)
+
+
+def _central_targets(rows: dict[Key, EvaluationResult]) -> list[str]:
+    """Our central rows against the published ones."""
+    checks = []
+    for model, published, columns, what in (
+        ("trajectron++", TABLE_I["trajectron++"], SPLITS, "row on every split (central)"),
+        ("grouptron", TABLE_I["grouptron"], SPLITS, "row on every split (central)"),
+        (
+            "trajectron++",
+            TABLE_II["trajectron++"],
+            TABLE_II_COLUMNS[1:],
+            "UNIV-40/45/50 row (central, UNIV-N as the paper counted it)",
+        ),
+    ):
+        found = _largest_excess(rows, model, published, columns)
+        if found is not None:
+            excess, where = found
+            checks.append(
+                f"{display_name(model)} within 5% of its published {what}: "
+                f"{_verdict(excess <= TARGET_TOLERANCE)} (largest excess {100 * excess:+.1f}% "
+                f"on {where})"
+            )
+    published = {MEAN_ROW: TABLE_I["grouptron"][MEAN_ROW], **TABLE_II["grouptron"]}
+    for column in (MEAN_ROW, *TABLE_II_COLUMNS[1:]):
+        r = rows.get(("grouptron", "central", column, "ml"))
+        if r is not None:
+            fde_ref, ade_ref = published[column]
+            ok = r.fde <= fde_ref and r.ade <= ade_ref
+            checks.append(
+                f"Grouptron {display_name(column)} at or below published "
+                f"{fde_ref:.2f}/{ade_ref:.2f}: {_verdict(ok)} ({fde_ade(r.fde, r.ade)})"
+            )
+    return checks
+
+
+def _causal_targets(paired: Sequence[PairedDifference]) -> list[str]:
+    """Each model's backward ML FDE against constant velocity's, with paired intervals."""
+    checks = []
+    for model in OURS_MODELS:
+        key = ("backward", "ml", model, CONSTANT_VELOCITY)
+        pairs = [
+            p
+            for p in paired
+            if (p.derivatives, p.mode, p.model, p.baseline) == key and p.column in SPLITS
+        ]
+        if len(pairs) == len(SPLITS):
+            evidence = ", ".join(
+                f"{p.column} {p.fde.mean:+.3f} [{p.fde.low:+.3f}, {p.fde.high:+.3f}]" for p in pairs
+            )
+            ok = all(p.fde.mean <= 0.0 for p in pairs)
+            checks.append(
+                f"{display_name(model)} (backward) ML FDE at or below constant velocity's on every "
+                f"split: {_verdict(ok)} (paired FDE differences, m: {evidence})"
+            )
+    return checks
+
+
+def _variant_targets(
+    paired: Sequence[PairedDifference], seeds: Sequence[SeedSpread], schemes: Sequence[str]
+) -> list[str]:
+    """The variant against Trajectron++ on univ and the paper's UNIV-N: every paired interval
+    below zero, and lower on every seed both were trained with (where there are seeds)."""
+    checks = []
+    columns = TABLE_II_COLUMNS
+    name = f"{VARIANT} - trajectron++"
+    for derivatives in schemes:
+        key = (derivatives, "ml", VARIANT, "trajectron++")
+        found = {p.column: p for p in paired if (p.derivatives, p.mode, p.model, p.baseline) == key}
+        if not all(c in found for c in columns):
+            continue
+        evidence = ", ".join(
+            f"{display_name(c)} {found[c].fde.mean:+.3f} "
+            f"[{found[c].fde.low:+.3f}, {found[c].fde.high:+.3f}]"
+            for c in columns
+        )
+        ok = all(found[c].fde.high < 0.0 for c in columns)
+        spread = {s.column: s for s in seeds if (s.model, s.derivatives) == (name, derivatives)}
+        if all(c in spread for c in columns):
+            ok = ok and all(max(spread[c].fde) < 0.0 for c in columns)
+            seeds_used = ", ".join(str(seed) for seed in spread[columns[0]].seeds)
+            evidence += f"; lower on every seed ({seeds_used}): " + ", ".join(
+                f"{display_name(c)} {max(spread[c].fde):+.3f} at most" for c in columns
+            )
+        checks.append(
+            f"{display_name(VARIANT)} ML FDE below Trajectron++'s on UNIV and UNIV-N "
+            f"({derivatives}), paired 95% intervals below zero: {_verdict(ok)} "
+            f"(paired FDE differences, m: {evidence})"
+        )
+    return checks
+
+
+def target_checks(
+    rows: dict[Key, EvaluationResult],
+    schemes: Sequence[str],
+    paired: Sequence[PairedDifference] = (),
+    seeds: Sequence[SeedSpread] = (),
+) -> list[str]:
+    """The reproduction targets, each with its measured evidence and 'met' or 'NOT met'."""
+    checks = _central_targets(rows) if "central" in schemes else []
+    checks += _causal_targets(paired) if "backward" in schemes else []
+    for model in GROUP_MODELS:
+        for derivatives in schemes:
+            for column in (MEAN_ROW, *TABLE_II_COLUMNS):
+                g = rows.get((model, derivatives, column, "ml"))
+                t = rows.get(("trajectron++", derivatives, column, "ml"))
+                if g is not None and t is not None:
+                    checks.append(
+                        f"{display_name(model)} FDE below our Trajectron++ on "
+                        f"{display_name(column)} ({derivatives}): "
+                        f"{_verdict(g.fde < t.fde)} ({g.fde:.3f} vs {t.fde:.3f})"
+                    )
+    checks += _variant_targets(paired, seeds, schemes)
+    return [f"- {check}" for check in checks]

@@ -1,0 +1,55 @@
+"""The report's target lines on hand-made evidence: each says met only when it is."""
+
+from __future__ import annotations
+
+from grouptron.evaluation.report_stats import PairedDifference, SeedSpread
+from grouptron.evaluation.report_targets import target_checks
+from grouptron.evaluation.uncertainty import Interval
+
+COLUMNS = ("univ", "univ-40", "univ-45", "univ-50")
+
+
+def _paired(high: float, derivatives: str = "backward") -> list[PairedDifference]:
+    """grouptron-robust - trajectron++ on univ and its UNIV-N, with intervals up to ``high``."""
+    return [
+        PairedDifference(
+            derivatives,
+            "ml",
+            "grouptron-robust",
+            "trajectron++",
+            column,
+            100,
+            Interval(high - 0.05, high - 0.1, high),
+            Interval(-0.01, -0.02, 0.0),
+        )
+        for column in COLUMNS
+    ]
+
+
+def _seeds(worst: float) -> list[SeedSpread]:
+    name = "grouptron-robust - trajectron++"
+    return [
+        SeedSpread(name, "backward", c, (0, 1, 2), (-0.1, -0.05, worst), (0, 0, 0)) for c in COLUMNS
+    ]
+
+
+def _variant_line(checks: list[str]) -> str:
+    (line,) = [c for c in checks if "paired 95% intervals below zero" in c]
+    return line
+
+
+def test_the_variant_target_needs_every_interval_and_every_seed_below_zero() -> None:
+    met = _variant_line(target_checks({}, ("backward",), _paired(-0.01), _seeds(-0.02)))
+    assert ": met (" in met and "every seed (0, 1, 2)" in met and "-0.020 at most" in met
+    touching = _variant_line(target_checks({}, ("backward",), _paired(0.001), _seeds(-0.02)))
+    assert "NOT met" in touching
+    one_seed_worse = _variant_line(target_checks({}, ("backward",), _paired(-0.01), _seeds(0.03)))
+    assert "NOT met" in one_seed_worse and "+0.030 at most" in one_seed_worse
+    without_seeds = _variant_line(target_checks({}, ("backward",), _paired(-0.01)))
+    assert ": met (" in without_seeds and "every seed" not in without_seeds
+
+
+def test_no_variant_line_without_every_column_or_for_another_protocol() -> None:
+    assert not any("paired 95%" in c for c in target_checks({}, ("backward",), _paired(-0.01)[:3]))
+    central = target_checks({}, ("backward",), _paired(-0.01, "central"))
+    assert not any("paired 95%" in c for c in central)
