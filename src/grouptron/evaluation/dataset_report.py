@@ -14,20 +14,18 @@ from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.uncertainty import mean_interval
-from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_checkpoint, load_trained_model
+from grouptron.model.checkpoint import load_trained_model, stored_checkpoints
 from grouptron.model.factory import groups_for_model
 
 
 def checkpoints_of(dataset: DatasetDescription, root: Path) -> list[Path]:
     """The ``*/best.safetensors`` under ``root`` whose stored configuration names this
     dataset's description file."""
-    if not root.is_dir():
-        raise GrouptronError(f"checkpoint folder {root} does not exist; pass --checkpoints DIR")
-    found = []
-    for path in sorted(root.glob(f"*/{BEST_WEIGHTS_FILE}")):
-        stored = load_checkpoint(path).config.dataset
-        if stored and Path(stored).resolve() == dataset.source:
-            found.append(path)
+    found = [
+        path
+        for path, config in stored_checkpoints(root)
+        if config.dataset and Path(config.dataset).resolve() == dataset.source
+    ]
     if not found:
         raise GrouptronError(
             f"no checkpoint under {root} was trained on {dataset.name} ({dataset.source})"

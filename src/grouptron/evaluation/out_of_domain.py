@@ -22,7 +22,7 @@ from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.evaluation.scored import CONSTANT_VELOCITY
 from grouptron.evaluation.uncertainty import Interval, mean_interval
-from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_checkpoint, load_trained_model
+from grouptron.model.checkpoint import load_trained_model, stored_checkpoints
 from grouptron.model.factory import groups_for_model
 from grouptron.model.predict import POINT_FORECASTS
 
@@ -135,11 +135,11 @@ def causal_checkpoints(root: Path) -> list[Path]:
     """Every ``*/best.safetensors`` under ``root`` that forecasts from causal inputs
     (:attr:`DataConfig.causal`) with neighbours taken at t alone (so that its density bins
     count the same people as constant velocity's), in folder-name order."""
-    if not Path(root).is_dir():
-        raise GrouptronError(f"checkpoint folder {root} does not exist")
-    paths = sorted(Path(root).glob(f"*/{BEST_WEIGHTS_FILE}"))
-    data = {path: load_checkpoint(path).config.data for path in paths}
-    return [p for p in paths if data[p].causal and tuple(data[p].neighbour_window_steps) == (0, 0)]
+    return [
+        path
+        for path, config in stored_checkpoints(root)
+        if config.data.causal and tuple(config.data.neighbour_window_steps) == (0, 0)
+    ]
 
 
 def _samples(datasets: Sequence[DatasetDescription], data: DataConfig = BASELINE_DATA) -> SampleSet:

@@ -42,7 +42,7 @@ from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.scored import CONSTANT_VELOCITY, ReportCheckpoint, ScoredRun
 from grouptron.evaluation.test_sets import load_test_set, subset_with_groups
 from grouptron.geometry import DerivativeScheme
-from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_checkpoint, load_trained_model
+from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_trained_model, stored_checkpoints
 from grouptron.model.factory import MODEL_NAMES, PAPER_MODELS, uses_groups
 from grouptron.model.predict import ABLATIONS
 
@@ -81,11 +81,8 @@ def find_checkpoints(root: Path, schemes: Sequence[DerivativeScheme]) -> list[Re
     Missing (model, split, derivatives) cells are logged (they stay empty); none at all is an
     error.
     """
-    if not root.is_dir():
-        raise GrouptronError(f"checkpoint folder {root} does not exist; pass --checkpoints DIR")
     found = []
-    for path in sorted(root.glob(f"*/{BEST_WEIGHTS_FILE}")):
-        config = load_checkpoint(path).config
+    for path, config in stored_checkpoints(root):
         derivatives = config.data.derivatives
         if derivatives in schemes and config.split in SPLITS and config.model_name in MODEL_NAMES:
             found.append(

@@ -171,6 +171,16 @@ def load_checkpoint(path: str | Path) -> Checkpoint:
     )
 
 
+def stored_checkpoints(root: str | Path) -> list[tuple[Path, ExperimentConfig]]:
+    """Every ``<root>/*/best.safetensors`` with its stored configuration, in folder-name
+    order; callers pick runs by configuration, never by folder name."""
+    root = Path(root)
+    if not root.is_dir():
+        raise GrouptronError(f"checkpoint folder {root} does not exist; pass --checkpoints DIR")
+    paths = sorted(root.glob(f"*/{BEST_WEIGHTS_FILE}"))
+    return [(path, load_checkpoint(path).config) for path in paths]
+
+
 def load_trained_model(path: str | Path) -> tuple[TrajectronCVAE, ExperimentConfig]:
     """The model stored in a checkpoint (weights loaded strictly, eval mode) and its config."""
     checkpoint = load_checkpoint(path)
