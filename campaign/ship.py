@@ -1,0 +1,83 @@
+"""Copy a finished run into the shipped checkpoints, under the name the package loads it by.
+
+Usage:
+    python campaign/ship.py RUN_FOLDER NAME [--replicate] [--variant]
+
+Copies the card, ``best.safetensors``, ``config.json``, ``curves.png``, the metrics files and
+``selection.json`` of ``RUN_FOLDER`` into ``checkpoints/NAME/``, and
+``last.safetensors`` (the full training state, to resume) unless ``--replicate`` (a seed
+replicate of a shipped run: its training state stays in the campaign). ``--variant`` names a
+run trained as Grouptron with the robust switches ``grouptron-robust`` in the copy
+(``name_variant.py``). A run that has not made its final choice (no ``selection.json``) is
+refused, and so is a NAME that exists already.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import sys
+from pathlib import Path
+
+# name_variant.py is a script beside this one, not part of the package.
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from name_variant import rename_run
+
+from grouptron.errors import GrouptronError
+from grouptron.training.selection import SELECTION
+
+REPO = Path(__file__).resolve().parents[1]
+SHIPPED = REPO / "checkpoints"
+"""What the package ships (``src/grouptron/checkpoints`` links here)."""
+FILES = (
+    "README.md",
+    "best.safetensors",
+    "config.json",
+    "curves.png",
+    "metrics.csv",
+    "metrics.jsonl",
+    SELECTION,
+)
+
+
+def ship(run: Path, name: str, *, replicate: bool, variant: bool, shipped: Path = SHIPPED) -> Path:
+    """The shipped folder made from ``run`` (``shipped/name``)."""
+    if not (run / SELECTION).exists():
+        raise GrouptronError(f"{run}: not finished (no {SELECTION}); nothing shipped")
+    target = shipped / name
+    if target.exists():
+        raise GrouptronError(f"{target} exists; remove it first to replace it")
+    files = [*FILES] if replicate else [*FILES, "last.safetensors"]
+    missing = [f for f in files if not (run / f).exists()]
+    if missing:
+        raise GrouptronError(f"{run}: missing {', '.join(missing)}")
+    target.mkdir(parents=True)
+    for file in files:
+        shutil.copy2(run / file, target / file)
+    if variant:
+        rename_run(target)
+    return target
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
+    parser.add_argument("run", type=Path, help="a finished run folder")
+    parser.add_argument("name", help="the shipped name, e.g. grouptron-robust-univ-backward")
+    parser.add_argument(
+        "--replicate", action="store_true", help="a seed replicate: leave last.safetensors"
+    )
+    parser.add_argument(
+        "--variant", action="store_true", help="name a robust Grouptron run grouptron-robust"
+    )
+    args = parser.parse_args(argv)
+    try:
+        target = ship(args.run, args.name, replicate=args.replicate, variant=args.variant)
+    except (GrouptronError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"{args.run} -> {target}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

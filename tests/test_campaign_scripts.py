@@ -1,0 +1,107 @@
+"""The campaign's shipping scripts: naming a screened run and copying a run into the shipped
+checkpoints, on small hand-made run folders."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import json
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+import torch
+
+from grouptron.config import ExperimentConfig
+from grouptron.model.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
+from grouptron.model.factory import build_model
+from grouptron.presets import experiment_preset
+from tests.conftest import REPO
+from tests.model.test_cvae import SMALL
+
+SMALL_ROBUST = dataclasses.replace(SMALL, edge_aggregation="mean", edge_count_feature=True)
+ROBUST = dataclasses.replace(experiment_preset("univ", "grouptron-robust"), model=SMALL_ROBUST)
+SCREENED = dataclasses.replace(ROBUST, model_name="grouptron")
+"""A screening run: the paper's model name with every switch of the named variant."""
+
+
+SELECTION = {
+    "selected_epoch": 3,
+    "validation_samples": 40,
+    "full_val_ml_ade": 0.5,
+    "full_val_ml_fde": 1.0,
+    "full_val_cv_ade": 0.6,
+    "full_val_cv_fde": 1.2,
+    "candidates": [{"epoch": 3, "full_val_ml_fde": 1.0}],
+}
+
+
+def _script(name: str) -> ModuleType:
+    sys.path.insert(0, str(REPO / "campaign"))
+    try:
+        spec = importlib.util.spec_from_file_location(name, REPO / "campaign" / f"{name}.py")
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(REPO / "campaign"))
+    return module
+
+
+def _run(folder: Path, config: ExperimentConfig, *, finished: bool = True) -> dict:
+    """A run folder as the trainer leaves it; returns the model's tensors."""
+    folder.mkdir()
+    state = build_model(config).state_dict()
+    for name in ("best.safetensors", "last.safetensors"):
+        save_checkpoint(folder / name, Checkpoint(config, state, epoch=3))
+    (folder / "metrics.jsonl").write_text(json.dumps({"epoch": 1, "train_loss": 1.0}) + "\n")
+    for name in ("README.md", "config.json", "curves.png", "metrics.csv"):
+        (folder / name).write_text("-")
+    if finished:
+        (folder / "selection.json").write_text(json.dumps(SELECTION))
+    return state
+
+
+def test_a_screened_robust_run_gets_the_variant_name_and_keeps_its_weights(
+    tmp_path: Path,
+) -> None:
+    script = _script("name_variant")
+    state = _run(tmp_path / "screened", SCREENED)
+    assert script.main([str(tmp_path / "screened")]) == 0
+    for name in ("best.safetensors", "last.safetensors"):
+        renamed = load_checkpoint(tmp_path / "screened" / name)
+        assert renamed.config == ROBUST and renamed.epoch == 3
+        assert all(torch.equal(state[k], renamed.model_state[k]) for k in state)
+    stored = json.loads((tmp_path / "screened" / "config.json").read_text())
+    assert stored["model_name"] == "grouptron-robust"
+    assert "Grouptron (robust)" in (tmp_path / "screened" / "README.md").read_text()
+
+
+def test_naming_refuses_a_run_with_other_settings(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    paper = dataclasses.replace(experiment_preset("univ", "grouptron"), model=SMALL_ROBUST)
+    _run(tmp_path / "paper", paper)
+    assert _script("name_variant").main([str(tmp_path / "paper")]) == 2
+    assert "groups.linkage = 'complete' (the preset: 'single')" in capsys.readouterr().err
+    assert load_checkpoint(tmp_path / "paper" / "best.safetensors").config == paper
+
+
+def test_shipping_copies_a_finished_run_and_names_the_variant(tmp_path: Path) -> None:
+    script = _script("ship")
+    shipped = tmp_path / "checkpoints"
+    _run(tmp_path / "run", SCREENED)
+    target = script.ship(tmp_path / "run", "v", replicate=False, variant=True, shipped=shipped)
+    assert sorted(p.name for p in target.iterdir()) == sorted([*script.FILES, "last.safetensors"])
+    assert load_checkpoint(target / "best.safetensors").config.model_name == "grouptron-robust"
+    assert load_checkpoint(tmp_path / "run" / "best.safetensors").config == SCREENED  # untouched
+    replicate = script.ship(
+        tmp_path / "run", "v-seed1", replicate=True, variant=False, shipped=shipped
+    )
+    assert not (replicate / "last.safetensors").exists()
+    with pytest.raises(Exception, match="exists"):
+        script.ship(tmp_path / "run", "v", replicate=False, variant=False, shipped=shipped)
+    _run(tmp_path / "training", SCREENED, finished=False)
+    with pytest.raises(Exception, match="not finished"):
+        script.ship(tmp_path / "training", "w", replicate=False, variant=False, shipped=shipped)
