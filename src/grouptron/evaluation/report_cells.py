@@ -31,20 +31,24 @@ Key = tuple[str, str | None, str, str | None]  # model, derivatives, column, mod
 
 
 def display_name(value: str) -> str:
+    """How a model, column or subset is named in the tables."""
     if value.endswith("-present"):
         return value.removesuffix("-present").upper() + " (present)"
     return DISPLAY.get(value, value.upper())
 
 
 def column_of(row: EvaluationResult) -> str:
+    """The table column of a row: its subset (e.g. ``univ-45``), else its split."""
     return row.subset if row.subset is not None else row.split
 
 
 def index_rows(rows: Sequence[EvaluationResult]) -> dict[Key, EvaluationResult]:
+    """Rows by (model, derivatives, column, mode)."""
     return {(r.model, r.derivatives, column_of(r), r.mode): r for r in rows}
 
 
 def fde_ade(fde: float, ade: float) -> str:
+    """A cell as the paper prints it: FDE/ADE in metres."""
     if math.isnan(fde) or math.isnan(ade):
         return "-"
     return f"{fde:.3f}/{ade:.3f}"
@@ -56,9 +60,11 @@ def published_pair(values: tuple[float, float]) -> str:
 
 
 def percent_change(ours: float, reference: float) -> str:
+    """(ours - reference) / reference in percent, signed."""
     return f"{100.0 * (ours - reference) / reference:+.1f}%"
 
 
 def markdown_table(header: Sequence[str], lines: Sequence[Sequence[str]]) -> list[str]:
+    """A Markdown table, one string per line."""
     out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     return out + ["| " + " | ".join(line) + " |" for line in lines]
