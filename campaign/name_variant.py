@@ -24,15 +24,12 @@ from pathlib import Path
 from grouptron.config import ExperimentConfig, config_to_dict, save_config
 from grouptron.errors import GrouptronError
 from grouptron.model.checkpoint import load_checkpoint, save_checkpoint
+from grouptron.presets import VARIANT_MODEL as VARIANT
 from grouptron.presets import preset_values
 from grouptron.training.model_card import write_model_card
 from grouptron.training.selection import SELECTION
 
-VARIANT = "grouptron-robust"
 SOURCE_MODEL = "grouptron"
-PRESET_SECTIONS = ("groups", "model", "group_encoder")
-"""The sections the presets set; every other setting (widths, seed, derivatives, ...) is the
-run's own."""
 
 
 def named(config: ExperimentConfig, where: Path) -> ExperimentConfig:
@@ -45,8 +42,9 @@ def named(config: ExperimentConfig, where: Path) -> ExperimentConfig:
     preset = preset_values(config.split, VARIANT, config.dataset)
     differing = [
         f"{section}.{key} = {stored[section][key]!r} (the preset: {value!r})"
-        for section in PRESET_SECTIONS
-        for key, value in preset.get(section, {}).items()
+        for section, values in preset.items()
+        if isinstance(values, dict)  # the preset's sections; the rest is the run's own
+        for key, value in values.items()
         if stored[section][key] != value
     ]
     if differing:

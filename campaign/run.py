@@ -42,13 +42,13 @@ import torch
 
 from grouptron.config import save_config
 from grouptron.model.checkpoint import load_checkpoint
+from grouptron.presets import VARIANT_MODEL as VARIANT
 from grouptron.training.precision import resolve_precision
 
 REPO = Path(__file__).resolve().parents[1]
 EPOCHS = 100
 SPLITS = ("univ", "eth", "hotel", "zara1", "zara2")
 MODELS = ("trajectron++", "grouptron")
-VARIANT = "grouptron-robust"
 
 
 @dataclasses.dataclass(frozen=True)

@@ -7,8 +7,11 @@ from typing import Any
 
 from grouptron.config import ExperimentConfig, config_from_dict, merge_settings
 
+VARIANT_MODEL = "grouptron-robust"
+"""The project's density-robust Grouptron (the settings below), beside the paper's two models."""
+
 MODEL_PRESETS: dict[str, dict[str, dict[str, Any]]] = {
-    "grouptron-robust": {
+    VARIANT_MODEL: {
         "groups": {"linkage": "single", "max_distance_m": 1.5, "velocity_weight_s": 2.0},
         "model": {"edge_aggregation": "mean", "edge_count_feature": True},
         "group_encoder": {
@@ -28,7 +31,7 @@ groups are averaged with log-count features (README, "Grouptron")."""
 
 SPLIT_PRESETS: dict[tuple[str, str], dict[str, dict[str, Any]]] = {
     ("grouptron", "eth"): {"group_encoder": {"group_dim": 8}},
-    ("grouptron-robust", "eth"): {"group_encoder": {"group_dim": 8}},
+    (VARIANT_MODEL, "eth"): {"group_encoder": {"group_dim": 8}},
 }
 """Settings that differ per (model, ETH/UCY split), by section: the paper narrows Grouptron's
 ST-GCNs to 8 on eth, whose test recording rarely has 5 or more people in view (its variant

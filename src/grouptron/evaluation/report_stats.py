@@ -33,16 +33,17 @@ from grouptron.evaluation.uncertainty import (
     split_average_interval,
 )
 from grouptron.model.factory import GROUP_MODELS
+from grouptron.presets import VARIANT_MODEL
 
 BOOTSTRAP_SEED = 0
 INTERVAL_MODES = ("ml", "ml-argmax", "mean", "best-of-20")
 PAIRS = (
     ("grouptron", "trajectron++"),
-    ("grouptron-robust", "trajectron++"),
-    ("grouptron-robust", "grouptron"),
+    (VARIANT_MODEL, "trajectron++"),
+    (VARIANT_MODEL, "grouptron"),
     ("trajectron++", CONSTANT_VELOCITY),
     ("grouptron", CONSTANT_VELOCITY),
-    ("grouptron-robust", CONSTANT_VELOCITY),
+    (VARIANT_MODEL, CONSTANT_VELOCITY),
 )
 """(model, baseline): the differences a reader asks about, model minus baseline."""
 

@@ -19,9 +19,7 @@ from grouptron.evaluation.report_stats import PairedDifference, SeedSpread
 from grouptron.evaluation.results import MEAN_ROW, EvaluationResult
 from grouptron.evaluation.scored import CONSTANT_VELOCITY
 from grouptron.model.factory import GROUP_MODELS
-
-VARIANT = "grouptron-robust"
-"""The density-robust Grouptron the project's own targets are about."""
+from grouptron.presets import VARIANT_MODEL
 
 
 def _verdict(ok: bool) -> str:
@@ -112,9 +110,9 @@ def _variant_targets(
     below zero, and lower on every seed both were trained with (where there are seeds)."""
     checks = []
     columns = TABLE_II_COLUMNS
-    name = f"{VARIANT} - trajectron++"
+    name = f"{VARIANT_MODEL} - trajectron++"
     for derivatives in schemes:
-        key = (derivatives, "ml", VARIANT, "trajectron++")
+        key = (derivatives, "ml", VARIANT_MODEL, "trajectron++")
         found = {p.column: p for p in paired if (p.derivatives, p.mode, p.model, p.baseline) == key}
         if not all(c in found for c in columns):
             continue
@@ -132,7 +130,7 @@ def _variant_targets(
                 f"{display_name(c)} {max(spread[c].fde):+.3f} at most" for c in columns
             )
         checks.append(
-            f"{display_name(VARIANT)} ML FDE below Trajectron++'s on UNIV and UNIV-N "
+            f"{display_name(VARIANT_MODEL)} ML FDE below Trajectron++'s on UNIV and UNIV-N "
             f"({derivatives}), paired 95% intervals below zero: {_verdict(ok)} "
             f"(paired FDE differences, m: {evidence})"
         )

@@ -10,17 +10,18 @@ from grouptron.errors import GrouptronError
 from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.grouptron import GrouptronCVAE
+from grouptron.presets import VARIANT_MODEL
 
-MODEL_NAMES = ("trajectron++", "grouptron", "grouptron-robust")
+MODEL_NAMES = ("trajectron++", "grouptron", VARIANT_MODEL)
 PAPER_MODELS = ("trajectron++", "grouptron")
 """The models of the paper's tables (the rest are this project's variants)."""
-GROUP_MODELS = ("grouptron", "grouptron-robust")
+GROUP_MODELS = ("grouptron", VARIANT_MODEL)
 """The models with group- and scene-level encoders: one network (GrouptronCVAE), whose
 ``grouptron-robust`` settings come from its preset (config.MODEL_PRESETS)."""
 DISPLAY_NAMES = {
     "trajectron++": "Trajectron++",
     "grouptron": "Grouptron",
-    "grouptron-robust": "Grouptron (robust)",
+    VARIANT_MODEL: "Grouptron (robust)",
 }
 
 
