@@ -40,6 +40,20 @@ FILES = (
 )
 
 
+RESUME_LINE = "`last.safetensors` holds the full training state"
+REPLICATE_LINE = (
+    "A seed replicate: shipped without its training state (`last.safetensors` stays with the "
+    "training campaign), so it cannot be resumed from here."
+)
+
+
+def mark_replicate(card: Path) -> None:
+    """Replace the card's resume instructions (written at training time) by a replicate note."""
+    lines = card.read_text().splitlines()
+    kept = [REPLICATE_LINE if line.startswith(RESUME_LINE) else line for line in lines]
+    card.write_text("\n".join(kept) + "\n")
+
+
 def ship(run: Path, name: str, *, replicate: bool, variant: bool, shipped: Path = SHIPPED) -> Path:
     """The shipped folder made from ``run`` (``shipped/name``)."""
     if not (run / SELECTION).exists():
@@ -55,7 +69,9 @@ def ship(run: Path, name: str, *, replicate: bool, variant: bool, shipped: Path 
     for file in files:
         shutil.copy2(run / file, target / file)
     if variant:
-        rename_run(target)
+        rename_run(target)  # rewrites the card, so the replicate note comes after it
+    if replicate:
+        mark_replicate(target / "README.md")
     return target
 
 

@@ -96,10 +96,13 @@ def test_shipping_copies_a_finished_run_and_names_the_variant(tmp_path: Path) ->
     assert sorted(p.name for p in target.iterdir()) == sorted([*script.FILES, "last.safetensors"])
     assert load_checkpoint(target / "best.safetensors").config.model_name == "grouptron-robust"
     assert load_checkpoint(tmp_path / "run" / "best.safetensors").config == SCREENED  # untouched
+    assert script.RESUME_LINE in (target / "README.md").read_text()
     replicate = script.ship(
-        tmp_path / "run", "v-seed1", replicate=True, variant=False, shipped=shipped
+        tmp_path / "run", "v-seed1", replicate=True, variant=True, shipped=shipped
     )
     assert not (replicate / "last.safetensors").exists()
+    card = (replicate / "README.md").read_text()
+    assert script.REPLICATE_LINE in card and script.RESUME_LINE not in card
     with pytest.raises(Exception, match="exists"):
         script.ship(tmp_path / "run", "v", replicate=False, variant=False, shipped=shipped)
     _run(tmp_path / "training", SCREENED, finished=False)
