@@ -16,7 +16,8 @@ checkout a link to the repository's checkpoints/)."""
 DEFAULT_CHECKPOINT = "trajectron++-univ-backward"
 """The model used where none is named (``Predictor.from_checkpoint()``, ``grouptron predict``
 and ``plot``): strictly causal inputs, so it forecasts live tracks as it was trained, and on
-held-out data the shipped causal model closest to constant velocity or better (RESULTS.md)."""
+held-out data the shipped causal model closest to constant velocity or better (RESULTS.md; the
+all-locations variant did worse on recordings from elsewhere, benchmarks/RESULTS.md)."""
 
 
 def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | None = None) -> Path:
