@@ -1,18 +1,19 @@
 """The training campaign behind the shipped checkpoints: a queue of runs, resumable.
 
 Usage:
-    python campaign/run.py [--only NAME_PART] [--dry-run] [--out campaign/runs] [--variant]
+    python campaign/run.py [--only NAME_PART] [--dry-run | --status] [--out campaign/runs]
+                           [--variant]
 
 Every run trains with ``grouptron train`` into ``OUT/<name>`` for 100 epochs (the reference
 recipe) and is skipped once finished (its ``selection.json`` exists). A run that was stopped
 resumes from its ``last.safetensors``, so the script can be killed at any time and started
-again, in another session or on another machine.
+again, later or on another machine.
 
 Precision: every invocation asks for what ``--precision auto`` chooses on this machine (bf16
 only where it is native and measured faster; ``grouptron.training.precision``); a run that
 changes machines records each epoch's precision. ``--bf16-ab`` adds the precision A/B: bf16
 copies (``-bf16``) of the three univ Trajectron++ ``backward`` seeds, for a machine where bf16
-pays (on the Intel Xeon of the first campaign sessions it was 1.37x slower than fp32).
+pays (on the Intel Xeon the campaign started on it was 1.37x slower than fp32).
 
 Order: univ ``backward`` (three seeds of both models), univ ``central`` seed 0, the other
 splits (every shipped checkpoint), then the other univ ``central`` seeds.
@@ -26,6 +27,11 @@ preset: univ ``central`` seed 0, ``backward`` of the other four splits (the caus
 need all five), univ ``central`` seeds 1-2, then ``central`` of the other four splits. Its univ
 ``backward`` seeds are the screening runs of ``screen.py --only robust``, named with
 ``name_variant.py``.
+
+The paper models' queue needs nothing newer than the package code its runs started with (the
+variant's preset is imported only for ``--variant``), so ``PYTHONPATH=<checkout of that
+commit>/src python campaign/run.py`` keeps those runs on their own code. ``--status`` prints
+every queued run's progress and an estimate of the time left.
 """
 
 from __future__ import annotations
@@ -34,6 +40,7 @@ import argparse
 import dataclasses
 import json
 import shutil
+import statistics
 import subprocess
 import sys
 from pathlib import Path
@@ -42,7 +49,6 @@ import torch
 
 from grouptron.config import save_config
 from grouptron.model.checkpoint import load_checkpoint
-from grouptron.presets import VARIANT_MODEL as VARIANT
 from grouptron.training.precision import resolve_precision
 
 REPO = Path(__file__).resolve().parents[1]
@@ -74,11 +80,20 @@ class Run:
         return None
 
 
+def variant_model() -> str:
+    """The named variant; imported here, not at the top, so that the paper models' queue runs
+    with package code older than the presets (``--variant`` needs the current code)."""
+    from grouptron.presets import VARIANT_MODEL
+
+    return VARIANT_MODEL
+
+
 def variant_queue() -> list[Run]:
-    runs = [Run(VARIANT, "univ", "central")]
-    runs += [Run(VARIANT, split, "backward") for split in SPLITS[1:]]
-    runs += [Run(VARIANT, "univ", "central", seed) for seed in (1, 2)]
-    return runs + [Run(VARIANT, split, "central") for split in SPLITS[1:]]
+    variant = variant_model()
+    runs = [Run(variant, "univ", "central")]
+    runs += [Run(variant, split, "backward") for split in SPLITS[1:]]
+    runs += [Run(variant, "univ", "central", seed) for seed in (1, 2)]
+    return runs + [Run(variant, split, "central") for split in SPLITS[1:]]
 
 
 def queue(bf16_ab: bool = False) -> list[Run]:
@@ -98,6 +113,37 @@ def queue(bf16_ab: bool = False) -> list[Run]:
 
 def finished(folder: Path) -> bool:
     return (folder / "selection.json").exists()
+
+
+def progress(folder: Path) -> tuple[int, float | None]:
+    """(epochs done, median wall seconds per epoch) of a run from its ``metrics.jsonl``."""
+    path = folder / "metrics.jsonl"
+    records = [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
+    seconds = [r["epoch_seconds"] for r in records if "epoch_seconds" in r]
+    epochs = max((int(r["epoch"]) for r in records), default=0)
+    return epochs, statistics.median(seconds) if seconds else None
+
+
+def status(runs: list[Run], out: Path) -> list[str]:
+    """One line per queued run (finished, epochs done and hours left, or not started) and the
+    hours left of the runs that have started (a run not started has no epoch time yet)."""
+    lines, hours_left = [], 0.0
+    for run in runs:
+        folder = out / run.name
+        epochs, seconds = progress(folder)
+        if finished(folder):
+            state = "finished"
+        elif epochs == 0:
+            state = "not started"
+        else:
+            state = f"epoch {epochs} of {EPOCHS}"
+            if seconds is not None:
+                left = (EPOCHS - epochs) * seconds / 3600
+                hours_left += left
+                state += f", about {left:.1f} h left at {seconds:.0f} s per epoch"
+        lines.append(f"{run.name}: {state}")
+    lines.append(f"started runs: about {hours_left:.1f} h left at one run at a time")
+    return lines
 
 
 def command(run: Run, folder: Path, precision: str, threads: int = 1) -> list[str]:
@@ -156,6 +202,9 @@ def main() -> int:
     parser.add_argument("--only", help="run only the runs whose name contains this")
     parser.add_argument("--dry-run", action="store_true", help="print the commands only")
     parser.add_argument(
+        "--status", action="store_true", help="print every queued run's progress and stop"
+    )
+    parser.add_argument(
         "--bf16-ab", action="store_true", help="add the bf16 copies of the precision A/B"
     )
     parser.add_argument(
@@ -166,12 +215,16 @@ def main() -> int:
         "two jobs of 2 threads each on 2 cores slow both several-fold)",
     )
     parser.add_argument(
-        "--variant", action="store_true", help=f"queue the runs of {VARIANT} instead"
+        "--variant", action="store_true", help="queue the runs of the named variant instead"
     )
     args = parser.parse_args()
+    runs = variant_queue() if args.variant else queue(args.bf16_ab)
+    if args.status:
+        print("\n".join(status(runs, args.out)))
+        return 0
     bf16 = resolve_precision("auto", torch.device("cpu"), threads=args.threads)
     chosen = "bf16" if bf16 else "fp32"
-    for run in variant_queue() if args.variant else queue(args.bf16_ab):
+    for run in runs:
         if args.only and args.only not in run.name:
             continue
         folder = args.out / run.name

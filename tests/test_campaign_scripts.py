@@ -1,5 +1,5 @@
-"""The campaign's shipping scripts: naming a screened run and copying a run into the shipped
-checkpoints, on small hand-made run folders."""
+"""The campaign's scripts: naming a screened run, copying a run into the shipped checkpoints
+and the queue's progress, on small hand-made run folders."""
 
 from __future__ import annotations
 
@@ -43,9 +43,11 @@ def _script(name: str) -> ModuleType:
         spec = importlib.util.spec_from_file_location(name, REPO / "campaign" / f"{name}.py")
         assert spec is not None and spec.loader is not None
         module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module  # dataclasses look their module up while it executes
         spec.loader.exec_module(module)
     finally:
         sys.path.remove(str(REPO / "campaign"))
+        sys.modules.pop(name, None)
     return module
 
 
@@ -108,3 +110,22 @@ def test_shipping_copies_a_finished_run_and_names_the_variant(tmp_path: Path) ->
     _run(tmp_path / "training", SCREENED, finished=False)
     with pytest.raises(Exception, match="not finished"):
         script.ship(tmp_path / "training", "w", replicate=False, variant=False, shipped=shipped)
+
+
+def test_status_reports_each_runs_progress_and_the_time_left(tmp_path: Path) -> None:
+    script = _script("run")
+    done, running, waiting = script.queue()[:3]
+    for run, epochs in ((done, 2), (running, 40)):
+        folder = tmp_path / run.name
+        folder.mkdir()
+        records = [
+            {"epoch": e, "epoch_seconds": 90.0 if e % 2 else 270.0} for e in range(1, epochs + 1)
+        ]
+        (folder / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records))
+    (tmp_path / done.name / "selection.json").write_text(json.dumps(SELECTION))
+    lines = script.status([done, running, waiting], tmp_path)
+    assert lines[0] == f"{done.name}: finished"
+    # 60 epochs left at the median 180 s: 3 h.
+    assert lines[1] == f"{running.name}: epoch 40 of 100, about 3.0 h left at 180 s per epoch"
+    assert lines[2] == f"{waiting.name}: not started"
+    assert lines[3] == "started runs: about 3.0 h left at one run at a time"
