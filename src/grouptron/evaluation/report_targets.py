@@ -26,25 +26,25 @@ def _verdict(ok: bool) -> str:
     return "met" if ok else "NOT met"
 
 
-def _largest_excess(
+def _deviations(
     rows: dict[Key, EvaluationResult],
     model: str,
     published: dict[str, tuple[float, float]],
     columns: Sequence[str],
-) -> tuple[float, str] | None:
-    """The largest (ours / published - 1) over FDE and ADE of ``columns`` (central), or None
-    when a column is missing."""
-    excess = []
+) -> list[tuple[float, str]] | None:
+    """Every (ours / published - 1, where) over FDE and ADE of ``columns`` (central), sorted
+    from the lowest, or None when a column is missing."""
+    deviations = []
     for column in columns:
         r = rows.get((model, "central", column, "ml"))
         if r is None:
             return None
         fde_ref, ade_ref = published[column]
-        excess += [
+        deviations += [
             (r.fde / fde_ref - 1.0, f"{column} FDE"),
             (r.ade / ade_ref - 1.0, f"{column} ADE"),
         ]
-    return max(excess)
+    return sorted(deviations)
 
 
 def _central_targets(rows: dict[Key, EvaluationResult]) -> list[str]:
@@ -60,13 +60,14 @@ def _central_targets(rows: dict[Key, EvaluationResult]) -> list[str]:
             "UNIV-40/45/50 row (central, UNIV-N as the paper counted it)",
         ),
     ):
-        found = _largest_excess(rows, model, published, columns)
+        found = _deviations(rows, model, published, columns)
         if found is not None:
-            excess, where = found
+            (low, low_where), (high, high_where) = found[0], found[-1]
+            # The target bounds an excess only: a row below the published one meets it.
             checks.append(
-                f"{display_name(model)} within 5% of its published {what}: "
-                f"{_verdict(excess <= TARGET_TOLERANCE)} (largest excess {100 * excess:+.1f}% "
-                f"on {where})"
+                f"{display_name(model)} within 5% of its published {what}, i.e. at most 5% "
+                f"above it: {_verdict(high <= TARGET_TOLERANCE)} (ours against published from "
+                f"{100 * low:+.1f}% on {low_where} to {100 * high:+.1f}% on {high_where})"
             )
     published = {MEAN_ROW: TABLE_I["grouptron"][MEAN_ROW], **TABLE_II["grouptron"]}
     for column in (MEAN_ROW, *TABLE_II_COLUMNS[1:]):
