@@ -23,6 +23,7 @@ import torch
 
 from grouptron.data.locate import resolve_data_dir
 from grouptron.data.subsets import time_step_ids
+from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, score_samples
 from grouptron.evaluation.report import subset_masks
 from grouptron.evaluation.test_sets import load_test_set
@@ -66,7 +67,10 @@ def main() -> None:
     torch.set_num_threads(args.threads)
     data_dir = resolve_data_dir(args.data_dir)
     weights = [weights_of(args.checkpoint_a), weights_of(args.checkpoint_b)]
-    scored = [score(w, data_dir, args.mode) for w in weights]
+    try:
+        scored = [score(w, data_dir, args.mode) for w in weights]
+    except GrouptronError as error:
+        raise SystemExit(f"error: {error}") from None
     if scored[0][0] != scored[1][0]:
         raise SystemExit(f"error: the checkpoints are of different splits ({scored[0][0]}, "
                          f"{scored[1][0]})")  # fmt: skip
