@@ -1,16 +1,18 @@
-"""Give a finished run of Grouptron with the ``robust`` switches its model name, in place.
+"""Give a finished run trained with a named model's switches that model's name, in place.
 
 Usage:
-    python campaign/name_variant.py FOLDER [FOLDER ...]
+    python campaign/name_variant.py FOLDER [FOLDER ...] [--as MODEL]
 
-The screening runs (``screen.py --only robust``) and the default-model run were trained as
-``--model grouptron`` with the switches that now make the named model ``grouptron-robust``
+The screening runs (``screen.py --only robust``, ``--only trajectron++-residual``) and the
+default-model runs were trained as ``--model grouptron`` or ``--model trajectron++`` with the
+switches that now make the named models ``grouptron-robust`` and ``trajectron++-residual``
 (``grouptron.presets.MODEL_PRESETS``): the same network, the same settings, the same random
-draws. This script checks that a run's settings are exactly the named model's preset on its
-split (everything else, such as the seed or the derivatives, stays as trained) and rewrites
-the model name in the run's checkpoints (``best.safetensors``, ``last.safetensors``),
-``config.json`` and card. Run it on a copy meant for shipping, never on a folder that a
-screening run still resumes.
+draws. This script checks that a run is of the named model's base model with exactly its
+preset on its split (everything else, such as the seed or the derivatives, stays as trained)
+and rewrites the model name in the run's checkpoints (``best.safetensors``,
+``last.safetensors``), ``config.json`` and card. ``--as`` picks the named model (default
+``grouptron-robust``). Run it on a copy meant for shipping, never on a folder that a screening
+run still resumes.
 """
 
 from __future__ import annotations
@@ -24,22 +26,20 @@ from pathlib import Path
 from grouptron.config import ExperimentConfig, config_to_dict, save_config
 from grouptron.errors import GrouptronError
 from grouptron.model.checkpoint import load_checkpoint, save_checkpoint
-from grouptron.presets import VARIANT_MODEL as VARIANT
-from grouptron.presets import preset_values
+from grouptron.presets import NAMED_MODEL_BASES, VARIANT_MODEL, preset_values
 from grouptron.training.model_card import write_model_card
 from grouptron.training.selection import SELECTION
 
-SOURCE_MODEL = "grouptron"
 
-
-def named(config: ExperimentConfig, where: Path) -> ExperimentConfig:
-    """``config`` as the named variant, or an error when a setting of the preset differs."""
-    if config.model_name == VARIANT:
+def named(config: ExperimentConfig, where: Path, name: str = VARIANT_MODEL) -> ExperimentConfig:
+    """``config`` as the named model ``name``, or an error when a setting of its preset
+    differs."""
+    if config.model_name == name:
         return config
-    if config.model_name != SOURCE_MODEL:
-        raise GrouptronError(f"{where}: a {config.model_name} run, not Grouptron")
+    if config.model_name != NAMED_MODEL_BASES[name]:
+        raise GrouptronError(f"{where}: a {config.model_name} run, not {NAMED_MODEL_BASES[name]}")
     stored = config_to_dict(config)
-    preset = preset_values(config.split, VARIANT, config.dataset)
+    preset = preset_values(config.split, name, config.dataset)
     differing = [
         f"{section}.{key} = {stored[section][key]!r} (the preset: {value!r})"
         for section, values in preset.items()
@@ -48,19 +48,19 @@ def named(config: ExperimentConfig, where: Path) -> ExperimentConfig:
         if stored[section][key] != value
     ]
     if differing:
-        raise GrouptronError(f"{where}: not {VARIANT}'s settings: {'; '.join(differing)}")
-    return dataclasses.replace(config, model_name=VARIANT)
+        raise GrouptronError(f"{where}: not {name}'s settings: {'; '.join(differing)}")
+    return dataclasses.replace(config, model_name=name)
 
 
-def rename_run(folder: Path) -> None:
-    """Rewrite every file of ``folder`` that names the model."""
-    for name in ("best.safetensors", "last.safetensors"):
-        path = folder / name
+def rename_run(folder: Path, name: str = VARIANT_MODEL) -> None:
+    """Rewrite every file of ``folder`` that names the model, as the named model ``name``."""
+    for file in ("best.safetensors", "last.safetensors"):
+        path = folder / file
         if path.exists():
             checkpoint = load_checkpoint(path)
-            checkpoint.config = named(checkpoint.config, path)
+            checkpoint.config = named(checkpoint.config, path, name)
             save_checkpoint(path, checkpoint)
-    config = named(load_checkpoint(folder / "best.safetensors").config, folder)
+    config = named(load_checkpoint(folder / "best.safetensors").config, folder, name)
     save_config(config, folder / "config.json")
     metrics = folder / "metrics.jsonl"
     records = [json.loads(line) for line in metrics.read_text().splitlines() if line.strip()]
@@ -72,11 +72,18 @@ def rename_run(folder: Path) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
     parser.add_argument("folders", nargs="+", type=Path, help="finished run folders")
+    parser.add_argument(
+        "--as",
+        dest="name",
+        choices=tuple(NAMED_MODEL_BASES),
+        default=VARIANT_MODEL,
+        help="the named model (default: %(default)s)",
+    )
     args = parser.parse_args(argv)
     try:
         for folder in args.folders:
-            rename_run(folder)
-            print(f"{folder}: {VARIANT}")
+            rename_run(folder, args.name)
+            print(f"{folder}: {args.name}")
     except (GrouptronError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -1,15 +1,15 @@
 """Copy a finished run into the shipped checkpoints, under the name the package loads it by.
 
 Usage:
-    python campaign/ship.py RUN_FOLDER NAME [--replicate] [--variant]
+    python campaign/ship.py RUN_FOLDER NAME [--replicate] [--variant | --as MODEL]
 
 Copies the card, ``best.safetensors``, ``config.json``, ``curves.png``, the metrics files and
 ``selection.json`` of ``RUN_FOLDER`` into ``checkpoints/NAME/``, and
 ``last.safetensors`` (the full training state, to resume) unless ``--replicate`` (a seed
-replicate of a shipped run: its training state stays in the campaign). ``--variant`` names a
-run trained as Grouptron with the robust switches ``grouptron-robust`` in the copy
-(``name_variant.py``). A run that has not made its final choice (no ``selection.json``) is
-refused, and so is a NAME that exists already.
+replicate of a shipped run: its training state stays in the campaign). ``--as MODEL`` gives a
+run trained with a named model's switches that model's name in the copy (``name_variant.py``;
+``--variant`` is ``--as grouptron-robust``). A run that has not made its final choice (no
+``selection.json``) is refused, and so is a NAME that exists already.
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from name_variant import rename_run
 
 from grouptron.errors import GrouptronError
+from grouptron.presets import NAMED_MODEL_BASES, VARIANT_MODEL
 from grouptron.training.selection import SELECTION
 
 REPO = Path(__file__).resolve().parents[1]
@@ -54,8 +55,11 @@ def mark_replicate(card: Path) -> None:
     card.write_text("\n".join(kept) + "\n")
 
 
-def ship(run: Path, name: str, *, replicate: bool, variant: bool, shipped: Path = SHIPPED) -> Path:
-    """The shipped folder made from ``run`` (``shipped/name``)."""
+def ship(
+    run: Path, name: str, *, replicate: bool, named: str | None, shipped: Path = SHIPPED
+) -> Path:
+    """The shipped folder made from ``run`` (``shipped/name``), its model renamed to the named
+    model ``named`` when given."""
     if not (run / SELECTION).exists():
         raise GrouptronError(f"{run}: not finished (no {SELECTION}); nothing shipped")
     target = shipped / name
@@ -68,8 +72,8 @@ def ship(run: Path, name: str, *, replicate: bool, variant: bool, shipped: Path 
     target.mkdir(parents=True)
     for file in files:
         shutil.copy2(run / file, target / file)
-    if variant:
-        rename_run(target)  # rewrites the card, so the replicate note comes after it
+    if named:
+        rename_run(target, named)  # rewrites the card, so the replicate note comes after it
     if replicate:
         mark_replicate(target / "README.md")
     return target
@@ -82,12 +86,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--replicate", action="store_true", help="a seed replicate: leave last.safetensors"
     )
-    parser.add_argument(
-        "--variant", action="store_true", help="name a robust Grouptron run grouptron-robust"
+    names = parser.add_mutually_exclusive_group()
+    names.add_argument(
+        "--as",
+        dest="named",
+        choices=tuple(NAMED_MODEL_BASES),
+        help="give the copy this named model's name (a run trained with its switches)",
+    )
+    names.add_argument(
+        "--variant",
+        dest="named",
+        action="store_const",
+        const=VARIANT_MODEL,
+        help=f"the same as --as {VARIANT_MODEL}",
     )
     args = parser.parse_args(argv)
     try:
-        target = ship(args.run, args.name, replicate=args.replicate, variant=args.variant)
+        target = ship(args.run, args.name, replicate=args.replicate, named=args.named)
     except (GrouptronError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

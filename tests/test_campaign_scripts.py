@@ -80,6 +80,29 @@ def test_a_screened_robust_run_gets_the_variant_name_and_keeps_its_weights(
     assert "Grouptron (robust)" in (tmp_path / "screened" / "README.md").read_text()
 
 
+def test_a_residual_trajectron_run_gets_its_name_and_other_runs_are_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    script = _script("name_variant")
+    residual = dataclasses.replace(SMALL, velocity_residual=True)
+    trained = dataclasses.replace(experiment_preset("univ", "trajectron++"), model=residual)
+    _run(tmp_path / "residual", trained)
+    assert script.main([str(tmp_path / "residual"), "--as", "trajectron++-residual"]) == 0
+    renamed = load_checkpoint(tmp_path / "residual" / "best.safetensors").config
+    assert renamed == dataclasses.replace(trained, model_name="trajectron++-residual")
+    assert renamed == dataclasses.replace(
+        experiment_preset("univ", "trajectron++-residual"), model=residual
+    )
+    assert "Trajectron++ (residual)" in (tmp_path / "residual" / "README.md").read_text()
+    plain = dataclasses.replace(trained, model=SMALL)
+    _run(tmp_path / "plain", plain)
+    assert script.main([str(tmp_path / "plain"), "--as", "trajectron++-residual"]) == 2
+    assert "model.velocity_residual = False (the preset: True)" in capsys.readouterr().err
+    _run(tmp_path / "group", SCREENED)
+    assert script.main([str(tmp_path / "group"), "--as", "trajectron++-residual"]) == 2
+    assert "a grouptron run, not trajectron++" in capsys.readouterr().err
+
+
 def test_naming_refuses_a_run_with_other_settings(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -94,22 +117,24 @@ def test_shipping_copies_a_finished_run_and_names_the_variant(tmp_path: Path) ->
     script = _script("ship")
     shipped = tmp_path / "checkpoints"
     _run(tmp_path / "run", SCREENED)
-    target = script.ship(tmp_path / "run", "v", replicate=False, variant=True, shipped=shipped)
+    target = script.ship(
+        tmp_path / "run", "v", replicate=False, named="grouptron-robust", shipped=shipped
+    )
     assert sorted(p.name for p in target.iterdir()) == sorted([*script.FILES, "last.safetensors"])
     assert load_checkpoint(target / "best.safetensors").config.model_name == "grouptron-robust"
     assert load_checkpoint(tmp_path / "run" / "best.safetensors").config == SCREENED  # untouched
     assert script.RESUME_LINE in (target / "README.md").read_text()
     replicate = script.ship(
-        tmp_path / "run", "v-seed1", replicate=True, variant=True, shipped=shipped
+        tmp_path / "run", "v-seed1", replicate=True, named="grouptron-robust", shipped=shipped
     )
     assert not (replicate / "last.safetensors").exists()
     card = (replicate / "README.md").read_text()
     assert script.REPLICATE_LINE in card and script.RESUME_LINE not in card
     with pytest.raises(Exception, match="exists"):
-        script.ship(tmp_path / "run", "v", replicate=False, variant=False, shipped=shipped)
+        script.ship(tmp_path / "run", "v", replicate=False, named=None, shipped=shipped)
     _run(tmp_path / "training", SCREENED, finished=False)
     with pytest.raises(Exception, match="not finished"):
-        script.ship(tmp_path / "training", "w", replicate=False, variant=False, shipped=shipped)
+        script.ship(tmp_path / "training", "w", replicate=False, named=None, shipped=shipped)
 
 
 def test_status_reports_each_runs_progress_and_the_time_left(tmp_path: Path) -> None:

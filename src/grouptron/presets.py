@@ -9,6 +9,8 @@ from grouptron.config import ExperimentConfig, config_from_dict, merge_settings
 
 VARIANT_MODEL = "grouptron-robust"
 """The project's density-robust Grouptron (the settings below), beside the paper's two models."""
+RESIDUAL_MODEL = "trajectron++-residual"
+"""Trajectron++ whose decoder predicts velocities relative to the current one (below)."""
 
 MODEL_PRESETS: dict[str, dict[str, dict[str, Any]]] = {
     VARIANT_MODEL: {
@@ -22,12 +24,18 @@ MODEL_PRESETS: dict[str, dict[str, dict[str, Any]]] = {
             "count_feature": True,
         },
     },
+    RESIDUAL_MODEL: {"model": {"velocity_residual": True}},
 }
 """Settings that make a named model out of another's code, by section, on every split and
 dataset. ``grouptron-robust`` is Grouptron with every density switch on: E_scene sees all 8
 observed steps, has dropout and layer norm and leaves the ego out of its own group; groups are
 the detector's (single linkage cut at 1.5 m, velocity-weighted) instead of C(N); neighbours and
-groups are averaged with log-count features (README, "Grouptron")."""
+groups are averaged with log-count features (README, "Grouptron"). ``trajectron++-residual``
+is Trajectron++ whose decoder's velocity means are offsets from the current velocity, so that
+an untrained or unsure decoder falls back to walking on (README, "Grouptron", its variants)."""
+
+NAMED_MODEL_BASES = {VARIANT_MODEL: "grouptron", RESIDUAL_MODEL: "trajectron++"}
+"""The model whose code each named model runs with its preset's settings."""
 
 SPLIT_PRESETS: dict[tuple[str, str], dict[str, dict[str, Any]]] = {
     ("grouptron", "eth"): {"group_encoder": {"group_dim": 8}},

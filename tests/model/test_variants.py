@@ -187,6 +187,32 @@ def test_the_named_variant_is_the_screened_robust_switches() -> None:
     assert uses_groups(own) and isinstance(build_model(own), GrouptronCVAE)
 
 
+def test_the_residual_model_is_the_screened_residual_switch() -> None:
+    """`trajectron++-residual` is Trajectron++ (no group encoders) with the screened velocity
+    residual, on the benchmark's splits and on a dataset of one's own."""
+    from grouptron.cli.train import parse_setting
+    from grouptron.config import config_from_dict, merge_settings
+    from grouptron.model.cvae import TrajectronCVAE
+    from grouptron.model.factory import uses_groups
+    from grouptron.model.grouptron import GrouptronCVAE
+    from grouptron.presets import experiment_preset, preset_values
+
+    model, switches = _screen_module().VARIANTS["trajectron++-residual"]  # type: ignore[attr-defined]
+    for split in ("univ", "eth"):
+        values = preset_values(split, model)
+        for switch in switches:
+            values = merge_settings(values, parse_setting(switch))
+        screened = config_from_dict(ExperimentConfig, values)
+        named = experiment_preset(split, "trajectron++-residual")
+        assert named == dataclasses.replace(screened, model_name="trajectron++-residual")
+    own = config_from_dict(
+        ExperimentConfig, preset_values("eth", "trajectron++-residual", "own.toml")
+    )
+    built = build_model(own)
+    assert own.model.velocity_residual and not uses_groups(own)
+    assert isinstance(built, TrajectronCVAE) and not isinstance(built, GrouptronCVAE)
+
+
 @pytest.mark.slow
 def test_the_named_variant_trains_and_evaluates_from_the_cli(
     synthetic_data_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]

@@ -257,8 +257,9 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     train_cmd.add_argument(
         "--model",
         choices=MODEL_NAMES,
-        help="trajectron++ or grouptron (the paper's), or grouptron-robust (Grouptron with "
-        "every density switch on; README, 'Grouptron') (default: a --config file's "
+        help="trajectron++ or grouptron (the paper's), grouptron-robust (Grouptron with "
+        "every density switch on; README, 'Grouptron') or trajectron++-residual (velocities "
+        "relative to the current one) (default: a --config file's "
         "model_name, else trajectron++)",
     )
     train_cmd.add_argument("--epochs", type=int, help="epochs (default 100, as the reference)")

@@ -33,7 +33,7 @@ from grouptron.evaluation.uncertainty import (
     split_average_interval,
 )
 from grouptron.model.factory import GROUP_MODELS
-from grouptron.presets import VARIANT_MODEL
+from grouptron.presets import RESIDUAL_MODEL, VARIANT_MODEL
 
 BOOTSTRAP_SEED = 0
 INTERVAL_MODES = ("ml", "ml-argmax", "mean", "best-of-20")
@@ -41,9 +41,11 @@ PAIRS = (
     ("grouptron", "trajectron++"),
     (VARIANT_MODEL, "trajectron++"),
     (VARIANT_MODEL, "grouptron"),
+    (RESIDUAL_MODEL, "trajectron++"),
     ("trajectron++", CONSTANT_VELOCITY),
     ("grouptron", CONSTANT_VELOCITY),
     (VARIANT_MODEL, CONSTANT_VELOCITY),
+    (RESIDUAL_MODEL, CONSTANT_VELOCITY),
 )
 """(model, baseline): the differences a reader asks about, model minus baseline."""
 

@@ -10,9 +10,9 @@ from grouptron.errors import GrouptronError
 from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.grouptron import GrouptronCVAE
-from grouptron.presets import VARIANT_MODEL
+from grouptron.presets import RESIDUAL_MODEL, VARIANT_MODEL
 
-MODEL_NAMES = ("trajectron++", "grouptron", VARIANT_MODEL)
+MODEL_NAMES = ("trajectron++", "grouptron", VARIANT_MODEL, RESIDUAL_MODEL)
 PAPER_MODELS = ("trajectron++", "grouptron")
 """The models of the paper's tables (the rest are this project's variants)."""
 GROUP_MODELS = ("grouptron", VARIANT_MODEL)
@@ -22,6 +22,7 @@ DISPLAY_NAMES = {
     "trajectron++": "Trajectron++",
     "grouptron": "Grouptron",
     VARIANT_MODEL: "Grouptron (robust)",
+    RESIDUAL_MODEL: "Trajectron++ (residual)",
 }
 
 
@@ -40,7 +41,7 @@ def groups_for_model(samples: SampleSet, config: ExperimentConfig) -> SampleGrou
 def build_model(config: ExperimentConfig) -> TrajectronCVAE:
     """The model named by ``config.model_name`` (Grouptron is Trajectron++ plus encoders)."""
     scale = config.data.velocity_scale_mps
-    if config.model_name == "trajectron++":
+    if config.model_name in ("trajectron++", RESIDUAL_MODEL):
         return TrajectronCVAE(config.model, velocity_scale_mps=scale)
     if config.model_name in GROUP_MODELS:
         return GrouptronCVAE(config.model, config.group_encoder, scale)
