@@ -45,7 +45,9 @@ def main() -> None:
         "--checkpoints", default="trajectron++-univ-backward,grouptron-univ-backward"
     )
     parser.add_argument(
-        "--modes", default="ml", help="comma-separated point forecasts: ml, ml-argmax, mean"
+        "--modes",
+        default="ml",
+        help="comma-separated point forecasts: ml, ml-argmax, mean, ml-top10",
     )
     parser.add_argument(
         "--default-model",

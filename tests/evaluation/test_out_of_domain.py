@@ -171,7 +171,7 @@ def test_the_report_command_refuses_out_of_domain_with_a_dataset_and_bad_descrip
     assert "--out-of-domain goes with the benchmark report" in capsys.readouterr().err
     no_point = ["report", "--out-of-domain", str(corridor), "--mode", "best-of-20"]
     assert main(no_point) == 2
-    assert "add one of ml, ml-argmax, mean to --mode" in capsys.readouterr().err
+    assert "add one of ml, ml-argmax, mean, ml-top10 to --mode" in capsys.readouterr().err
     bad = tmp_path / "bad.toml"
     bad.write_text('name = "x"\n[parts]\ntest = ["missing.txt"]\n')
     assert main(["report", "--out-of-domain", str(bad)]) == 2

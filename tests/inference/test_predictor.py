@@ -329,6 +329,10 @@ def test_the_most_likely_of_the_top_latent_values(causal: Predictor, recording: 
         most_likely(most_likely="ml", latent_values=4, mixture=True), top, atol=1e-5
     )
     assert not np.allclose(top, full, atol=1e-5)  # a different mixture, so a different mode
+    top10 = most_likely(most_likely="ml-top10")  # ml of the 10 most probable (all if Z <= 10)
+    np.testing.assert_allclose(top10, most_likely(most_likely="ml", latent_values=min(10, Z)))
+    with pytest.raises(GrouptronError, match="decodes 10 latent values, not latent_values=4"):
+        Predictor(model, config, most_likely="ml-top10", latent_values=4)
     for bad in (0, Z + 1, 2.5):
         with pytest.raises(GrouptronError, match="latent_values"):
             Predictor(model, config, latent_values=bad)  # type: ignore[arg-type]

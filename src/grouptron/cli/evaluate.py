@@ -238,7 +238,8 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "samples of one or all splits (exactly 8 observed and 12 future steps). Modes: 'ml' "
         "(the mode of the latent mixture at every step, the papers' 'most likely'), "
         "'ml-argmax' (the most probable latent value's mean), 'mean' (the p(z|x)-weighted "
-        "mean of every latent value's trajectory), 'best-of-20' (min ADE and min "
+        "mean of every latent value's trajectory), 'ml-top10' ('ml' of the 10 most probable "
+        "latent values only), 'best-of-20' (min ADE and min "
         "FDE over 20 samples, taken independently) and 'nll' (KDE NLL of 2000 samples). "
         "With --split all the unweighted mean over the five splits is added.",
         formatter_class=Formatter,

@@ -166,7 +166,11 @@ def _plot_panels(
             after=data.horizon_steps,
         )
         name = f"{predictor.config.model_name} ({predictor.config.data.derivatives})"
-        label = {"ml": "most likely", "ml-argmax": "argmax latent"}.get(args.forecast, "mean")
+        label = {
+            "ml": "most likely",
+            "ml-argmax": "argmax latent",
+            "ml-top10": "most likely of top 10",
+        }.get(args.forecast, "mean")
         panels.append(Panel(name, forecast, history, truth, label))
     return panels
 
@@ -213,7 +217,8 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         default="ml",
         help="ml: the most likely future per pedestrian (the evaluator's); ml-argmax: the most "
         "probable latent value's (the Python API's default); mean: the p(z|x)-weighted mean "
-        "future; samples: --samples sampled futures. On recordings from "
+        "future; ml-top10: ml of the 10 most probable latent values only; samples: --samples "
+        "sampled futures. On recordings from "
         "elsewhere ml-argmax and mean were closer to the truth (benchmarks/RESULTS.md)",
     )
     predict.add_argument(
@@ -283,7 +288,8 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
         choices=tuple(POINT_FORECASTS),
         default="ml",
         help="the dashed point forecast: ml (most likely, the evaluator's), ml-argmax (the "
-        "most probable latent value's) or mean (the p(z|x)-weighted mean)",
+        "most probable latent value's), mean (the p(z|x)-weighted mean) or ml-top10 (ml of "
+        "the 10 most probable latent values)",
     )
     plot.add_argument("--samples", type=non_negative_int, default=20, help="sampled futures")
     plot.add_argument("--seed", type=int, default=0, help="seed of the samples")

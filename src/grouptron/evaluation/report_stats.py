@@ -36,7 +36,7 @@ from grouptron.model.factory import GROUP_MODELS
 from grouptron.presets import RESIDUAL_MODEL, VARIANT_MODEL
 
 BOOTSTRAP_SEED = 0
-INTERVAL_MODES = ("ml", "ml-argmax", "mean", "best-of-20")
+INTERVAL_MODES = ("ml", "ml-argmax", "mean", "ml-top10", "best-of-20")
 PAIRS = (
     ("grouptron", "trajectron++"),
     (VARIANT_MODEL, "trajectron++"),

@@ -284,6 +284,7 @@ def _other_modes(
     titles = {
         "ml-argmax": "Most likely latent value only (decode the argmax z, follow its means)",
         "mean": "Mean trajectory (every latent value's, weighted by p(z|x))",
+        "ml-top10": "Most likely of the 10 most probable latent values (mixture mode per step)",
         "best-of-20": "Best of 20 samples (minFDE/minADE)",
         "nll": "KDE NLL in nats (Scott's bandwidth; 2000 futures per sample; "
         "in brackets: samples scored)",
