@@ -62,7 +62,7 @@ def test_ml_forecast_reproduces_the_evaluator(
     assert error[:, -1].mean() == pytest.approx(scores.fde, abs=1e-3)
 
 
-def test_predict_command_writes_ml_and_sample_rows(
+def test_predict_command_writes_point_and_sample_rows(
     tiny_checkpoints: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     rows = [(100 + 10 * s, 7, 1.0 + 0.5 * s, -2.0) for s in range(9)]
@@ -70,28 +70,33 @@ def test_predict_command_writes_ml_and_sample_rows(
     tracks = write_tracks(tmp_path / "walk.txt", rows)
     checkpoint = str(tiny_checkpoints / "grouptron-eth-central/best.safetensors")
     common = ["predict", "--checkpoint", checkpoint, "--tracks", str(tracks), "--quiet"]
-    out = tmp_path / "ml.csv"
+    out = tmp_path / "own.csv"
     assert main([*common, "--out", str(out)]) == 0
     with out.open() as handle:
-        ml = list(csv.DictReader(handle))
+        own = list(csv.DictReader(handle))
     # Pedestrian 7 has 8 observed steps at frames 170 and 180; pedestrian 8 never does.
-    assert [(r["frame"], r["id"]) for r in ml[::12]] == [("170", "7"), ("180", "7")]
-    assert [int(r["step"]) for r in ml[:12]] == list(range(1, 13))
-    assert all(abs(float(r["x"])) < 60 and abs(float(r["y"]) + 2) < 30 for r in ml)
+    assert [(r["frame"], r["id"]) for r in own[::12]] == [("170", "7"), ("180", "7")]
+    assert [int(r["step"]) for r in own[:12]] == list(range(1, 13))
+    assert all(abs(float(r["x"])) < 60 and abs(float(r["y"]) + 2) < 30 for r in own)
     out = tmp_path / "samples.csv"
     assert main([*common, "--out", str(out), "--mode", "samples", "--samples", "3"]) == 0
     with out.open() as handle:
         drawn = list(csv.DictReader(handle))
     assert len(drawn) == 2 * 3 * 12 and {r["sample"] for r in drawn} == {"0", "1", "2"}
-    for mode in ("mean", "ml-argmax"):  # the other point forecasts: same rows, other positions
+    capsys.readouterr()
+    # The default is the model's own point forecast: the argmax latent for plain Trajectron++ or
+    # Grouptron; the others give the same rows at other positions.
+    for mode in ("ml-argmax", "mean", "ml"):
         out = tmp_path / f"{mode}.csv"
         assert main([*common, "--out", str(out), "--mode", mode]) == 0
         with out.open() as handle:
             point = list(csv.DictReader(handle))
         assert [(r["frame"], r["id"], r["step"]) for r in point] == [
-            (r["frame"], r["id"], r["step"]) for r in ml
+            (r["frame"], r["id"], r["step"]) for r in own
         ]
-        assert [r["x"] for r in point] != [r["x"] for r in ml]
+        assert ([r["x"] for r in point] == [r["x"] for r in own]) == (mode == "ml-argmax")
+    assert main([*common, "--out", str(tmp_path / "default.csv")]) == 0
+    assert "central derivatives, ml-argmax)" in capsys.readouterr().out
 
 
 def test_predict_refuses_short_tracks_and_missing_files(
@@ -120,7 +125,7 @@ def test_shipped_checkpoint_csv_reproduces_the_evaluator_on_eth(
     tracks = eth_ucy_dir / "eth/test/biwi_eth.txt"
     out = tmp_path / "eth.csv"
     predict = ["predict", "--checkpoint", str(checkpoint), "--tracks", str(tracks), "--quiet"]
-    assert main([*predict, "--out", str(out)]) == 0
+    assert main([*predict, "--out", str(out), "--mode", "ml"]) == 0  # the evaluator's default
     capsys.readouterr()
     evaluate = ["evaluate", "--checkpoint", str(checkpoint), "--data-dir", str(eth_ucy_dir)]
     assert main([*evaluate, "--quiet", "--format", "json"]) == 0

@@ -35,7 +35,7 @@ from grouptron.io import (
     write_array_csv_atomically,
 )
 from grouptron.model.checkpoint import load_trained_model
-from grouptron.model.predict import POINT_FORECASTS
+from grouptron.model.predict import POINT_FORECASTS, default_point_forecast
 from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tracks_around
 
 
@@ -65,11 +65,12 @@ def cmd_predict(args: argparse.Namespace) -> int:
     data = dataclasses.replace(experiment.data, frames_per_step=frames_per_step)
     experiment = dataclasses.replace(experiment, data=data)
     scene = build_scene(table, data, name=str(args.tracks))
+    mode = args.mode or default_point_forecast(experiment.model)
     forecast = forecast_scene(
         model,
         experiment,
         scene,
-        args.mode,
+        mode,
         num_samples=args.samples,
         seed=args.seed,
         progress=show_progress(args),
@@ -77,15 +78,15 @@ def cmd_predict(args: argparse.Namespace) -> int:
         device=args.device,
     )
     if Path(args.out).suffix == ".ndjson":
-        _write_trajnet(Path(args.out), forecast, table, sampled=args.mode == "samples")
-        count = len(forecast) * data.horizon_steps * (args.samples if args.mode == "samples" else 1)
+        _write_trajnet(Path(args.out), forecast, table, sampled=mode == "samples")
+        count = len(forecast) * data.horizon_steps * (args.samples if mode == "samples" else 1)
     else:
-        header, rows, formats = forecast.table(sampled=args.mode == "samples")
+        header, rows, formats = forecast.table(sampled=mode == "samples")
         write_array_csv_atomically(Path(args.out), header, rows, formats)
         count = len(rows)
     print(
         f"wrote {count} rows for {len(forecast)} (pedestrian, frame) pairs "
-        f"({experiment.model_name}, {data.derivatives} derivatives, {args.mode}) to {args.out}"
+        f"({experiment.model_name}, {data.derivatives} derivatives, {mode}) to {args.out}"
     )
     return 0
 
@@ -214,12 +215,12 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     predict.add_argument(
         "--mode",
         choices=FORECAST_MODES,
-        default="ml",
         help="ml: the most likely future per pedestrian (the evaluator's); ml-argmax: the most "
-        "probable latent value's (the Python API's default); mean: the p(z|x)-weighted mean "
+        "probable latent value's; mean: the p(z|x)-weighted mean "
         "future; ml-top10: ml of the 10 most probable latent values only; samples: --samples "
-        "sampled futures. On recordings from "
-        "elsewhere ml-argmax and mean were closer to the truth (benchmarks/RESULTS.md)",
+        "sampled futures (with the ml one). Default: the model's own, as in the Python API: "
+        "ml-top10 for a velocity-residual model, ml-argmax otherwise (on recordings from "
+        "elsewhere the forecasts closest to the truth; benchmarks/RESULTS.md)",
     )
     predict.add_argument(
         "--samples", type=positive_int, default=20, help="futures per pedestrian (samples)"

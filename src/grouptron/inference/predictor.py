@@ -49,6 +49,7 @@ from grouptron.model.predict import (
     POINT_FORECASTS,
     TOP_LATENT_VALUES,
     decode_every_latent,
+    default_point_forecast,
     mixture_mean_positions,
     most_likely_positions,
     predict_most_likely_of_top,
@@ -68,7 +69,11 @@ class Predictor:
     """A trained Trajectron++ or Grouptron model ready to forecast tracks.
 
     Args:
-        most_likely: ``"ml-argmax"`` (the default): the means of the most probable latent
+        most_likely: None (the default): the model's own choice, ``"ml-top10"`` for a
+            velocity-residual decoder and ``"ml-argmax"`` otherwise (``default_point_forecast``;
+            the forecasts closest to the truth on recordings from elsewhere), or ``"ml"`` when
+            ``latent_values`` is given.
+            ``"ml-argmax"``: the means of the most probable latent
             value only (the evaluator's "ML-argmax" row), the fast choice for a control loop;
             ``"ml"``: per step the mode of the p(z|x)-weighted mixture of the latent values'
             Gaussians, integrated (with all Z of them, the benchmark's most likely
@@ -95,7 +100,7 @@ class Predictor:
         model: TrajectronCVAE,
         config: ExperimentConfig,
         source: str = "",
-        most_likely: MostLikely = "ml-argmax",
+        most_likely: MostLikely | None = None,
         *,
         latent_values: int | None = None,
         mixture: bool = False,
@@ -104,7 +109,9 @@ class Predictor:
         min_points: int = 2,
         max_missed_steps: int = 2,
     ) -> None:
-        most_likely = OLDER_NAMES.get(most_likely, most_likely)  # type: ignore[assignment]
+        own = "ml" if latent_values else default_point_forecast(config.model)
+        named: str = most_likely or own
+        most_likely = OLDER_NAMES.get(named, named)  # type: ignore[assignment]
         if most_likely not in MOST_LIKELY_CHOICES:
             raise GrouptronError(
                 f"most_likely must be one of {', '.join(MOST_LIKELY_CHOICES)}, not {most_likely!r}"
@@ -153,7 +160,7 @@ class Predictor:
         name_or_path: str | Path = DEFAULT_CHECKPOINT,
         checkpoints_dir: str | Path | None = None,
         threads: int | None = None,
-        most_likely: MostLikely = "ml-argmax",
+        most_likely: MostLikely | None = None,
         *,
         latent_values: int | None = None,
         mixture: bool = False,

@@ -8,6 +8,7 @@ from collections.abc import Callable
 
 import torch
 
+from grouptron.config import ModelConfig
 from grouptron.errors import GrouptronError
 from grouptron.model.batch import Batch
 from grouptron.model.cvae import Encoding, TrajectronCVAE, VelocityGaussians
@@ -193,3 +194,13 @@ POINT_FORECASTS: dict[str, PointForecast] = {
 the most probable latent value's means, the p(z|x)-weighted mean trajectory, and the mixture
 mode of only the 10 most probable latent values (as close to ``ml`` on ETH/UCY validation data,
 cheaper, and steadier on recordings from elsewhere: benchmarks/RESULTS.md)."""
+
+
+def default_point_forecast(model: ModelConfig) -> str:
+    """The point forecast to use when none is named: ``ml-top10`` for a velocity-residual
+    decoder, ``ml-argmax`` (the fastest) otherwise. On recordings from elsewhere each is its
+    kind's best or level with it, and the other kind's choice fails there: a residual
+    decoder's argmax latent is at 1.02-1.09x constant velocity's FDE pooled (its ``ml-top10``
+    at 0.87-0.93x), plain Trajectron++'s ``ml-top10`` up to 1.30x with 25+ neighbours
+    (benchmarks/RESULTS.md)."""
+    return "ml-top10" if model.velocity_residual else "ml-argmax"
