@@ -185,10 +185,10 @@ def main() -> None:
         "--ood",
         nargs="?",
         const="ml-argmax",
-        choices=("ml", "ml-argmax", "mean"),
+        choices=("ml", "ml-argmax", "mean", "ml-top10"),
         help="with --table: add each variant's FDE over constant velocity on the out-of-domain "
         "development set (benchmarks/ood/*.toml) for this point forecast (default ml-argmax, "
-        "the Predictor's; scored once per run into ood-<forecast>.json)",
+        "the plain models' default; scored once per run into ood-<forecast>.json)",
     )
     args = parser.parse_args()
     if args.table:
