@@ -3,7 +3,7 @@
 Usage:
     python benchmarks/out_of_domain.py [--datasets benchmarks/ood/stanford_drone.toml,...]
         [--checkpoints trajectron++-univ-backward,grouptron-univ-backward]
-        [--modes ml,ml-argmax,mean] [--default-model NAME] [--json FILE]
+        [--modes ml,ml-argmax,mean,ml-top10] [--default-model NAME] [--json FILE]
 
 Scores the test parts of the development set's dataset descriptions (``benchmarks/ood/``: the
 first three TrajNet Stanford Drone scenes and the three HERMES corridor runs of

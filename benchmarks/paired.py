@@ -60,7 +60,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("checkpoint_a", type=Path)
     parser.add_argument("checkpoint_b", type=Path)
-    parser.add_argument("--mode", default="ml", help="point forecast: ml, ml-argmax or mean")
+    parser.add_argument(
+        "--mode", default="ml", help="point forecast: ml, ml-argmax, mean or ml-top10"
+    )
     parser.add_argument("--threads", type=int, default=1)
     parser.add_argument("--data-dir")
     args = parser.parse_args()

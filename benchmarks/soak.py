@@ -2,7 +2,7 @@
 
 Usage:
     python benchmarks/soak.py [--steps 100000] [--people 100] [--checkpoint NAME_OR_PATH]
-                              [--most-likely ml-argmax|ml] [--threads 2]
+                              [--most-likely ml-argmax|ml|ml-top10] [--threads 2]
                               [--report-every 10000] [--out soak.json]
 
 Pedestrians walk through a square sized for one person per 4 m^2; whoever leaves it is

@@ -3,7 +3,7 @@
 Usage:
     python benchmarks/streaming.py [--checkpoint NAME_OR_PATH] [--people 10,50,100,200]
                                    [--frames 60] [--threads 2]
-                                   [--most-likely ml|ml-argmax|mean] [--latent-values K]
+                                   [--most-likely ml|ml-argmax|mean|ml-top10] [--latent-values K]
                                    [--mixture] [--min-points 2] [--max-missed-steps 2]
 
 A synthetic scene of N pedestrians walking in pairs and alone through a square sized for about
@@ -50,7 +50,8 @@ def add_predictor_options(parser: argparse.ArgumentParser, most_likely: str) -> 
         "--most-likely",
         choices=tuple(POINT_FORECASTS),
         default=most_likely,
-        help="the Predictor's point forecast (ml-argmax skips the mixture; mean decodes all Z)",
+        help="the Predictor's point forecast (ml-argmax skips the mixture; mean decodes all Z "
+        "latent values, ml-top10 the 10 most probable)",
     )
     parser.add_argument(
         "--latent-values", type=int, help="Predictor(latent_values=...) for --most-likely ml"

@@ -23,29 +23,38 @@ import json
 import sys
 from pathlib import Path
 
-from grouptron.config import ExperimentConfig, config_to_dict, save_config
+from grouptron.config import ExperimentConfig, config_from_dict, config_to_dict, save_config
 from grouptron.errors import GrouptronError
 from grouptron.model.checkpoint import load_checkpoint, save_checkpoint
-from grouptron.presets import NAMED_MODEL_BASES, VARIANT_MODEL, preset_values
+from grouptron.presets import MODEL_PRESETS, NAMED_MODEL_BASES, VARIANT_MODEL, preset_values
 from grouptron.training.model_card import write_model_card
 from grouptron.training.selection import SELECTION
 
+SWITCHES = sorted(
+    (section, key)
+    for preset in MODEL_PRESETS.values()
+    for section, values in preset.items()
+    for key in values
+)
+"""Every setting some named model's preset sets: a run given a name must have each at that
+model's value (its preset's, else the default), so that a run with another model's switches
+too (robust Grouptron with the velocity residual, say) is not named after either."""
+
 
 def named(config: ExperimentConfig, where: Path, name: str = VARIANT_MODEL) -> ExperimentConfig:
-    """``config`` as the named model ``name``, or an error when a setting of its preset
-    differs."""
+    """``config`` as the named model ``name``, or an error when a switch differs from its."""
     if config.model_name == name:
         return config
     if config.model_name != NAMED_MODEL_BASES[name]:
         raise GrouptronError(f"{where}: a {config.model_name} run, not {NAMED_MODEL_BASES[name]}")
     stored = config_to_dict(config)
-    preset = preset_values(config.split, name, config.dataset)
+    expected = config_to_dict(
+        config_from_dict(ExperimentConfig, preset_values(config.split, name, config.dataset))
+    )
     differing = [
-        f"{section}.{key} = {stored[section][key]!r} (the preset: {value!r})"
-        for section, values in preset.items()
-        if isinstance(values, dict)  # the preset's sections; the rest is the run's own
-        for key, value in values.items()
-        if stored[section][key] != value
+        f"{section}.{key} = {stored[section][key]!r} (the preset: {expected[section][key]!r})"
+        for section, key in SWITCHES
+        if stored[section][key] != expected[section][key]
     ]
     if differing:
         raise GrouptronError(f"{where}: not {name}'s settings: {'; '.join(differing)}")

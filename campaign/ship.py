@@ -21,9 +21,11 @@ from pathlib import Path
 
 # name_variant.py is a script beside this one, not part of the package.
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from name_variant import named as named_config
 from name_variant import rename_run
 
 from grouptron.errors import GrouptronError
+from grouptron.model.checkpoint import load_checkpoint
 from grouptron.presets import NAMED_MODEL_BASES, VARIANT_MODEL
 from grouptron.training.selection import SELECTION
 
@@ -69,6 +71,8 @@ def ship(
     missing = [f for f in files if not (run / f).exists()]
     if missing:
         raise GrouptronError(f"{run}: missing {', '.join(missing)}")
+    if named:  # refused before anything is copied
+        named_config(load_checkpoint(run / "best.safetensors").config, run, named)
     target.mkdir(parents=True)
     for file in files:
         shutil.copy2(run / file, target / file)

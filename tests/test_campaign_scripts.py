@@ -14,6 +14,7 @@ import pytest
 import torch
 
 from grouptron.config import ExperimentConfig
+from grouptron.errors import GrouptronError
 from grouptron.model.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from grouptron.model.factory import build_model
 from grouptron.presets import experiment_preset
@@ -101,6 +102,19 @@ def test_a_residual_trajectron_run_gets_its_name_and_other_runs_are_refused(
     _run(tmp_path / "group", SCREENED)
     assert script.main([str(tmp_path / "group"), "--as", "trajectron++-residual"]) == 2
     assert "a grouptron run, not trajectron++" in capsys.readouterr().err
+    # Robust Grouptron with the residual too is neither named model.
+    both = dataclasses.replace(
+        SCREENED, model=dataclasses.replace(SMALL_ROBUST, velocity_residual=True)
+    )
+    _run(tmp_path / "both", both)
+    assert script.main([str(tmp_path / "both")]) == 2
+    assert "model.velocity_residual = True (the preset: False)" in capsys.readouterr().err
+    shipped = tmp_path / "checkpoints"
+    with pytest.raises(GrouptronError, match="velocity_residual"):
+        _script("ship").ship(
+            tmp_path / "both", "b", replicate=False, named="grouptron-robust", shipped=shipped
+        )
+    assert not (shipped / "b").exists()  # refused before anything was copied
 
 
 def test_naming_refuses_a_run_with_other_settings(

@@ -309,6 +309,30 @@ def test_stream_inputs_are_checked_strictly(
         session.update(0, ids, xy)
 
 
+def test_without_a_forecast_named_each_model_uses_its_own(causal: Predictor) -> None:
+    """A velocity-residual decoder forecasts ``ml-top10`` (``ml`` of min(10, Z) latent
+    values), a plain one the argmax latent; ``latent_values`` alone asks for ``ml``."""
+    import dataclasses
+
+    from grouptron.model.factory import build_model
+
+    plain = Predictor(causal.model, causal.config)
+    assert (plain.most_likely, plain.decoded_latent_values) == ("ml-argmax", 1)
+    trimmed = Predictor(causal.model, causal.config, latent_values=3)
+    assert (trimmed.most_likely, trimmed.decoded_latent_values) == ("ml", 3)
+    for latent_modes, decoded in ((25, 10), (5, 5)):
+        model = dataclasses.replace(
+            causal.config.model, velocity_residual=True, latent_modes=latent_modes
+        )
+        config = dataclasses.replace(causal.config, model=model)
+        residual = Predictor(build_model(config), config)
+        assert (residual.most_likely, residual.decoded_latent_values) == ("ml", decoded)
+        named = Predictor(
+            build_model(config), config, most_likely="ml-top10", latent_values=decoded
+        )
+        assert named.decoded_latent_values == decoded
+
+
 def test_the_most_likely_of_the_top_latent_values(causal: Predictor, recording: np.ndarray) -> None:
     """``latent_values`` trims the mixture: 1 is the argmax latent, Z is the full mixture,
     and decoding only the top values equals picking them from all decoded ones."""
@@ -331,7 +355,7 @@ def test_the_most_likely_of_the_top_latent_values(causal: Predictor, recording: 
     assert not np.allclose(top, full, atol=1e-5)  # a different mixture, so a different mode
     top10 = most_likely(most_likely="ml-top10")  # ml of the 10 most probable (all if Z <= 10)
     np.testing.assert_allclose(top10, most_likely(most_likely="ml", latent_values=min(10, Z)))
-    with pytest.raises(GrouptronError, match="decodes 10 latent values, not latent_values=4"):
+    with pytest.raises(GrouptronError, match=r"decodes \d+ latent values, not latent_values=4"):
         Predictor(model, config, most_likely="ml-top10", latent_values=4)
     for bad in (0, Z + 1, 2.5):
         with pytest.raises(GrouptronError, match="latent_values"):

@@ -171,7 +171,7 @@ def _plot_panels(
             "ml": "most likely",
             "ml-argmax": "argmax latent",
             "ml-top10": "most likely of top 10",
-        }.get(args.forecast, "mean")
+        }.get(args.forecast or default_point_forecast(predictor.config.model), "mean")
         panels.append(Panel(name, forecast, history, truth, label))
     return panels
 
@@ -218,7 +218,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         help="ml: the most likely future per pedestrian (the evaluator's); ml-argmax: the most "
         "probable latent value's; mean: the p(z|x)-weighted mean "
         "future; ml-top10: ml of the 10 most probable latent values only; samples: --samples "
-        "sampled futures (with the ml one). Default: the model's own, as in the Python API: "
+        "sampled futures. Default: the model's own, as in the Python API: "
         "ml-top10 for a velocity-residual model, ml-argmax otherwise (on recordings from "
         "elsewhere the forecasts closest to the truth; benchmarks/RESULTS.md)",
     )
@@ -287,10 +287,9 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
     plot.add_argument(
         "--forecast",
         choices=tuple(POINT_FORECASTS),
-        default="ml",
         help="the dashed point forecast: ml (most likely, the evaluator's), ml-argmax (the "
         "most probable latent value's), mean (the p(z|x)-weighted mean) or ml-top10 (ml of "
-        "the 10 most probable latent values)",
+        "the 10 most probable latent values) (default: the model's own, as for predict)",
     )
     plot.add_argument("--samples", type=non_negative_int, default=20, help="sampled futures")
     plot.add_argument("--seed", type=int, default=0, help="seed of the samples")

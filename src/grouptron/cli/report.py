@@ -215,8 +215,9 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         metavar="DATASET",
         help="also an out-of-domain section: every causal checkpoint under --checkpoints and "
         "constant velocity on the test part of each dataset description (recordings from "
-        "elsewhere; docs/recordings.md) in each point-forecast --mode (ml-argmax is the "
-        "Python API's), and whether the default model "
+        "elsewhere; docs/recordings.md) in each point-forecast --mode (the Python API's: "
+        "ml-top10 for a velocity-residual model, ml-argmax otherwise), and whether the default "
+        "model "
         f"({DEFAULT_CHECKPOINT}) is at or below constant velocity on every recording",
     )
     add_threads_option(report)

@@ -20,7 +20,8 @@ class Forecast:
         frames: (N,) the frame of every forecast.
         ids: (N,) agent ids (ascending within a frame).
         most_likely: (N, H, 2) the point forecast's positions at steps 1..H after ``frame``
-            (most likely by default; the ``mean`` where that forecast was asked for).
+            (the forecast the predictor was made with: ``ml``, ``ml-argmax``, ``mean`` or
+            ``ml-top10``).
         samples: (N, K, H, 2) sampled futures, or None when none were asked for.
         mixture_log_weights: (N, Z) log p(z|x) of the Z latent values (None when the
             predictor was made with ``mixture=False``; likewise the next two).

@@ -131,12 +131,13 @@ class Predictor:
         if most_likely == "mean" and latent_values not in (None, Z):
             raise GrouptronError("latent_values is for most_likely='ml'; the mean uses all")
         if most_likely == "ml-top10":  # a name for ml of the 10 most probable latent values
-            if latent_values not in (None, TOP_LATENT_VALUES):
+            top = min(TOP_LATENT_VALUES, Z)
+            if latent_values not in (None, top):
                 raise GrouptronError(
-                    f"most_likely='ml-top10' decodes {TOP_LATENT_VALUES} latent "
-                    f"values, not latent_values={latent_values}"
+                    f"most_likely='ml-top10' decodes {top} latent values, not "
+                    f"latent_values={latent_values}"
                 )
-            most_likely, latent_values = "ml", min(TOP_LATENT_VALUES, Z)
+            most_likely, latent_values = "ml", top
         self.most_likely = most_likely
         self.latent_values = latent_values
         self.mixture = mixture

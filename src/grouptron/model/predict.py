@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from typing import Literal
 
 import torch
 
@@ -196,11 +197,11 @@ mode of only the 10 most probable latent values (as close to ``ml`` on ETH/UCY v
 cheaper, and steadier on recordings from elsewhere: benchmarks/RESULTS.md)."""
 
 
-def default_point_forecast(model: ModelConfig) -> str:
+def default_point_forecast(model: ModelConfig) -> Literal["ml-top10", "ml-argmax"]:
     """The point forecast to use when none is named: ``ml-top10`` for a velocity-residual
     decoder, ``ml-argmax`` (the fastest) otherwise. On recordings from elsewhere each is its
-    kind's best or level with it, and the other kind's choice fails there: a residual
-    decoder's argmax latent is at 1.02-1.09x constant velocity's FDE pooled (its ``ml-top10``
-    at 0.87-0.93x), plain Trajectron++'s ``ml-top10`` up to 1.30x with 25+ neighbours
-    (benchmarks/RESULTS.md)."""
+    kind's best or level with it, and the other kind's choice fails there: the residual
+    Trajectron++'s argmax latent is at 1.02-1.04x constant velocity's FDE pooled on the
+    development set (its ``ml-top10`` at 0.90-0.93x), plain Trajectron++'s ``ml-top10`` up to
+    1.30x with 25+ neighbours (benchmarks/RESULTS.md)."""
     return "ml-top10" if model.velocity_residual else "ml-argmax"
