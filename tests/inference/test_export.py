@@ -54,7 +54,12 @@ def _batch_inputs(network: ForecastNetwork) -> dict[str, torch.Tensor]:
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "name",
-    ["trajectron++-univ-backward", "grouptron-univ-backward", "grouptron-robust-univ-backward"],
+    [
+        "trajectron++-univ-backward",
+        "grouptron-univ-backward",
+        "grouptron-robust-univ-backward",
+        "trajectron++-residual-univ-backward",
+    ],
 )
 def test_onnxruntime_equals_pytorch_on_a_shipped_checkpoint(name: str, tmp_path: Path) -> None:
     _check_export(*load_trained_model(resolve_checkpoint(name)), tmp_path)
