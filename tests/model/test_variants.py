@@ -162,23 +162,30 @@ def _screen_module() -> object:
     return screen
 
 
-def test_the_named_variant_is_the_screened_robust_switches() -> None:
-    """`grouptron-robust` is exactly Grouptron with the screened `robust` switches, so that a
-    screening run and a run of the named model train the same network."""
+def _assert_named_is_screened(variant: str, name: str) -> None:
+    """The named model's preset equals the screening variant's switches on univ and eth."""
     from grouptron.cli.train import parse_setting
     from grouptron.config import config_from_dict, merge_settings
-    from grouptron.model.factory import uses_groups
-    from grouptron.model.grouptron import GrouptronCVAE
     from grouptron.presets import experiment_preset, preset_values
 
-    model, switches = _screen_module().VARIANTS["robust"]  # type: ignore[attr-defined]
+    model, switches = _screen_module().VARIANTS[variant]  # type: ignore[attr-defined]
     for split in ("univ", "eth"):
         values = preset_values(split, model)
         for switch in switches:
             values = merge_settings(values, parse_setting(switch))
         screened = config_from_dict(ExperimentConfig, values)
-        named = experiment_preset(split, "grouptron-robust")
-        assert named == dataclasses.replace(screened, model_name="grouptron-robust")
+        assert experiment_preset(split, name) == dataclasses.replace(screened, model_name=name)
+
+
+def test_the_named_variant_is_the_screened_robust_switches() -> None:
+    """`grouptron-robust` is exactly Grouptron with the screened `robust` switches, so that a
+    screening run and a run of the named model train the same network."""
+    from grouptron.config import config_from_dict
+    from grouptron.model.factory import uses_groups
+    from grouptron.model.grouptron import GrouptronCVAE
+    from grouptron.presets import experiment_preset, preset_values
+
+    _assert_named_is_screened("robust", "grouptron-robust")
     assert experiment_preset("eth", "grouptron-robust").group_encoder.group_dim == 8
     assert experiment_preset("univ", "grouptron-robust").group_encoder.group_dim == 16
     assert experiment_preset("univ", "grouptron").group_encoder.temporal_layers == 1
@@ -190,21 +197,13 @@ def test_the_named_variant_is_the_screened_robust_switches() -> None:
 def test_the_residual_model_is_the_screened_residual_switch() -> None:
     """`trajectron++-residual` is Trajectron++ (no group encoders) with the screened velocity
     residual, on the benchmark's splits and on a dataset of one's own."""
-    from grouptron.cli.train import parse_setting
-    from grouptron.config import config_from_dict, merge_settings
+    from grouptron.config import config_from_dict
     from grouptron.model.cvae import TrajectronCVAE
     from grouptron.model.factory import uses_groups
     from grouptron.model.grouptron import GrouptronCVAE
-    from grouptron.presets import experiment_preset, preset_values
+    from grouptron.presets import preset_values
 
-    model, switches = _screen_module().VARIANTS["trajectron++-residual"]  # type: ignore[attr-defined]
-    for split in ("univ", "eth"):
-        values = preset_values(split, model)
-        for switch in switches:
-            values = merge_settings(values, parse_setting(switch))
-        screened = config_from_dict(ExperimentConfig, values)
-        named = experiment_preset(split, "trajectron++-residual")
-        assert named == dataclasses.replace(screened, model_name="trajectron++-residual")
+    _assert_named_is_screened("trajectron++-residual", "trajectron++-residual")
     own = config_from_dict(
         ExperimentConfig, preset_values("eth", "trajectron++-residual", "own.toml")
     )
