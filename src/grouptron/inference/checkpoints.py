@@ -13,11 +13,12 @@ PACKAGE_CHECKPOINTS = Path(__file__).resolve().parents[1] / "checkpoints"
 """The shipped checkpoints installed with the package (weights and configs only; in a source
 checkout a link to the repository's checkpoints/)."""
 
-DEFAULT_CHECKPOINT = "trajectron++-univ-backward"
+DEFAULT_CHECKPOINT = "trajectron++-residual-univ-backward"
 """The model used where none is named (``Predictor.from_checkpoint()``, ``grouptron predict``
-and ``plot``): strictly causal inputs, so it forecasts live tracks as it was trained, and on
-held-out data the shipped causal model closest to constant velocity or better (RESULTS.md; the
-all-locations variant did worse on recordings from elsewhere, benchmarks/RESULTS.md)."""
+and ``plot``): strictly causal inputs, so it forecasts live tracks as it was trained, and with
+its own point forecast (``ml-top10``) the one shipped model at or below constant velocity's FDE
+on every recording from elsewhere, for each of its three seeds (benchmarks/RESULTS.md). The
+same model trained on all five locations did worse there, as did the all-locations variant."""
 
 
 def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | None = None) -> Path:
