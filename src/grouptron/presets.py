@@ -11,20 +11,25 @@ VARIANT_MODEL = "grouptron-robust"
 """The project's density-robust Grouptron (the settings below), beside the paper's two models."""
 RESIDUAL_MODEL = "trajectron++-residual"
 """Trajectron++ whose decoder predicts velocities relative to the current one (below)."""
+GROUP_RESIDUAL_MODEL = "grouptron-robust-residual"
+"""``grouptron-robust`` with the velocity-residual decoder of ``trajectron++-residual``."""
+
+_ROBUST_SWITCHES: dict[str, dict[str, Any]] = {
+    "groups": {"linkage": "single", "max_distance_m": 1.5, "velocity_weight_s": 2.0},
+    "model": {"edge_aggregation": "mean", "edge_count_feature": True},
+    "group_encoder": {
+        "temporal_layers": 3,
+        "scene_dropout_keep": 0.75,
+        "scene_layer_norm": True,
+        "ego_in_own_group": False,
+        "count_feature": True,
+    },
+}
 
 MODEL_PRESETS: dict[str, dict[str, dict[str, Any]]] = {
-    VARIANT_MODEL: {
-        "groups": {"linkage": "single", "max_distance_m": 1.5, "velocity_weight_s": 2.0},
-        "model": {"edge_aggregation": "mean", "edge_count_feature": True},
-        "group_encoder": {
-            "temporal_layers": 3,
-            "scene_dropout_keep": 0.75,
-            "scene_layer_norm": True,
-            "ego_in_own_group": False,
-            "count_feature": True,
-        },
-    },
+    VARIANT_MODEL: _ROBUST_SWITCHES,
     RESIDUAL_MODEL: {"model": {"velocity_residual": True}},
+    GROUP_RESIDUAL_MODEL: merge_settings(_ROBUST_SWITCHES, {"model": {"velocity_residual": True}}),
 }
 """Settings that make a named model out of another's code, by section, on every split and
 dataset. ``grouptron-robust`` is Grouptron with every density switch on: E_scene sees all 8
@@ -32,14 +37,20 @@ observed steps, has dropout and layer norm and leaves the ego out of its own gro
 the detector's (single linkage cut at 1.5 m, velocity-weighted) instead of C(N); neighbours and
 groups are averaged with log-count features (README, "Grouptron"). ``trajectron++-residual``
 is Trajectron++ whose decoder's velocity means are offsets from the current velocity, so that
-an untrained or unsure decoder falls back to walking on (README, "Grouptron", its variants)."""
+an untrained or unsure decoder falls back to walking on (README, "Grouptron", its variants).
+``grouptron-robust-residual`` has both."""
 
-NAMED_MODEL_BASES = {VARIANT_MODEL: "grouptron", RESIDUAL_MODEL: "trajectron++"}
+NAMED_MODEL_BASES = {
+    VARIANT_MODEL: "grouptron",
+    RESIDUAL_MODEL: "trajectron++",
+    GROUP_RESIDUAL_MODEL: "grouptron",
+}
 """The model whose code each named model runs with its preset's settings."""
 
 SPLIT_PRESETS: dict[tuple[str, str], dict[str, dict[str, Any]]] = {
     ("grouptron", "eth"): {"group_encoder": {"group_dim": 8}},
     (VARIANT_MODEL, "eth"): {"group_encoder": {"group_dim": 8}},
+    (GROUP_RESIDUAL_MODEL, "eth"): {"group_encoder": {"group_dim": 8}},
 }
 """Settings that differ per (model, ETH/UCY split), by section: the paper narrows Grouptron's
 ST-GCNs to 8 on eth, whose test recording rarely has 5 or more people in view (its variant

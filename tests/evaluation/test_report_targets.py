@@ -9,13 +9,15 @@ from grouptron.evaluation.uncertainty import Interval
 COLUMNS = ("univ", "univ-40", "univ-45", "univ-50")
 
 
-def _paired(high: float, derivatives: str = "backward") -> list[PairedDifference]:
-    """grouptron-robust - trajectron++ on univ and its UNIV-N, with intervals up to ``high``."""
+def _paired(
+    high: float, derivatives: str = "backward", variant: str = "grouptron-robust"
+) -> list[PairedDifference]:
+    """variant - trajectron++ on univ and its UNIV-N, with intervals up to ``high``."""
     return [
         PairedDifference(
             derivatives,
             "ml",
-            "grouptron-robust",
+            variant,
             "trajectron++",
             column,
             100,
@@ -53,3 +55,11 @@ def test_no_variant_line_without_every_column_or_for_another_protocol() -> None:
     assert not any("paired 95%" in c for c in target_checks({}, ("backward",), _paired(-0.01)[:3]))
     central = target_checks({}, ("backward",), _paired(-0.01, "central"))
     assert not any("paired 95%" in c for c in central)
+
+
+def test_each_named_group_variant_gets_its_own_line() -> None:
+    evidence = _paired(-0.01) + _paired(0.02, variant="grouptron-robust-residual")
+    lines = [c for c in target_checks({}, ("backward",), evidence) if "paired 95%" in c]
+    assert len(lines) == 2
+    assert lines[0].startswith("- Grouptron (robust) ML FDE") and ": met (" in lines[0]
+    assert lines[1].startswith("- Grouptron (robust, residual) ML FDE") and "NOT met" in lines[1]

@@ -212,6 +212,21 @@ def test_the_residual_model_is_the_screened_residual_switch() -> None:
     assert isinstance(built, TrajectronCVAE) and not isinstance(built, GrouptronCVAE)
 
 
+def test_the_group_residual_model_is_the_screened_robust_residual_switches() -> None:
+    """`grouptron-robust-residual` is Grouptron with the screened `robust-residual` switches:
+    the group encoders, the robust settings (eth's narrow ST-GCNs too) and the residual."""
+    from grouptron.model.factory import uses_groups
+    from grouptron.model.grouptron import GrouptronCVAE
+    from grouptron.presets import MODEL_PRESETS, experiment_preset
+
+    _assert_named_is_screened("robust-residual", "grouptron-robust-residual")
+    univ = experiment_preset("univ", "grouptron-robust-residual")
+    assert univ.model.velocity_residual and univ.group_encoder.temporal_layers == 3
+    assert experiment_preset("eth", "grouptron-robust-residual").group_encoder.group_dim == 8
+    assert uses_groups(univ) and isinstance(build_model(univ), GrouptronCVAE)
+    assert "velocity_residual" not in MODEL_PRESETS["grouptron-robust"]["model"]  # untouched
+
+
 @pytest.mark.slow
 def test_the_named_variant_trains_and_evaluates_from_the_cli(
     synthetic_data_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]

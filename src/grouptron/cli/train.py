@@ -258,9 +258,9 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--model",
         choices=MODEL_NAMES,
         help="trajectron++ or grouptron (the paper's), grouptron-robust (Grouptron with "
-        "every density switch on; README, 'Grouptron') or trajectron++-residual (velocities "
-        "relative to the current one) (default: a --config file's "
-        "model_name, else trajectron++)",
+        "every density switch on; README, 'Grouptron'), trajectron++-residual (velocities "
+        "relative to the current one) or grouptron-robust-residual (both) (default: a "
+        "--config file's model_name, else trajectron++)",
     )
     train_cmd.add_argument("--epochs", type=int, help="epochs (default 100, as the reference)")
     train_cmd.add_argument("--out", help="output folder (default runs/MODEL-SPLIT-DERIVATIVES)")

@@ -33,7 +33,7 @@ from grouptron.evaluation.uncertainty import (
     split_average_interval,
 )
 from grouptron.model.factory import GROUP_MODELS
-from grouptron.presets import RESIDUAL_MODEL, VARIANT_MODEL
+from grouptron.presets import GROUP_RESIDUAL_MODEL, RESIDUAL_MODEL, VARIANT_MODEL
 
 BOOTSTRAP_SEED = 0
 INTERVAL_MODES = ("ml", "ml-argmax", "mean", "ml-top10", "best-of-20")
@@ -42,10 +42,13 @@ PAIRS = (
     (VARIANT_MODEL, "trajectron++"),
     (VARIANT_MODEL, "grouptron"),
     (RESIDUAL_MODEL, "trajectron++"),
+    (GROUP_RESIDUAL_MODEL, "trajectron++"),
+    (GROUP_RESIDUAL_MODEL, RESIDUAL_MODEL),
     ("trajectron++", CONSTANT_VELOCITY),
     ("grouptron", CONSTANT_VELOCITY),
     (VARIANT_MODEL, CONSTANT_VELOCITY),
     (RESIDUAL_MODEL, CONSTANT_VELOCITY),
+    (GROUP_RESIDUAL_MODEL, CONSTANT_VELOCITY),
 )
 """(model, baseline): the differences a reader asks about, model minus baseline."""
 

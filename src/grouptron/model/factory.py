@@ -10,19 +10,20 @@ from grouptron.errors import GrouptronError
 from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.grouptron import GrouptronCVAE
-from grouptron.presets import RESIDUAL_MODEL, VARIANT_MODEL
+from grouptron.presets import GROUP_RESIDUAL_MODEL, RESIDUAL_MODEL, VARIANT_MODEL
 
-MODEL_NAMES = ("trajectron++", "grouptron", VARIANT_MODEL, RESIDUAL_MODEL)
+MODEL_NAMES = ("trajectron++", "grouptron", VARIANT_MODEL, RESIDUAL_MODEL, GROUP_RESIDUAL_MODEL)
 PAPER_MODELS = ("trajectron++", "grouptron")
 """The models of the paper's tables (the rest are this project's variants)."""
-GROUP_MODELS = ("grouptron", VARIANT_MODEL)
+GROUP_MODELS = ("grouptron", VARIANT_MODEL, GROUP_RESIDUAL_MODEL)
 """The models with group- and scene-level encoders: one network (GrouptronCVAE), whose
-``grouptron-robust`` settings come from its preset (config.MODEL_PRESETS)."""
+named variants' settings come from their presets (presets.MODEL_PRESETS)."""
 DISPLAY_NAMES = {
     "trajectron++": "Trajectron++",
     "grouptron": "Grouptron",
     VARIANT_MODEL: "Grouptron (robust)",
     RESIDUAL_MODEL: "Trajectron++ (residual)",
+    GROUP_RESIDUAL_MODEL: "Grouptron (robust, residual)",
 }
 
 
