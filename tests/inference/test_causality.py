@@ -24,14 +24,21 @@ def _forecasts_at(predictor: Predictor, rows: np.ndarray, frames: list[int]) -> 
 
 
 @pytest.mark.realdata
-@pytest.mark.parametrize("model", ["grouptron", "trajectron++"])
+@pytest.mark.parametrize("model", ["grouptron", "trajectron++", "trajectron++-residual"])
 def test_cutting_a_real_recording_after_t_never_changes_a_forecast_made_at_t(
     tiny_checkpoints: Path, eth_ucy_dir: Path, model: str
 ) -> None:
-    """Both models, trained strictly causal (the shipped Trajectron++ univ checkpoint and a
-    tiny Grouptron), forecasting everyone with 2 or more points, missed steps filled."""
-    name = tiny_checkpoints / "grouptron-eth-backward" if model == "grouptron" else None
-    predictor = Predictor.from_checkpoint(name or "trajectron++-univ-backward", most_likely="ml")
+    """Both models and the default one, trained strictly causal (the shipped Trajectron++ univ
+    checkpoint, a tiny Grouptron and the default model with its own forecast), forecasting
+    everyone with 2 or more points, missed steps filled."""
+    if model == "grouptron":
+        predictor = Predictor.from_checkpoint(
+            tiny_checkpoints / "grouptron-eth-backward", most_likely="ml"
+        )
+    elif model == "trajectron++":
+        predictor = Predictor.from_checkpoint("trajectron++-univ-backward", most_likely="ml")
+    else:
+        predictor = Predictor.from_checkpoint()
     assert predictor.config.model_name == model
     rows = np.loadtxt(split_files(eth_ucy_dir, "eth", "test")[0])
     frames = np.unique(rows[:, 0]).astype(int)

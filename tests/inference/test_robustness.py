@@ -9,7 +9,13 @@ import pytest
 from grouptron import Predictor
 from tests.test_bad_input import _walk
 
-MODELS = ["grouptron-univ-backward", "trajectron++-univ-backward", "grouptron-robust-univ-backward"]
+MODELS = [
+    "grouptron-univ-backward",
+    "trajectron++-univ-backward",
+    "grouptron-robust-univ-backward",
+    "trajectron++-residual-univ-backward",  # the default model
+    "grouptron-robust-residual-univ-backward",
+]
 
 
 @pytest.fixture(scope="module", params=MODELS)
