@@ -38,7 +38,8 @@ SWITCHES = sorted(
 )
 """Every setting some named model's preset sets: a run given a name must have each at that
 model's value (its preset's, else the default), so that a run with another model's switches
-too (robust Grouptron with the velocity residual, say) is not named after either."""
+too (robust Grouptron with the velocity residual, say, is `grouptron-robust-residual`) is not
+named after either of the others."""
 
 
 def named(config: ExperimentConfig, where: Path, name: str = VARIANT_MODEL) -> ExperimentConfig:

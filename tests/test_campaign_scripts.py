@@ -102,7 +102,7 @@ def test_a_residual_trajectron_run_gets_its_name_and_other_runs_are_refused(
     _run(tmp_path / "group", SCREENED)
     assert script.main([str(tmp_path / "group"), "--as", "trajectron++-residual"]) == 2
     assert "a grouptron run, not trajectron++" in capsys.readouterr().err
-    # Robust Grouptron with the residual too is neither named model.
+    # Robust Grouptron with the residual too is neither of those: it is the third named model.
     both = dataclasses.replace(
         SCREENED, model=dataclasses.replace(SMALL_ROBUST, velocity_residual=True)
     )
@@ -115,6 +115,13 @@ def test_a_residual_trajectron_run_gets_its_name_and_other_runs_are_refused(
             tmp_path / "both", "b", replicate=False, named="grouptron-robust", shipped=shipped
         )
     assert not (shipped / "b").exists()  # refused before anything was copied
+    copy = _script("ship").ship(
+        tmp_path / "both", "b", replicate=True, named="grouptron-robust-residual", shipped=shipped
+    )
+    assert load_checkpoint(copy / "best.safetensors").config == dataclasses.replace(
+        both, model_name="grouptron-robust-residual"
+    )
+    assert "Grouptron (robust, residual)" in (copy / "README.md").read_text()
 
 
 def test_naming_refuses_a_run_with_other_settings(

@@ -3,6 +3,7 @@ differ per (model, ETH/UCY split). Everything else is ExperimentConfig's default
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 from grouptron.config import ExperimentConfig, config_from_dict, merge_settings
@@ -27,9 +28,11 @@ _ROBUST_SWITCHES: dict[str, dict[str, Any]] = {
 }
 
 MODEL_PRESETS: dict[str, dict[str, dict[str, Any]]] = {
-    VARIANT_MODEL: _ROBUST_SWITCHES,
+    VARIANT_MODEL: copy.deepcopy(_ROBUST_SWITCHES),
     RESIDUAL_MODEL: {"model": {"velocity_residual": True}},
-    GROUP_RESIDUAL_MODEL: merge_settings(_ROBUST_SWITCHES, {"model": {"velocity_residual": True}}),
+    GROUP_RESIDUAL_MODEL: merge_settings(
+        copy.deepcopy(_ROBUST_SWITCHES), {"model": {"velocity_residual": True}}
+    ),
 }
 """Settings that make a named model out of another's code, by section, on every split and
 dataset. ``grouptron-robust`` is Grouptron with every density switch on: E_scene sees all 8

@@ -16,9 +16,10 @@ checkout a link to the repository's checkpoints/)."""
 DEFAULT_CHECKPOINT = "trajectron++-residual-univ-backward"
 """The model used where none is named (``Predictor.from_checkpoint()``, ``grouptron predict``
 and ``plot``): strictly causal inputs, so it forecasts live tracks as it was trained, and with
-its own point forecast (``ml-top10``) the one shipped model at or below constant velocity's FDE
-on every recording from elsewhere, for each of its three seeds (benchmarks/RESULTS.md). The
-same model trained on all five locations did worse there, as did the all-locations variant."""
+its own point forecast (``ml-top10``) at or below constant velocity's FDE on every recording
+from elsewhere, for each of its three seeds and on the confirmation recordings
+(benchmarks/RESULTS.md). The same model trained on all five locations did worse there, as did
+the all-locations variant."""
 
 
 def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | None = None) -> Path:
