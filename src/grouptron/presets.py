@@ -52,12 +52,11 @@ NAMED_MODEL_BASES = {
 
 SPLIT_PRESETS: dict[tuple[str, str], dict[str, dict[str, Any]]] = {
     ("grouptron", "eth"): {"group_encoder": {"group_dim": 8}},
-    (VARIANT_MODEL, "eth"): {"group_encoder": {"group_dim": 8}},
-    (GROUP_RESIDUAL_MODEL, "eth"): {"group_encoder": {"group_dim": 8}},
 }
-"""Settings that differ per (model, ETH/UCY split), by section: the paper narrows Grouptron's
-ST-GCNs to 8 on eth, whose test recording rarely has 5 or more people in view (its variant
-follows). Nothing else (no other model, no dataset of one's own) gets a preset."""
+"""Settings that differ per (model, ETH/UCY split), by section, for a paper model and every
+named model built on its code: the paper narrows Grouptron's ST-GCNs to 8 on eth, whose test
+recording rarely has 5 or more people in view. Nothing else (no other model, no dataset of
+one's own) gets a preset."""
 
 
 def preset_values(split: str, model_name: str, dataset: str = "") -> dict[str, Any]:
@@ -66,7 +65,8 @@ def preset_values(split: str, model_name: str, dataset: str = "") -> dict[str, A
     values: dict[str, Any] = {"split": split, "model_name": model_name, "dataset": dataset}
     values = merge_settings(values, MODEL_PRESETS.get(model_name, {}))
     if not dataset:
-        values = merge_settings(values, SPLIT_PRESETS.get((model_name, split), {}))
+        base = NAMED_MODEL_BASES.get(model_name, model_name)
+        values = merge_settings(values, SPLIT_PRESETS.get((base, split), {}))
     return values
 
 
