@@ -123,12 +123,24 @@ def test_report_statistics_on_hand_made_scores() -> None:
     assert spreads["trajectron++"].seeds == (0, 1)
     assert spreads["trajectron++"].fde == pytest.approx((base.mean() - 0.1, base.mean() - 0.2))
     assert spreads["grouptron - trajectron++"].fde == pytest.approx((0.0, 0.1))
-    assert spreads["grouptron-robust - trajectron++"].fde == pytest.approx((-0.2, -0.05))
+    robust = spreads["grouptron-robust - trajectron++"]
+    assert robust.fde == pytest.approx((-0.2, -0.05))
+    # Every sample differs by the same amount: each seed's paired interval is that amount.
+    assert np.ravel(robust.fde_intervals) == pytest.approx([-0.2, -0.2, -0.05, -0.05])
+    assert spreads["trajectron++"].fde_intervals == ()  # a model's own spread has none
     assert paired["grouptron-robust", "grouptron"].fde.mean == pytest.approx(-0.2)
     loaded = json.loads(report.to_json())
+    by_model = {row["model"]: row for row in loaded["seeds"]}
+    assert by_model["grouptron-robust - trajectron++"]["fde_intervals"][1] == pytest.approx(
+        [-0.05, -0.05]
+    )
     assert loaded["seeds"][0]["fde_sd"] == pytest.approx(0.1 / np.sqrt(2))
     assert set(loaded) == {"results", "paired", "seeds", "density", "ablations"}
     assert loaded["density"] == [] and loaded["ablations"] == []  # no --diagnostics
+    text = report_markdown(report, ("backward",), "grouptron report")
+    per_seed = "-0.200 [-0.200, -0.200]*, -0.050 [-0.050, -0.050]*"
+    (line,) = [x for x in text.splitlines() if per_seed in x]
+    assert line.startswith("| Grouptron (robust) - Trajectron++ | backward | ETH | 0, 1 |")
 
 
 def test_density_and_ablation_tables_on_hand_made_scores() -> None:

@@ -35,6 +35,16 @@ def _seeds(worst: float) -> list[SeedSpread]:
     ]
 
 
+def _seeds_with_intervals(worst_high: float) -> list[SeedSpread]:
+    """Every seed's mean below zero; the last seed's interval reaches ``worst_high``."""
+    name = "grouptron-robust - trajectron++"
+    intervals = ((-0.15, -0.05), (-0.1, -0.01), (-0.06, worst_high))
+    return [
+        SeedSpread(name, "backward", c, (0, 1, 2), (-0.1, -0.05, -0.02), (0, 0, 0), intervals)
+        for c in COLUMNS
+    ]
+
+
 def _variant_line(checks: list[str]) -> str:
     (line,) = [c for c in checks if "paired 95% intervals below zero" in c]
     return line
@@ -63,3 +73,16 @@ def test_each_named_group_variant_gets_its_own_line() -> None:
     assert len(lines) == 2
     assert lines[0].startswith("- Grouptron (robust) ML FDE") and ": met (" in lines[0]
     assert lines[1].startswith("- Grouptron (robust, residual) ML FDE") and "NOT met" in lines[1]
+
+
+def test_with_per_seed_intervals_every_seed_interval_must_be_below_zero() -> None:
+    met = _variant_line(
+        target_checks({}, ("backward",), _paired(-0.01), _seeds_with_intervals(-0.001))
+    )
+    assert ": met (" in met and "intervals below zero on every seed (0, 1, 2)" in met
+    assert "-0.001 at most" in met
+    # Seed 2 is lower on average, but its interval reaches above zero.
+    crossing = _variant_line(
+        target_checks({}, ("backward",), _paired(-0.01), _seeds_with_intervals(0.02))
+    )
+    assert "NOT met" in crossing and "+0.020 at most" in crossing

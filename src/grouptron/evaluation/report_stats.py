@@ -78,7 +78,11 @@ class PairedDifference:
 
 @dataclass(frozen=True)
 class SeedSpread:
-    """ML scores of every seed run of one model (or of a paired difference) on one column."""
+    """ML scores of every seed run of one model (or of a paired difference) on one column.
+
+    ``fde_intervals``: for a paired difference, each seed's 95% interval (low, high) of its
+    FDE difference over resampled time steps, in the order of ``seeds``; empty otherwise.
+    """
 
     model: str
     derivatives: str
@@ -86,6 +90,7 @@ class SeedSpread:
     seeds: tuple[int, ...]
     fde: tuple[float, ...]
     ade: tuple[float, ...]
+    fde_intervals: tuple[tuple[float, float], ...] = ()
 
     def to_dict(self) -> dict[str, object]:
         row = dataclasses.asdict(self)
@@ -251,15 +256,14 @@ def seed_spreads(runs: Sequence[ScoredRun], columns: Sequence[str]) -> list[Seed
     """ML scores per seed where a (model, split, derivatives) has several seed runs, and the
     difference of each group model and Trajectron++ for the seeds run for both."""
     by_key: dict[tuple[str, str, str], list[ScoredRun]] = {}
-    for run in runs:
+    for run in sorted(runs, key=lambda r: r.entry.seed):
         if run.entry.model != CONSTANT_VELOCITY:
             by_key.setdefault(_key(run), []).append(run)
     out = []
     for (model, split, derivatives), seeded in by_key.items():
         if len(seeded) < 2:
             continue
-        seeded = sorted(seeded, key=lambda r: r.entry.seed)
-        for column in (c for c in columns if c == split or c.startswith(f"{split}-")):
+        for column in _split_columns(columns, split):
             fde = [_values(r, "ml", column, "fde") for r in seeded]
             ade = [_values(r, "ml", column, "ade") for r in seeded]
             if any(v is None for v in (*fde, *ade)):
@@ -270,27 +274,57 @@ def seed_spreads(runs: Sequence[ScoredRun], columns: Sequence[str]) -> list[Seed
             out.append(
                 SeedSpread(model, derivatives, column, seeds, tuple(means), tuple(ade_means))
             )
-    return out + _seed_differences(out)
+    return out + _seed_differences(by_key, columns)
 
 
-def _seed_differences(spreads: Sequence[SeedSpread]) -> list[SeedSpread]:
-    """Each group model - Trajectron++ per seed, for the seeds both models have."""
+def _split_columns(columns: Sequence[str], split: str) -> list[str]:
+    """The columns of one split: the split itself and its subsets (univ-40, ...)."""
+    return [c for c in columns if c == split or c.startswith(f"{split}-")]
+
+
+def _seed_differences(
+    by_key: dict[tuple[str, str, str], list[ScoredRun]], columns: Sequence[str]
+) -> list[SeedSpread]:
+    """Each group model - Trajectron++ of the same seed on the same samples, for the seeds
+    (at least two) run for both, with each seed's paired 95% interval of the FDE difference."""
     out = []
-    index = {(s.model, s.derivatives, s.column): s for s in spreads}
-    for (model, derivatives, column), grouptron in index.items():
-        other = index.get(("trajectron++", derivatives, column))
-        if model not in GROUP_MODELS or other is None:
+    for (model, split, derivatives), seeded in by_key.items():
+        baseline = {r.entry.seed: r for r in by_key.get(("trajectron++", split, derivatives), [])}
+        common = [r for r in seeded if r.entry.seed in baseline]
+        if model not in GROUP_MODELS or len(common) < 2:
             continue
-        common = [s for s in grouptron.seeds if s in other.seeds]
-        if len(common) < 2:
-            continue
-        g = dict(zip(grouptron.seeds, zip(grouptron.fde, grouptron.ade, strict=True), strict=True))
-        t = dict(zip(other.seeds, zip(other.fde, other.ade, strict=True), strict=True))
-        fde = tuple(g[s][0] - t[s][0] for s in common)
-        ade = tuple(g[s][1] - t[s][1] for s in common)
-        name = f"{model} - trajectron++"
-        out.append(SeedSpread(name, derivatives, column, tuple(common), fde, ade))
+        for column in _split_columns(columns, split):
+            differences = [_seed_difference(r, baseline[r.entry.seed], column) for r in common]
+            if any(d is None for d in differences):
+                continue
+            found = [d for d in differences if d is not None]
+            out.append(
+                SeedSpread(
+                    f"{model} - trajectron++",
+                    derivatives,
+                    column,
+                    tuple(r.entry.seed for r in common),
+                    tuple(fde.mean for fde, _ in found),
+                    tuple(ade for _, ade in found),
+                    tuple((fde.low, fde.high) for fde, _ in found),
+                )
+            )
     return out
+
+
+def _seed_difference(
+    run: ScoredRun, baseline: ScoredRun, column: str
+) -> tuple[Interval, float] | None:
+    """``run - baseline`` on one column: the FDE difference with its paired interval and the
+    mean ADE difference (None where either was not scored there)."""
+    fde, ade = _values(run, "ml", column, "fde"), _values(run, "ml", column, "ade")
+    fde_base, ade_base = (_values(baseline, "ml", column, m) for m in ("fde", "ade"))
+    if fde is None or ade is None or fde_base is None or ade_base is None:
+        return None
+    if len(fde[0]) != len(fde_base[0]):
+        raise ValueError(f"{run.entry.model} and {baseline.entry.model} scored other samples")
+    interval = mean_interval(fde[0] - fde_base[0], fde[1], seed=BOOTSTRAP_SEED)
+    return interval, float((ade[0] - ade_base[0]).mean())
 
 
 def with_split_means(rows: list[EvaluationResult]) -> list[EvaluationResult]:

@@ -33,6 +33,12 @@ from grouptron.evaluation.scored import CONSTANT_VELOCITY
 from grouptron.evaluation.uncertainty import seed_spread
 from grouptron.model.factory import GROUP_MODELS
 
+SEEDS_NOTE = (
+    "Most likely scores of every seed run; a group model - Trajectron++ compares runs of the "
+    "same seed on the same samples, each seed with its paired 95% interval over resampled "
+    "time steps (`*`: the interval excludes zero)."
+)
+
 
 def _versus_lines(
     rows: dict[Key, EvaluationResult], columns: Sequence[str], schemes: Sequence[str]
@@ -211,11 +217,22 @@ def seed_table(seeds: Sequence[SeedSpread]) -> list[str]:
                 ", ".join(str(seed) for seed in s.seeds),
                 f"{fde:.3f} ± {fde_sd:.3f}",
                 f"{ade:.3f} ± {ade_sd:.3f}",
-                ", ".join(f"{v:.3f}" for v in s.fde),
+                ", ".join(_per_seed(s)),
             ]
         )
     header = ["model", "derivatives", "test set", "seeds", "FDE mean ± sd", "ADE mean ± sd"]
     return markdown_table([*header, "FDE per seed"], lines)
+
+
+def _per_seed(spread: SeedSpread) -> list[str]:
+    """Each seed's FDE; a paired difference's with its 95% interval and ``*`` where that
+    interval excludes zero."""
+    if not spread.fde_intervals:
+        return [f"{v:.3f}" for v in spread.fde]
+    return [
+        f"{v:+.3f} [{low:+.3f}, {high:+.3f}]" + ("*" if low > 0.0 or high < 0.0 else "")
+        for v, (low, high) in zip(spread.fde, spread.fde_intervals, strict=True)
+    ]
 
 
 def _paper_tables(rows: dict[Key, EvaluationResult], schemes: Sequence[str]) -> list[str]:
@@ -273,7 +290,7 @@ def _certainty_sections(
             *paired_table(report.paired, columns),
         ]
     if report.seeds:
-        out += ["", "## Seeds", "", "Most likely scores of every seed run.", ""]
+        out += ["", "## Seeds", "", SEEDS_NOTE, ""]
         out += seed_table(report.seeds)
     return out
 
