@@ -2,7 +2,7 @@
 
 Usage:
     python campaign/run.py [--only NAME_PART] [--dry-run | --status] [--out campaign/runs]
-                           [--variant]
+                           [--variant [MODEL]]
 
 Every run trains with ``grouptron train`` into ``OUT/<name>`` for 100 epochs (the reference
 recipe) and is skipped once finished (its ``selection.json`` exists). A run that was stopped
@@ -22,11 +22,12 @@ configuration, future encoder scale included); other seeds of ``central`` univ u
 configuration so that seeds differ in the seed alone. ``backward`` runs start from scratch on
 strictly causal inputs.
 
-``--variant`` queues the named variant ``grouptron-robust`` instead, all from scratch with its
-preset: univ ``central`` seed 0, ``backward`` of the other four splits (the causal targets
-need all five), univ ``central`` seeds 1-2, then ``central`` of the other four splits. Its univ
-``backward`` seeds are the screening runs of ``screen.py --only robust``, named with
-``name_variant.py``.
+``--variant [MODEL]`` queues a named group variant instead (default ``grouptron-robust``; also
+``grouptron-robust-residual``), all from scratch with its preset: univ ``central`` seed 0,
+``backward`` of the other four splits (the causal targets need all five), univ ``central``
+seeds 1-2, then ``central`` of the other four splits. Their univ ``backward`` seeds are the
+screening runs of ``screen.py --only robust`` (``robust-residual``), named for shipping with
+``ship.py``.
 
 The paper models' queue needs nothing newer than the package code its runs started with (the
 variant's preset is imported only for ``--variant``), so ``PYTHONPATH=<checkout of that
@@ -80,16 +81,16 @@ class Run:
         return None
 
 
-def variant_model() -> str:
-    """The named variant; imported here, not at the top, so that the paper models' queue runs
-    with package code older than the presets (``--variant`` needs the current code)."""
-    from grouptron.presets import VARIANT_MODEL
+def variant_models() -> tuple[str, ...]:
+    """The named group variants, the first the default of ``--variant``; imported here, not at
+    the top, so that the paper models' queue runs with package code older than the presets
+    (``--variant`` needs the current code)."""
+    from grouptron.presets import GROUP_RESIDUAL_MODEL, VARIANT_MODEL
 
-    return VARIANT_MODEL
+    return VARIANT_MODEL, GROUP_RESIDUAL_MODEL
 
 
-def variant_queue() -> list[Run]:
-    variant = variant_model()
+def variant_queue(variant: str) -> list[Run]:
     runs = [Run(variant, "univ", "central")]
     runs += [Run(variant, split, "backward") for split in SPLITS[1:]]
     runs += [Run(variant, "univ", "central", seed) for seed in (1, 2)]
@@ -215,10 +216,17 @@ def main() -> int:
         "two jobs of 2 threads each on 2 cores slow both several-fold)",
     )
     parser.add_argument(
-        "--variant", action="store_true", help="queue the runs of the named variant instead"
+        "--variant",
+        nargs="?",
+        const="grouptron-robust",
+        metavar="MODEL",
+        help="queue the runs of a named group variant instead (grouptron-robust when no MODEL "
+        "is given, or grouptron-robust-residual)",
     )
     args = parser.parse_args()
-    runs = variant_queue() if args.variant else queue(args.bf16_ab)
+    if args.variant is not None and args.variant not in variant_models():
+        parser.error(f"--variant: one of {', '.join(variant_models())}, not {args.variant!r}")
+    runs = variant_queue(args.variant) if args.variant else queue(args.bf16_ab)
     if args.status:
         print("\n".join(status(runs, args.out)))
         return 0

@@ -175,3 +175,16 @@ def test_status_reports_each_runs_progress_and_the_time_left(tmp_path: Path) -> 
     assert lines[1] == f"{running.name}: epoch 40 of 100, about 3.0 h left at 180 s per epoch"
     assert lines[2] == f"{waiting.name}: not started"
     assert lines[3] == "started runs: about 3.0 h left at one run at a time"
+
+
+def test_the_variant_queue_names_each_named_group_variants_runs() -> None:
+    script = _script("run")
+    assert script.variant_models() == ("grouptron-robust", "grouptron-robust-residual")
+    names = [run.name for run in script.variant_queue("grouptron-robust-residual")]
+    # The names the runs already trained under: univ central seed 0, then the causal splits.
+    assert names[:3] == [
+        "grouptron-robust-residual-univ-central",
+        "grouptron-robust-residual-eth-backward",
+        "grouptron-robust-residual-hotel-backward",
+    ]
+    assert "grouptron-robust-residual-univ-central-s2" in names and len(names) == 11
