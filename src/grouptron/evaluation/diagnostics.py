@@ -127,11 +127,6 @@ def ablation_rows(primary: Sequence[ScoredRun]) -> list[AblationRow]:
     return rows
 
 
-def _interval_cell(value: Interval) -> str:
-    star = "*" if value.excludes_zero() else ""
-    return f"{value.mean:+.3f} [{value.low:+.3f}, {value.high:+.3f}]{star}"
-
-
 def diagnostics_markdown(
     density: Sequence[DensityRow], ablations: Sequence[AblationRow], display: dict[str, str]
 ) -> list[str]:
@@ -151,7 +146,7 @@ def diagnostics_markdown(
             "| model | derivatives | " + " | ".join(f"{b} ({counts[b]})" for b in bins) + " |",
             "|---|---|" + "---|" * len(bins),
         ]
-        cells = {(r.model, r.derivatives, r.bin): _interval_cell(r.difference) for r in density}
+        cells = {(r.model, r.derivatives, r.bin): r.difference.signed_text() for r in density}
         for model, derivatives in dict.fromkeys((r.model, r.derivatives) for r in density):
             row = [cells.get((model, derivatives, b), "-") for b in bins]
             out.append(f"| {display.get(model, model)} | {derivatives} | " + " | ".join(row) + " |")
@@ -169,7 +164,7 @@ def diagnostics_markdown(
             "|---|---|---|" + "---|" * len(splits),
         ]
         changes = {
-            (r.model, r.derivatives, r.ablation, r.split): f"{_interval_cell(r.difference)} "
+            (r.model, r.derivatives, r.ablation, r.split): f"{r.difference.signed_text()} "
             f"({100 * (r.fde_ablated / r.fde - 1):+.1f}%)"
             for r in ablations
         }

@@ -269,11 +269,6 @@ def _label(model: str, mode: str | None) -> str:
     return model if mode is None else f"{model} ({mode})"
 
 
-def _signed(value: Interval) -> str:
-    star = "*" if value.excludes_zero() else ""
-    return f"{value.mean:+.3f} [{value.low:+.3f}, {value.high:+.3f}]{star}"
-
-
 def _notes(result: OutOfDomain) -> list[str]:
     """What the section could not show, said rather than left out."""
     if not result.checkpoints:
@@ -322,8 +317,8 @@ def out_of_domain_markdown(result: OutOfDomain | None) -> list[str]:
     for r in rows:
         out.append(
             f"| {r.recording} | {_label(r.model, r.mode)} | {r.samples} | {r.ade:.3f} | "
-            f"{r.fde.mean:.3f} [{r.fde.low:.3f}, {r.fde.high:.3f}] | {_signed(r.difference)} | "
-            f"{r.ratio:.3f} |"
+            f"{r.fde.mean:.3f} [{r.fde.low:.3f}, {r.fde.high:.3f}] | "
+            f"{r.difference.signed_text()} | {r.ratio:.3f} |"
         )
     bins = list(dict.fromkeys(p.bin for p in result.pooled))
     out += ["", "FDE over constant velocity's, every recording pooled, by neighbours within 3 m"]

@@ -232,9 +232,7 @@ def paired_differences(
                         )
                         if a is None or b is None:
                             break
-                        if any(len(x[0]) != len(y[0]) for x, y in zip(a, b, strict=True)):
-                            raise ValueError(f"{model} and {baseline} scored other samples")
-                        pairs = [(x[0] - y[0], x[1]) for x, y in zip(a, b, strict=True)]
+                        pairs = [_minus(x, y, model, baseline) for x, y in zip(a, b, strict=True)]
                         diffs[metric] = (_interval(pairs), sum(len(x[0]) for x in a))
                     if len(diffs) == 2:
                         out.append(
@@ -321,10 +319,16 @@ def _seed_difference(
     fde_base, ade_base = (_values(baseline, "ml", column, m) for m in ("fde", "ade"))
     if fde is None or ade is None or fde_base is None or ade_base is None:
         return None
-    if len(fde[0]) != len(fde_base[0]):
-        raise ValueError(f"{run.entry.model} and {baseline.entry.model} scored other samples")
-    interval = mean_interval(fde[0] - fde_base[0], fde[1], seed=BOOTSTRAP_SEED)
-    return interval, float((ade[0] - ade_base[0]).mean())
+    names = run.entry.model, baseline.entry.model
+    interval = mean_interval(*_minus(fde, fde_base, *names), seed=BOOTSTRAP_SEED)
+    return interval, float(_minus(ade, ade_base, *names)[0].mean())
+
+
+def _minus(values: Values, base: Values, model: str, baseline: str) -> Values:
+    """Per-sample ``values - base`` with the time steps, on the same samples of one column."""
+    if len(values[0]) != len(base[0]):
+        raise ValueError(f"{model} and {baseline} scored other samples")
+    return values[0] - base[0], values[1]
 
 
 def with_split_means(rows: list[EvaluationResult]) -> list[EvaluationResult]:

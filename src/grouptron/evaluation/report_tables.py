@@ -30,7 +30,7 @@ from grouptron.evaluation.report_stats import PairedDifference, Report, SeedSpre
 from grouptron.evaluation.report_targets import target_checks
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.scored import CONSTANT_VELOCITY
-from grouptron.evaluation.uncertainty import seed_spread
+from grouptron.evaluation.uncertainty import Interval, seed_spread
 from grouptron.model.factory import GROUP_MODELS
 
 SEEDS_NOTE = (
@@ -191,10 +191,7 @@ def paired_table(paired: Sequence[PairedDifference], columns: Sequence[str]) -> 
         cells = []
         for column in columns:
             p = index.get((derivatives, mode, model, baseline, column))
-            star = "*" if p is not None and p.fde.excludes_zero() else ""
-            cells.append(
-                f"{p.fde.mean:+.3f} [{p.fde.low:+.3f}, {p.fde.high:+.3f}]{star}" if p else "-"
-            )
+            cells.append(p.fde.signed_text() if p else "-")
         lines.append(
             [f"{display_name(model)} - {display_name(baseline)}", f"{derivatives}, {mode}", *cells]
         )
@@ -230,7 +227,7 @@ def _per_seed(spread: SeedSpread) -> list[str]:
     if not spread.fde_intervals:
         return [f"{v:.3f}" for v in spread.fde]
     return [
-        f"{v:+.3f} [{low:+.3f}, {high:+.3f}]" + ("*" if low > 0.0 or high < 0.0 else "")
+        Interval(v, low, high).signed_text()
         for v, (low, high) in zip(spread.fde, spread.fde_intervals, strict=True)
     ]
 

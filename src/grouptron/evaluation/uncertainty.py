@@ -32,6 +32,12 @@ class Interval:
     def excludes_zero(self) -> bool:
         return self.low > 0.0 or self.high < 0.0
 
+    def signed_text(self) -> str:
+        """``+0.012 [-0.003, +0.027]``, with ``*`` where the interval excludes zero (a table
+        cell of a difference)."""
+        star = "*" if self.excludes_zero() else ""
+        return f"{self.mean:+.3f} [{self.low:+.3f}, {self.high:+.3f}]{star}"
+
 
 def bootstrap_means(
     values: np.ndarray, clusters: np.ndarray, replicates: int = REPLICATES, seed: int = 0
