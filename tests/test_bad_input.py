@@ -275,7 +275,7 @@ def test_ten_thousand_pedestrians_in_one_frame(
     ("rows", "fragment"),
     [
         # Two short tracks 10^11 steps apart: the dense per-step grids would need terabytes.
-        ([(0, 1, 0, 0), (10, 1, 1, 1), (10**12, 2, 3, 3), (10**12 + 10, 2, 4, 4)], "split the"),
+        ([(0, 1, 0, 0), (10, 1, 0.5, 0), (10**12, 2, 3, 3), (10**12 + 10, 2, 3.5, 3)], "split the"),
         # 300 people within 5 m x 5 m: a unit error, not a crowd.
         (
             [

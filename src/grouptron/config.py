@@ -390,6 +390,11 @@ def merge_settings(base: dict[str, Any], overrides: dict[str, Any]) -> dict[str,
     for key, value in overrides.items():
         if isinstance(value, dict) and isinstance(merged.get(key), dict):
             merged[key] = merge_settings(merged[key], value)
+        elif isinstance(merged.get(key), dict) or (isinstance(value, dict) and key in merged):
+            single = merged[key] if isinstance(value, dict) else value
+            raise GrouptronError(
+                f"settings: {key} must be a table of settings ({key}.NAME=VALUE), not {single!r}"
+            )
         else:
             merged[key] = value
     return merged

@@ -76,10 +76,14 @@ def save_atomically(
             temporary.unlink()
 
 
-def refuse_folder(path: Path) -> None:
-    """Stop early when an output path names a folder (checked again when writing)."""
+def refuse_folder(path: Path, *, inputs: tuple[str | Path, ...] = ()) -> None:
+    """Stop early when an output path names a folder (checked again when writing) or one of
+    the command's ``inputs`` (writing would replace the file being read)."""
     if path.is_dir():
         raise GrouptronError(f"{path} is a folder; give a file name for the output")
+    for source in inputs:
+        if path.exists() and Path(source).exists() and path.samefile(source):
+            raise GrouptronError(f"{path} is an input of this command; give another output file")
 
 
 def _write_atomically(path: Path, write: Callable[[TextIO], object]) -> None:

@@ -8,11 +8,19 @@ import logging
 import sys
 from pathlib import Path
 
+import numpy as np
 import torch
 
-from grouptron.constants import SPLITS
+from grouptron.constants import DT_S, SPLITS
 from grouptron.data.reader import TrackTable, read_tracks
-from grouptron.data.recording import UNITS_M, RecordingFormat, parse_columns, read_resampled
+from grouptron.data.recording import (
+    UNITS_M,
+    Recording,
+    RecordingFormat,
+    check_plausible,
+    parse_columns,
+    read_resampled,
+)
 from grouptron.devices import available_device
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import MODES
@@ -201,12 +209,14 @@ def add_recording_options(parser: argparse.ArgumentParser) -> None:
 
 
 def own_layout(args: argparse.Namespace) -> bool:
-    """Whether the recording options name anything but an ETH/UCY-style file."""
+    """Whether the recording options name anything but an ETH/UCY-style file (a ``--max-gap``
+    of its own asks for gaps to be bridged by resampling)."""
     default = RecordingFormat()
     return (
         parse_columns(args.columns) != default.columns
         or args.fps is not None
         or args.units != default.units
+        or args.max_gap != default.max_gap_s
         or Path(args.tracks).suffix == ".ndjson"
     )
 
@@ -216,9 +226,16 @@ def read_track_table(args: argparse.Namespace, frames_per_step: int) -> TrackTab
     ``--on-gap``), or a recording in its own layout (``--columns``, ``--fps``, ``--units``;
     TrajNet++ ``.ndjson``) resampled to 0.4 s steps, in its own frame numbers where a step is a
     whole number of them, else in steps."""
+    fmt = recording_format(args)  # checks every option, also for an ETH/UCY-style file
     if own_layout(args):
-        return read_resampled(Path(args.tracks), recording_format(args))
-    return read_tracks(args.tracks, frames_per_step, args.on_gap)
+        return read_resampled(Path(args.tracks), fmt)
+    table = read_tracks(args.tracks, frames_per_step, args.on_gap)
+    if fmt.check_speed:
+        # Steps of an ETH/UCY-style file are 0.4 s apart, whatever its frames per step.
+        time_s = table.step * DT_S
+        lines = np.zeros_like(table.step)  # not needed: the check names no line
+        check_plausible(Recording(table.path, table.ped_id, time_s, table.pos_m, lines), fmt)
+    return table
 
 
 def recording_format(args: argparse.Namespace) -> RecordingFormat:

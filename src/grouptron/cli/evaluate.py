@@ -68,7 +68,7 @@ def cmd_evaluate_tracks(args: argparse.Namespace) -> int:
     """``evaluate --tracks``: recordings of one's own instead of the benchmark's test sets."""
     fmt = recording_format(args)
     files = [Path(f) for f in args.tracks]
-    if args.split or args.subset:
+    if args.split is not None or args.subset is not None:
         raise GrouptronError("--split and --subset choose benchmark test sets, not --tracks")
     model, experiment = None, None
     data = DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
@@ -90,6 +90,8 @@ def cmd_evaluate_tracks(args: argparse.Namespace) -> int:
                 experiment.split,
             )
         warn_look_ahead(args.checkpoint, data.derivatives)
+    if "nll" in eval_modes(args.mode) and args.mode != "all":
+        raise GrouptronError("--mode nll is scored on benchmark test sets, not on --tracks")
     modes = tuple(m for m in eval_modes(args.mode) if m != "nll")
     ablate = _ablations(args, experiment is not None and uses_groups(experiment))
     results = evaluate_recordings(
@@ -146,7 +148,9 @@ def _ablations(args: argparse.Namespace, has_scene: bool) -> tuple[str, ...]:
     ablate = tuple(a.strip() for a in (args.ablate or "").split(",") if a.strip())
     unknown = sorted(set(ablate) - set(ABLATIONS))
     if unknown:
-        raise GrouptronError(f"unknown --ablate {', '.join(unknown)}; choose from {ABLATIONS}")
+        raise GrouptronError(
+            f"unknown --ablate {', '.join(unknown)}; choose from {', '.join(ABLATIONS)}"
+        )
     if ablate and not args.checkpoint:
         raise GrouptronError("--ablate takes inputs away from a checkpoint's model")
     if "scene" in ablate and not has_scene:
@@ -172,11 +176,21 @@ def _model_and_data(
     return model, experiment, config
 
 
-def cmd_evaluate(args: argparse.Namespace) -> int:
+def _check_options(args: argparse.Namespace) -> None:
+    """Refuse option combinations that have no meaning, before anything is read."""
     if (args.model is None) == (args.checkpoint is None):
         raise GrouptronError("give either --checkpoint PATH or --model constant-velocity")
     if args.tracks and args.dataset:
         raise GrouptronError("give either --tracks or --dataset, not both")
+    sampled = [m for m in eval_modes(args.mode) if m in ("best-of-20", "nll")]
+    if args.model is not None and sampled and args.mode != "all":
+        raise GrouptronError(
+            f"constant velocity makes one forecast: --mode {','.join(sampled)} needs a --checkpoint"
+        )
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    _check_options(args)
     if args.tracks:
         return cmd_evaluate_tracks(args)
     if args.dataset:
@@ -189,9 +203,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             "no benchmark test set is held out from it; score it on recordings of your own "
             "(--tracks, --dataset)"
         )
-    splits = parse_splits(args.split or (experiment.split if experiment else "all"))
-    subset = parse_univ_n(args.subset) if args.subset else None
-    if args.subset and splits != ["univ"]:
+    splits = parse_splits(
+        args.split if args.split is not None else (experiment.split if experiment else "all")
+    )
+    subset = parse_univ_n(args.subset) if args.subset is not None else None
+    if subset is not None and splits != ["univ"]:
         raise GrouptronError("--subset univ-N needs --split univ")
     modes = eval_modes(args.mode)
     grouped = experiment is not None and uses_groups(experiment)

@@ -36,6 +36,7 @@ from grouptron.io import (
 )
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.predict import POINT_FORECASTS, default_point_forecast
+from grouptron.viz.files import check_picture_path
 from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tracks_around
 
 
@@ -56,7 +57,7 @@ def _write_trajnet(path: Path, forecast: Forecast, table: TrackTable, *, sampled
 
 
 def cmd_predict(args: argparse.Namespace) -> int:
-    refuse_folder(Path(args.out))  # before the work, not after it
+    refuse_folder(Path(args.out), inputs=(args.tracks,))  # before the work, not after it
     model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
     warn_look_ahead(args.checkpoint, experiment.data.derivatives)
     torch.set_num_threads(args.threads)
@@ -96,10 +97,19 @@ def cmd_predict(args: argparse.Namespace) -> int:
 
 def cmd_plot(args: argparse.Namespace) -> int:
     out = Path(args.out)
-    refuse_folder(out)  # before the work, not after it
+    if args.until is not None and args.until <= args.frame:
+        raise GrouptronError(f"--until {args.until} must come after --frame {args.frame}")
+    check_picture_path(
+        out, animation=args.until is not None, inputs=(args.tracks,)
+    )  # before the work, not after it
     torch.set_num_threads(args.threads)
     predictors = [
-        Predictor.from_checkpoint(c, most_likely=args.forecast, device=args.device)
+        Predictor.from_checkpoint(
+            c,
+            most_likely=args.forecast,
+            device=args.device,
+            check_speed=not args.no_speed_check,  # the file was checked as it was read
+        )
         for c in (args.checkpoint, args.compare)
         if c
     ]
@@ -115,10 +125,6 @@ def cmd_plot(args: argparse.Namespace) -> int:
         plot_forecasts(_plot_panels(args, predictors, rows, args.frame), args.frame, out)
         print(f"wrote {out}: forecasts at frame {args.frame}")
         return 0
-    if args.until <= args.frame:
-        raise GrouptronError(f"--until {args.until} must come after --frame {args.frame}")
-    if out.suffix.lower() not in (".gif", ".mp4"):
-        raise GrouptronError(f"{out}: an animation (--until) is written as .gif or .mp4")
     step = data.frames_per_step
     wanted = range(args.frame, args.until + 1, step)
     present = set(rows[:, 0].astype(np.int64).tolist())

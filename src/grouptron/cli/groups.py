@@ -29,10 +29,14 @@ from grouptron.errors import GrouptronError
 from grouptron.groups.clustering import LINKAGES
 from grouptron.groups.distances import DISTANCE_KINDS
 from grouptron.groups.labels import apply_id_map, read_group_labels, read_id_map
-from grouptron.groups.scene import groups_per_step, position_grid, score_against_labels
-from grouptron.io import (
-    write_csv_atomically,
+from grouptron.groups.scene import (
+    StepGroups,
+    groups_per_step,
+    position_grid,
+    score_against_labels,
 )
+from grouptron.io import refuse_folder, write_csv_atomically
+from grouptron.viz.files import check_picture_path
 from grouptron.viz.groups import plot_step_groups
 
 
@@ -102,8 +106,15 @@ def _track_scene(args: argparse.Namespace) -> Scene:
 def cmd_groups_evaluate(args: argparse.Namespace) -> int:
     scene = _track_scene(args)
     labels = read_group_labels(args.labels)
+    if not labels:
+        raise GrouptronError(f"{args.labels}: no pedestrian ids (one group per line)")
     if args.id_map:
         labels = apply_id_map(labels, read_id_map(args.id_map))
+    if not set(labels) & set(scene.ped_id.tolist()):
+        raise GrouptronError(
+            f"none of the {len(labels)} pedestrian ids of {args.labels} is an id of "
+            f"{args.tracks}; if the files number people differently, map them with --id-map"
+        )
     rows = []
     for config in _group_configs(args):
         scores = score_against_labels(scene, labels, config, every=args.every)
@@ -119,6 +130,11 @@ def cmd_groups_evaluate(args: argparse.Namespace) -> int:
                     **values,
                 }
             )
+    if not any(row["decisions"] for row in rows):
+        raise GrouptronError(
+            f"{args.tracks}: no step has two or more pedestrians tracked over 2 or more steps, "
+            "so there is no pair to score"
+        )
     if args.format == "json":
         # NaN (no decision of a kind) is not JSON: write null.
         clean = [{k: None if v != v else v for k, v in row.items()} for row in rows]
@@ -141,6 +157,11 @@ def cmd_groups_evaluate(args: argparse.Namespace) -> int:
 
 
 def cmd_groups_detect(args: argparse.Namespace) -> int:
+    # Every output checked before the work, so that a bad one leaves no file behind.
+    if args.out:
+        refuse_folder(Path(args.out), inputs=(args.tracks,))
+    if args.plot:
+        check_picture_path(Path(args.plot), option="--plot", inputs=(args.tracks,))
     scene = _track_scene(args)
     (config,) = _group_configs(args)
     found = list(groups_per_step(scene, config))
@@ -149,6 +170,7 @@ def cmd_groups_detect(args: argparse.Namespace) -> int:
             f"{args.tracks}: no pedestrian is tracked over 2 or more steps, so there is "
             "nobody to group"
         )
+    chosen = _plotted_step(args, scene, found) if args.plot else None
     rows = [
         (scene.first_frame + f.step * scene.frames_per_step, int(scene.ped_id[track]), int(label))
         for f in found
@@ -161,17 +183,7 @@ def cmd_groups_detect(args: argparse.Namespace) -> int:
         print("frame,id,group")
         for row in rows:
             print(",".join(str(v) for v in row))
-    if args.plot:
-        if not found:
-            raise GrouptronError(f"{args.tracks}: no step to plot")
-        if args.frame is None:
-            chosen = max(found, key=lambda f: len(f.tracks))
-        else:
-            step, rest = divmod(args.frame - scene.first_frame, scene.frames_per_step)
-            matches = [f for f in found if f.step == step]
-            if rest or not matches:
-                raise GrouptronError(f"frame {args.frame} is not a frame of {args.tracks}")
-            chosen = matches[0]
+    if chosen is not None:
         pad = DataConfig().history_steps - 1
         pos, present = position_grid(scene, pad)
         window = slice(chosen.step, chosen.step + pad + 1)
@@ -187,6 +199,17 @@ def cmd_groups_detect(args: argparse.Namespace) -> int:
         )
         print(f"plot of frame {frame} written to {args.plot}")
     return 0
+
+
+def _plotted_step(args: argparse.Namespace, scene: Scene, found: list[StepGroups]) -> StepGroups:
+    """The step ``--plot`` draws: ``--frame``'s, or the one with the most pedestrians."""
+    if args.frame is None:
+        return max(found, key=lambda f: len(f.tracks))
+    step, rest = divmod(args.frame - scene.first_frame, scene.frames_per_step)
+    matches = [f for f in found if f.step == step]
+    if rest or not matches:
+        raise GrouptronError(f"frame {args.frame} is not a frame of {args.tracks}")
+    return matches[0]
 
 
 def add_parser(commands: argparse._SubParsersAction) -> None:

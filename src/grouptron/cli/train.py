@@ -139,15 +139,14 @@ def experiment_from_args(args: argparse.Namespace) -> ExperimentConfig:
         "init_from": str(resolve_checkpoint(args.init_from)) if args.init_from else None,
     }
     train_values = {k: v for k, v in flags.items() if v is not None}
-    if args.precision is not None or "bf16" not in values.get("train", {}):
-        threads = args.threads or TrainConfig().threads
-        train_values["bf16"] = resolve_precision(
-            args.precision or "auto", args.device, threads=threads
-        )
     data_values: dict[str, Any] = {"on_gap": args.on_gap}
     if args.derivatives:
         data_values["derivatives"] = args.derivatives
     values = merge_settings(values, {"train": train_values, "data": data_values})
+    if args.precision is not None or "bf16" not in values["train"]:
+        threads = args.threads or TrainConfig().threads
+        bf16 = resolve_precision(args.precision or "auto", args.device, threads=threads)
+        values = merge_settings(values, {"train": {"bf16": bf16}})
     return config_from_dict(ExperimentConfig, values)
 
 

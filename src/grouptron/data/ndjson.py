@@ -10,6 +10,7 @@ second (2.5 for the 0.4 s step).
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -21,13 +22,36 @@ from grouptron.io import write_text_atomically
 ROWS_PER_SECOND = 2.5  # TrajNet++'s resampling: one row per 0.4 s
 
 
-def read_ndjson(path: Path) -> tuple[np.ndarray, float]:
-    """(R, 4) ``frame, id, x, y`` rows of the file's tracks (each (frame, id) once) and the
-    seconds per frame number, from the scenes' ``fps`` (rows per second) and the tracks' most
-    common frame step."""
-    rows, fps = [], []
+def read_ndjson(path: Path) -> tuple[np.ndarray, np.ndarray, float]:
+    """(R, 4) ``frame, id, x, y`` rows of the file's tracks (each (frame, id) once), (R,) the
+    file line of every row, and the seconds per frame number, from the scenes' ``fps`` (rows
+    per second) and the tracks' most common frame step.
+
+    Raises:
+        DataFormatError: naming the line, for a line that is not a scene or a track, a value
+            that is not finite, an id or frame that is not a whole number, or an ``fps`` that
+            is not a positive number.
+    """
+    rows, line_of_row, fps = _entries(path)
+    _check_values(path, rows, line_of_row)
+    # Scenes repeat rows: keep each (frame, id) once, from its first line; two different
+    # positions for one (frame, id) are refused by the resampling's duplicate check.
+    _, first = np.unique(rows, axis=0, return_index=True)
+    first.sort()
+    rows, line_of_row = rows[first], line_of_row[first]
+    by_track = rows[np.lexsort((rows[:, 0], rows[:, 1]))]
+    same_ped = by_track[1:, 1] == by_track[:-1, 1]
+    steps = np.diff(by_track[:, 0])[same_ped]
+    step = float(np.median(steps[steps > 0])) if (steps > 0).any() else 1.0
+    rows_per_second = float(np.median(fps)) if fps else ROWS_PER_SECOND
+    return rows, line_of_row, 1.0 / (rows_per_second * step)
+
+
+def _entries(path: Path) -> tuple[np.ndarray, np.ndarray, list[float]]:
+    """(R, 4) every track row as written, (R,) its file line, and every scene's ``fps``."""
+    rows, numbers, fps = [], [], []
     try:
-        lines = Path(path).read_text().splitlines()
+        lines = Path(path).read_text(encoding="utf-8-sig").splitlines()
     except (OSError, UnicodeDecodeError) as exc:
         raise DataFormatError(path, f"cannot read the file ({exc})") from None
     for number, line in enumerate(lines, start=1):
@@ -38,20 +62,30 @@ def read_ndjson(path: Path) -> tuple[np.ndarray, float]:
             if "track" in entry:
                 t = entry["track"]
                 rows.append((float(t["f"]), float(t["p"]), float(t["x"]), float(t["y"])))
+                numbers.append(number)
             elif "scene" in entry and "fps" in entry["scene"]:
                 fps.append(float(entry["scene"]["fps"]))
-        except (ValueError, KeyError, TypeError) as exc:
+                if not (math.isfinite(fps[-1]) and fps[-1] > 0):
+                    why = f"fps must be a positive number, not {fps[-1]:g}"
+                    raise DataFormatError(path, why, number)
+        except (ValueError, KeyError, TypeError, AttributeError) as exc:
             raise DataFormatError(path, f"not a TrajNet++ scene or track ({exc})", number) from None
     if not rows:
         raise DataFormatError(path, "no track rows")
-    table = np.unique(np.asarray(rows), axis=0)  # scenes repeat rows: keep each once
-    order = np.lexsort((table[:, 0], table[:, 1]))
-    table = table[order]
-    same = table[1:, 1] == table[:-1, 1]
-    steps = np.diff(table[:, 0])[same]
-    step = float(np.median(steps[steps > 0])) if (steps > 0).any() else 1.0
-    rows_per_second = float(np.median(fps)) if fps else ROWS_PER_SECOND
-    return table, 1.0 / (rows_per_second * step)
+    return np.asarray(rows), np.asarray(numbers), fps
+
+
+def _check_values(path: Path, rows: np.ndarray, line_of_row: np.ndarray) -> None:
+    """Refuse non-finite values and frames or ids that are not whole numbers."""
+    for column, name in enumerate(("f", "p", "x", "y")):
+        bad = np.flatnonzero(~np.isfinite(rows[:, column]))
+        if bad.size:
+            raise DataFormatError(path, f"{name} is not finite", int(line_of_row[bad[0]]))
+        if column < 2:
+            bad = np.flatnonzero(rows[:, column] != np.round(rows[:, column]))
+            if bad.size:
+                why = f"{name} must be a whole number, not {rows[bad[0], column]:g}"
+                raise DataFormatError(path, why, int(line_of_row[bad[0]]))
 
 
 def write_forecast_ndjson(

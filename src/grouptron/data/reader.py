@@ -65,9 +65,9 @@ def _data_lines(path: Path, text: str) -> tuple[list[int], list[list[str]]]:
     numbers: list[int] = []
     rows: list[list[str]] = []
     for number, line in enumerate(text.splitlines(), start=1):
-        tokens = line.split()
-        if not tokens:
-            continue
+        tokens = line.replace(",", " ").split()
+        if not tokens or tokens[0].startswith("#"):
+            continue  # blank or a comment
         if not rows and _is_header(tokens):
             continue  # a header line such as "frame id x y" (names, no numbers)
         if len(tokens) != len(COLUMNS):
@@ -115,7 +115,7 @@ def _parse(path: Path) -> tuple[np.ndarray, np.ndarray]:
         raise DataFormatError(path, "not a regular file")
     raw = path.read_bytes()
     try:
-        text = raw.decode("utf-8")
+        text = raw.decode("utf-8-sig")  # a byte-order mark is no data
     except UnicodeDecodeError as exc:
         line = raw[: exc.start].count(b"\n") + 1
         raise DataFormatError(path, "not a text file (invalid UTF-8)", line) from None
@@ -141,7 +141,7 @@ def _check_integers(path: Path, values: np.ndarray, lines: np.ndarray) -> None:
             row = int(bad[0])
             raise DataFormatError(
                 path,
-                f"{COLUMNS[column]} must be an integer, found {values[row, column]!r}",
+                f"{COLUMNS[column]} must be an integer, found {values[row, column]:g}",
                 int(lines[row]),
             )
         too_big = np.flatnonzero(np.abs(values[:, column]) > 2**53)
@@ -155,7 +155,7 @@ def read_tracks(
     frames_per_step: int = FRAMES_PER_STEP,
     on_gap: GapPolicy = "split",
 ) -> TrackTable:
-    """Read and validate a ``frame id x y`` file (tabs or spaces).
+    """Read and validate a ``frame id x y`` file (tabs, spaces or commas; ``#`` comments).
 
     Args:
         path: the file.

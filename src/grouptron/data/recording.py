@@ -15,6 +15,7 @@ from __future__ import annotations
 import io
 import math
 import re
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -116,7 +117,7 @@ def _numbers(path: Path, width: int) -> tuple[np.ndarray, np.ndarray]:
     """(R, C) the numeric rows of a whitespace- or comma-separated file (a first line that is
     not numbers is a header) and (R,) their line numbers."""
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is no data
     except (OSError, UnicodeDecodeError) as exc:
         raise DataFormatError(path, f"cannot read the file ({exc})") from None
     fast = _parse_fast(text, width)
@@ -132,8 +133,8 @@ def _numbers(path: Path, width: int) -> tuple[np.ndarray, np.ndarray]:
         try:
             values = [float(f) for f in fields]
         except ValueError:
-            if not rows:
-                continue  # a header line
+            if not rows and not any(_is_number(f) for f in fields):
+                continue  # a header line: names only
             raise DataFormatError(path, f"not a number in {raw.strip()!r}", number) from None
         if len(values) < width:
             raise DataFormatError(
@@ -146,13 +147,23 @@ def _numbers(path: Path, width: int) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(rows, dtype=np.float64), np.asarray(lines)
 
 
+def _is_number(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
 def _parse_fast(text: str, width: int) -> tuple[np.ndarray, np.ndarray] | None:
     """NumPy's parser over the whole file, when every line is numbers (no header, no blank or
     comment lines, at least ``width`` columns); None otherwise."""
     try:
-        values = np.loadtxt(
-            io.StringIO(text.replace(",", " ")), ndmin=2, usecols=range(width), comments=None
-        )
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # an empty file: the slow path says so in one line
+            values = np.loadtxt(
+                io.StringIO(text.replace(",", " ")), ndmin=2, usecols=range(width), comments=None
+            )
     except (ValueError, IndexError):
         return None
     if len(values) != text.count("\n") + (not text.endswith("\n")):
@@ -164,13 +175,13 @@ def read_recording(path: Path, fmt: RecordingFormat) -> Recording:
     """Read a file laid out as ``fmt`` says (a TrajNet++ ``.ndjson`` file brings its own
     layout); positions in metres, times in seconds."""
     if Path(path).suffix == ".ndjson":
-        rows, seconds_per_frame = read_ndjson(Path(path))
+        rows, lines, seconds_per_frame = read_ndjson(Path(path))
         return Recording(
             Path(path),
             rows[:, 1].astype(np.int64),
             rows[:, 0] * seconds_per_frame,
             rows[:, 2:4] * UNITS_M[fmt.units],
-            np.arange(1, len(rows) + 1),
+            lines,
             seconds_per_frame,
         )
     values, lines = _numbers(Path(path), len(fmt.columns))

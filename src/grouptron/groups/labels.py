@@ -25,7 +25,7 @@ def read_group_labels(path: str | Path) -> dict[int, int]:
     """
     path = Path(path)
     if not path.is_file():
-        raise DataFormatError(path, "file not found")
+        raise DataFormatError(path, "not a file" if path.exists() else "file not found")
     lines: list[tuple[int, list[int]]] = []
     for number, line in enumerate(_read_text(path).splitlines(), start=1):
         tokens = line.split()
@@ -70,20 +70,38 @@ def _as_float(token: str) -> float | None:
 
 
 def read_id_map(path: str | Path) -> dict[int, int]:
-    """A CSV with header ``track_id,label_id``: {track file id: label file id}."""
+    """A CSV with header ``track_id,label_id``: {track file id: label file id}.
+
+    Raises:
+        DataFormatError: naming the line, for a missing header, a row without exactly two
+            integer ids, a track id listed twice, or a file with no rows.
+    """
     path = Path(path)
     if not path.is_file():
-        raise DataFormatError(path, "file not found")
-    with io.StringIO(_read_text(path), newline="") as handle:
+        raise DataFormatError(path, "not a file" if path.exists() else "file not found")
+    with io.StringIO(_read_text(path).removeprefix("\ufeff"), newline="") as handle:
         reader = csv.DictReader(handle)
         if reader.fieldnames is None or {"track_id", "label_id"} - set(reader.fieldnames):
             raise DataFormatError(path, "expected a header line 'track_id,label_id'", 1)
-        mapping = {}
-        for number, row in enumerate(reader, start=2):
+        mapping: dict[int, int] = {}
+        line_of: dict[int, int] = {}
+        for row in reader:
+            number = reader.line_num
+            if None in row or None in row.values():
+                raise DataFormatError(path, "expected two ids, track_id,label_id", number)
             try:
-                mapping[int(row["track_id"])] = int(row["label_id"])
-            except (TypeError, ValueError):
-                raise DataFormatError(path, f"ids must be integers: {row}", number) from None
+                track, label = int(row["track_id"]), int(row["label_id"])
+            except ValueError:
+                raise DataFormatError(
+                    path, f"ids must be integers: {row['track_id']!r}, {row['label_id']!r}", number
+                ) from None
+            if track in mapping:
+                raise DataFormatError(
+                    path, f"track {track} is mapped twice (also line {line_of[track]})", number
+                )
+            mapping[track], line_of[track] = label, number
+    if not mapping:
+        raise DataFormatError(path, "no 'track_id,label_id' rows after the header")
     return mapping
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import os
 from pathlib import Path
 
@@ -34,6 +35,10 @@ def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | N
         return path
     if path.is_dir() and (path / BEST_WEIGHTS_FILE).is_file():
         return path / BEST_WEIGHTS_FILE
+    if path.is_dir():
+        raise GrouptronError(
+            f"{path}: a folder without {BEST_WEIGHTS_FILE}; name the checkpoint file"
+        )
     if path.suffix == ".safetensors" or len(path.parts) > 1:  # a path, not a shipped name
         raise GrouptronError(f"{path}: checkpoint not found")
     folders = [Path(d) for d in (checkpoints_dir, os.environ.get(CHECKPOINTS_ENV)) if d]
@@ -45,6 +50,9 @@ def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | N
     known = sorted(
         {p.parent.name for f in folders if f.is_dir() for p in f.glob(f"*/{BEST_WEIGHTS_FILE}")}
     )
+    close = difflib.get_close_matches(str(name_or_path), known, n=3)
+    if close:
+        raise GrouptronError(f"no checkpoint {name_or_path!s}; did you mean {' or '.join(close)}?")
     hint = f"; known names: {', '.join(known)}" if known else ""
     raise GrouptronError(
         f"no checkpoint {name_or_path!s}: not a file, and no {BEST_WEIGHTS_FILE} under "

@@ -176,7 +176,11 @@ def stored_checkpoints(root: str | Path) -> list[tuple[Path, ExperimentConfig]]:
     order; callers pick runs by configuration, never by folder name."""
     root = Path(root)
     if not root.is_dir():
-        raise GrouptronError(f"checkpoint folder {root} does not exist; pass --checkpoints DIR")
+        why = "is a file, not a folder" if root.exists() else "does not exist"
+        raise GrouptronError(
+            f"checkpoint folder {root} {why}; pass --checkpoints DIR, a folder of "
+            f"<name>/{BEST_WEIGHTS_FILE}"
+        )
     paths = sorted(root.glob(f"*/{BEST_WEIGHTS_FILE}"))
     return [(path, load_checkpoint(path).config) for path in paths]
 
@@ -184,6 +188,9 @@ def stored_checkpoints(root: str | Path) -> list[tuple[Path, ExperimentConfig]]:
 def load_trained_model(path: str | Path) -> tuple[TrajectronCVAE, ExperimentConfig]:
     """The model stored in a checkpoint (weights loaded strictly, eval mode) and its config."""
     checkpoint = load_checkpoint(path)
-    model = build_model(checkpoint.config)
+    try:
+        model = build_model(checkpoint.config)
+    except GrouptronError as exc:
+        raise GrouptronError(f"{path}: {exc}") from None
     load_weights(model, checkpoint.model_state, str(path))
     return model.eval(), checkpoint.config

@@ -1,0 +1,184 @@
+"""Inputs that used to end in a traceback or a silently wrong result: each now gives one
+``grouptron: error:`` line (exit code 2) and leaves no output file behind, or reads correctly."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grouptron.cli import main
+from grouptron.data.reader import read_tracks
+from grouptron.data.recording import RecordingFormat, read_resampled
+from grouptron.errors import GrouptronError
+from grouptron.groups.labels import read_id_map
+from grouptron.inference.checkpoints import resolve_checkpoint
+from tests.conftest import write_tracks
+
+
+def walkers(path: Path, scale: float = 1.0, skip: tuple[int, ...] = ()) -> Path:
+    """Three people walking straight at 1.25 m/s (times ``scale``) for 25 steps; person 1
+    misses the steps in ``skip``."""
+    rows = [
+        (10 * k, ped, scale * (0.5 * k), scale * (1.0 * ped))
+        for k in range(25)
+        for ped in (1, 2, 3)
+        if not (ped == 1 and k in skip)
+    ]
+    return write_tracks(path, rows)
+
+
+def ndjson(path: Path, track: str = "", fps: str = "2.5") -> Path:
+    """A TrajNet++ file of two walkers at 0.4 s rows, with ``track`` lines appended."""
+    lines = [f'{{"scene": {{"id": 0, "p": 1, "s": 0, "e": 240, "fps": {fps}}}}}']
+    lines += [
+        json.dumps({"track": {"f": 10 * k, "p": p, "x": 0.5 * k, "y": float(p)}})
+        for k in range(25)
+        for p in (1, 2)
+    ]
+    path.write_text("\n".join(lines) + ("\n" + track if track else "") + "\n")
+    return path
+
+
+def fails(argv: list[str], capsys: pytest.CaptureFixture[str], match: str) -> str:
+    code = main(argv)
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "Traceback" not in err
+    assert match in err, err
+    return err
+
+
+def test_ndjson_values_are_checked_and_lines_are_the_files(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad_x = '{"track": {"f": 250, "p": 1, "x": NaN, "y": 0.0}}'
+    fails(
+        ["groups", "detect", "--tracks", str(ndjson(tmp_path / "a.ndjson", bad_x))],
+        capsys,
+        "a.ndjson:52: x is not finite",
+    )
+    for fps in ("0", "-2.5"):
+        path = ndjson(tmp_path / "b.ndjson", fps=fps)
+        fails(["groups", "detect", "--tracks", str(path)], capsys, "b.ndjson:1: fps must be")
+    half = '{"track": {"f": 250, "p": 3.5, "x": 1.0, "y": 0.0}}'
+    fails(
+        ["groups", "detect", "--tracks", str(ndjson(tmp_path / "c.ndjson", half))],
+        capsys,
+        "c.ndjson:52: p must be a whole number, not 3.5",
+    )
+    # The same (frame, id) at another position on the last line: both file lines are named.
+    moved = '{"track": {"f": 0, "p": 1, "x": 9.0, "y": 9.0}}'
+    with pytest.raises(GrouptronError, match=r"d.ndjson:52: .* \(also line 2\)"):
+        read_resampled(ndjson(tmp_path / "d.ndjson", moved), RecordingFormat())
+
+
+def test_pictures_with_a_suffix_matplotlib_cannot_write_are_refused_before_any_work(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tracks = walkers(tmp_path / "walk.txt")
+    out = tmp_path / "groups.csv"
+    argv = ["groups", "detect", "--tracks", str(tracks), "--out", str(out)]
+    fails([*argv, "--plot", str(tmp_path / "g.txt")], capsys, "--plot")
+    fails([*argv, "--plot", str(tmp_path / "g.png"), "--frame", "105"], capsys, "not a frame")
+    assert not out.exists()
+    plot = ["plot", "--tracks", str(tracks), "--frame", "100", "--out", str(tmp_path / "p")]
+    fails(plot, capsys, "a picture needs one of the suffixes")
+
+
+def test_an_output_that_is_the_input_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], tiny_checkpoints: Path
+) -> None:
+    tracks = walkers(tmp_path / "walk.txt")
+    before = tracks.read_text()
+    checkpoint = str(tiny_checkpoints / "grouptron-eth-backward" / "best.safetensors")
+    argv = ["predict", "--checkpoint", checkpoint, "--tracks", str(tracks), "--quiet"]
+    fails([*argv, "--out", str(tracks)], capsys, "is an input of this command")
+    fails(["groups", "detect", "--tracks", str(tracks), "--out", str(tracks)], capsys, "input")
+    assert tracks.read_text() == before
+
+
+def test_a_settings_section_given_as_one_value_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    fails(["config", "show", "--set", "train=3"], capsys, "train must be a table of settings")
+    settings = tmp_path / "settings.json"
+    settings.write_text('{"train": 5}')
+    fails(["config", "show", "--config", str(settings)], capsys, "not 5")
+
+
+def test_default_layout_files_get_the_speed_check_and_max_gap(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    centimetres = walkers(tmp_path / "cm.txt", scale=100.0)
+    fails(["groups", "detect", "--tracks", str(centimetres)], capsys, "--units cm?")
+    out = tmp_path / "g.csv"
+    argv = ["groups", "detect", "--tracks", str(centimetres), "--out", str(out)]
+    assert main([*argv, "--no-speed-check"]) == 0
+    gapped = walkers(tmp_path / "gap.txt", skip=(12,))
+    for max_gap, tracks_of_1 in (("0.8", 2), ("2.0", 1)):
+        argv = ["groups", "detect", "--tracks", str(gapped), "--out", str(out)]
+        assert main([*argv, "--max-gap", max_gap]) == 0
+        frames = np.loadtxt(out, delimiter=",", skiprows=1)
+        steps_of_1 = frames[frames[:, 1] == 1, 0] // 10
+        # Bridged: person 1 is grouped at the missing step too (interpolated there).
+        assert (12 in steps_of_1) == (tracks_of_1 == 1)
+    fails(["groups", "detect", "--tracks", str(gapped), "--max-gap", "-1"], capsys, "--max-gap")
+
+
+def test_group_labels_that_match_nobody_and_bad_id_maps_are_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tracks = walkers(tmp_path / "walk.txt")
+    labels = tmp_path / "labels.txt"
+    labels.write_text("7 8\n")
+    argv = ["groups", "evaluate", "--tracks", str(tracks), "--labels", str(labels)]
+    fails(argv, capsys, "--id-map")
+    labels.write_text("")
+    fails(argv, capsys, "no pedestrian ids")
+    labels.write_text("1 2\n")
+    assert main(argv) == 0
+    single = write_tracks(tmp_path / "one.txt", [(10 * k, 1, 0.5 * k, 0.0) for k in range(20)])
+    argv = ["groups", "evaluate", "--tracks", str(single), "--labels", str(labels)]
+    fails(argv, capsys, "no pair")
+    id_map = tmp_path / "map.csv"
+    for text, match in (
+        ("track_id,label_id\n1,10\n1,11\n", r"map.csv:3: track 1 is mapped twice \(also line 2\)"),
+        ("track_id,label_id\n1,10,5\n", "map.csv:2: expected two ids"),
+        ("track_id,label_id\n", "no 'track_id,label_id' rows"),
+    ):
+        id_map.write_text(text)
+        with pytest.raises(GrouptronError, match=match):
+            read_id_map(id_map)
+
+
+def test_byte_order_marks_commas_and_comments_read_alike_in_both_readers(tmp_path: Path) -> None:
+    plain = walkers(tmp_path / "plain.txt")
+    marked = tmp_path / "marked.txt"
+    marked.write_text("\ufeff# frame id x y\n" + plain.read_text().replace("\t", ","))
+    for read in (read_tracks, lambda p: read_resampled(p, RecordingFormat())):
+        expected, found = read(plain), read(marked)
+        np.testing.assert_array_equal(found.pos_m, expected.pos_m)
+        np.testing.assert_array_equal(found.step, expected.step)
+    # A typo on the first line is an error, not a header that is quietly dropped.
+    typo = tmp_path / "typo.txt"
+    typo.write_text(plain.read_text().replace("0.0", "O.0", 1))
+    with pytest.raises(GrouptronError, match=r"typo\.txt:1: not a number"):
+        read_resampled(typo, RecordingFormat())
+
+
+def test_evaluate_refuses_what_it_cannot_score(
+    synthetic_data_dir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    cv = ["evaluate", "--model", "constant-velocity", "--data-dir", str(synthetic_data_dir)]
+    fails([*cv, "--split", "eth", "--mode", "nll"], capsys, "needs a --checkpoint")
+    fails([*cv, "--split", ""], capsys, "unknown split ''")
+
+
+def test_a_mistyped_checkpoint_name_gets_a_suggestion(tiny_checkpoints: Path) -> None:
+    with pytest.raises(GrouptronError, match="did you mean grouptron-eth-backward"):
+        resolve_checkpoint("grouptron-eth-backwrd", tiny_checkpoints)
+    with pytest.raises(GrouptronError, match=r"a folder without best\.safetensors"):
+        resolve_checkpoint(tiny_checkpoints)
