@@ -170,7 +170,11 @@ def test_status_reports_each_runs_progress_and_the_time_left(tmp_path: Path) -> 
         (folder / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records))
     (tmp_path / done.name / "selection.json").write_text(json.dumps(SELECTION))
     lines = script.status([done, running, waiting], tmp_path)
-    assert lines[0] == f"{done.name}: finished"
+    # The final choice against constant velocity on the same validation samples: 1.0 / 1.2.
+    assert lines[0] == (
+        f"{done.name}: finished, validation ML FDE 1.000 m (epoch 3) = 0.833 x constant "
+        "velocity's 1.200 m"
+    )
     # 60 epochs left at the median 180 s: 3 h.
     assert lines[1] == f"{running.name}: epoch 40 of 100, about 3.0 h left at 180 s per epoch"
     assert lines[2] == f"{waiting.name}: not started"
