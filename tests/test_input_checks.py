@@ -182,3 +182,17 @@ def test_a_mistyped_checkpoint_name_gets_a_suggestion(tiny_checkpoints: Path) ->
         resolve_checkpoint("grouptron-eth-backwrd", tiny_checkpoints)
     with pytest.raises(GrouptronError, match=r"a folder without best\.safetensors"):
         resolve_checkpoint(tiny_checkpoints)
+
+
+def test_predict_writes_to_standard_output_with_a_dash(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], tiny_checkpoints: Path
+) -> None:
+    tracks = walkers(tmp_path / "walk.txt")
+    checkpoint = str(tiny_checkpoints / "grouptron-eth-backward" / "best.safetensors")
+    argv = ["predict", "--checkpoint", checkpoint, "--tracks", str(tracks), "--quiet"]
+    assert main([*argv, "--out", "-"]) == 0
+    printed = capsys.readouterr()
+    assert main([*argv, "--out", str(tmp_path / "f.csv")]) == 0
+    assert printed.out == (tmp_path / "f.csv").read_text()
+    assert "to standard output" in printed.err
+    assert not Path("-").exists()  # no file named "-" in the working directory

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -57,7 +58,9 @@ def _write_trajnet(path: Path, forecast: Forecast, table: TrackTable, *, sampled
 
 
 def cmd_predict(args: argparse.Namespace) -> int:
-    refuse_folder(Path(args.out), inputs=(args.tracks,))  # before the work, not after it
+    to_stdout = args.out == "-"
+    if not to_stdout:
+        refuse_folder(Path(args.out), inputs=(args.tracks,))  # before the work, not after it
     model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
     warn_look_ahead(args.checkpoint, experiment.data.derivatives)
     torch.set_num_threads(args.threads)
@@ -83,11 +86,18 @@ def cmd_predict(args: argparse.Namespace) -> int:
         count = len(forecast) * data.horizon_steps * (args.samples if mode == "samples" else 1)
     else:
         header, rows, formats = forecast.table(sampled=mode == "samples")
-        write_array_csv_atomically(Path(args.out), header, rows, formats)
+        if to_stdout:
+            sys.stdout.write(",".join(header) + "\n")
+            np.savetxt(sys.stdout, rows, fmt=list(formats), delimiter=",")
+        else:
+            write_array_csv_atomically(Path(args.out), header, rows, formats)
         count = len(rows)
+    # The summary goes to standard error when the forecasts go to standard output.
     print(
         f"wrote {count} rows for {len(forecast)} (pedestrian, frame) pairs "
-        f"({experiment.model_name}, {data.derivatives} derivatives, {mode}) to {args.out}"
+        f"({experiment.model_name}, {data.derivatives} derivatives, {mode}) to "
+        f"{'standard output' if to_stdout else args.out}",
+        file=sys.stderr if to_stdout else sys.stdout,
     )
     return 0
 
@@ -216,7 +226,8 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     predict.add_argument(
         "--out",
         required=True,
-        help="CSV file to write, or a .ndjson file of TrajNet++ predictions (its tools score it)",
+        help="CSV file to write ('-': standard output), or a .ndjson file of TrajNet++ "
+        "predictions (its tools score it)",
     )
     predict.add_argument(
         "--mode",
