@@ -9,6 +9,8 @@ from grouptron.errors import GrouptronError
 
 def available_device(value: str | torch.device) -> torch.device:
     """``value`` as a torch device that this machine has (cpu, cuda[:i] or mps)."""
+    if not isinstance(value, str | torch.device):
+        raise GrouptronError(f"device must be a name such as 'cpu' or 'cuda', not {value!r}")
     try:
         device = torch.device(value)
     except RuntimeError:

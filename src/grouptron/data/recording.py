@@ -16,7 +16,9 @@ import io
 import math
 import re
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
+from numbers import Real
 from pathlib import Path
 
 import numpy as np
@@ -75,6 +77,9 @@ class RecordingFormat:
             )
         if self.fps is not None and "t" in names:
             raise GrouptronError("--fps applies to a 'frame' column; a 't' column is in seconds")
+        for name, value in (("--fps", self.fps), ("--max-gap", self.max_gap_s)):
+            if value is not None and (isinstance(value, bool) or not isinstance(value, Real)):
+                raise GrouptronError(f"{name} must be a number, not {value!r}")
         if self.fps is not None and not (math.isfinite(self.fps) and self.fps > 0):
             raise GrouptronError(f"--fps must be a positive number, not {self.fps}")
         if self.units not in UNITS_M:
@@ -304,7 +309,7 @@ def read_resampled(path: Path, fmt: RecordingFormat, dt_s: float = DT_S) -> Trac
 def load_tracks(
     path: str | Path,
     *,
-    columns: str = "frame,id,x,y",
+    columns: str | Sequence[str] = "frame,id,x,y",
     fps: float | None = None,
     units: str = "m",
     max_gap_s: float = 0.8,
@@ -318,7 +323,7 @@ def load_tracks(
         forecast = Predictor.from_checkpoint("grouptron-univ-backward").predict(rows)
     """
     fmt = RecordingFormat(
-        columns=parse_columns(columns),
+        columns=parse_columns(columns if isinstance(columns, str) else ",".join(columns)),
         fps=fps,
         units=units,
         max_gap_s=max_gap_s,

@@ -30,6 +30,10 @@ def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | N
     the shipped checkpoints installed with the package, so shipped names resolve from any
     working directory.
     """
+    if not isinstance(name_or_path, str | os.PathLike) or not str(name_or_path):
+        raise GrouptronError(
+            f"a checkpoint is a shipped name or a path to a .safetensors file, not {name_or_path!r}"
+        )
     path = Path(name_or_path)
     if path.is_file():
         return path

@@ -9,7 +9,7 @@ import numpy as np
 from grouptron.errors import GrouptronError
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # arrays have no single truth value: compare by identity
 class Forecast:
     """Forecasts of ``N`` (agent, frame) pairs, positions in the input's coordinates: the one
     result type of the Python API (``Predictor``) and of whole-file forecasts.

@@ -11,6 +11,54 @@ from grouptron.config import DataConfig
 from grouptron.errors import GrouptronError
 
 TRACK_COLUMNS = ("frame", "id", "x", "y")
+MAX_EXACT_INTEGER = 2**53
+"""Frames and ids travel as float64, which holds every integer exactly only below this."""
+
+
+def integer_argument(value: Any, name: str, minimum: int = 0, maximum: int | None = None) -> int:
+    """``value`` as an int: a Python or NumPy integer (not a bool) from ``minimum`` to
+    ``maximum``, or one clear line saying what it must be."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise GrouptronError(f"{name} must be an integer, not {value!r}")
+    if value < minimum or (maximum is not None and value > maximum):
+        bounds = f"from {minimum} to {maximum}" if maximum is not None else f">= {minimum}"
+        raise GrouptronError(f"{name} must be an integer {bounds}, not {value}")
+    return int(value)
+
+
+def frame_argument(value: Any, name: str) -> int:
+    """A frame number handed to the API: an integer, or a float holding one exactly."""
+    if isinstance(value, float | np.floating) and np.isfinite(value) and value == int(value):
+        value = int(value)
+    return integer_argument(value, name, -MAX_EXACT_INTEGER, MAX_EXACT_INTEGER)
+
+
+def check_track_rows(values: np.ndarray, frames_per_step: int) -> None:
+    """Refuse (R, 4) finite rows whose frames or ids are not whole numbers or too large to be
+    exact, that repeat a (frame, id), or whose frames are off the ``frames_per_step`` grid of
+    the first frame, naming the caller's row (not a row of some internal window)."""
+    for column, name in ((0, "frame"), (1, "id")):
+        whole = values[:, column] == np.round(values[:, column])
+        exact = np.abs(values[:, column]) < MAX_EXACT_INTEGER
+        bad = np.flatnonzero(~(whole & exact))
+        if bad.size:
+            why = "is not a whole number" if not whole[bad[0]] else "is beyond 2**53"
+            value = values[bad[0], column]
+            raise GrouptronError(f"tracks row {int(bad[0])}: {name} {value:.17g} {why}")
+    first = values[:, 0].min()
+    off = np.flatnonzero((values[:, 0] - first) % frames_per_step)
+    if off.size:
+        raise GrouptronError(
+            f"tracks row {int(off[0])}: frame {values[off[0], 0]:.0f} is not on the "
+            f"{frames_per_step}-frame grid that starts at frame {first:.0f}"
+        )
+    _, index, counts = np.unique(values[:, :2], axis=0, return_index=True, return_counts=True)
+    if (counts > 1).any():
+        row = int(index[np.flatnonzero(counts > 1)[0]])
+        frame, ped = values[row, :2]
+        raise GrouptronError(
+            f"tracks row {row}: pedestrian {ped:.0f} appears twice at frame {frame:.0f}"
+        )
 
 
 def as_track_array(tracks: Any) -> np.ndarray:
@@ -51,6 +99,11 @@ def frame_arrays(frame: int, ids: Any, xy: Any) -> tuple[np.ndarray, np.ndarray]
             f"frame {frame}: positions must have shape (N, 2) = ({len(ids_arr)}, 2) for "
             f"{len(ids_arr)} ids, got {xy_arr.shape} (one row of x, y per person; a (2, N) "
             "array needs transposing)"
+        )
+    bad = np.flatnonzero((ids_arr != np.round(ids_arr)) | ~(np.abs(ids_arr) < MAX_EXACT_INTEGER))
+    if bad.size:
+        raise GrouptronError(
+            f"frame {frame}: ids must be whole numbers below 2**53, not {ids_arr[bad[0]]!r}"
         )
     if len(np.unique(ids_arr)) != len(ids_arr):
         raise GrouptronError(f"frame {frame}: an id appears twice in one frame")

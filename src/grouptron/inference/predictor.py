@@ -34,7 +34,13 @@ from grouptron.groups.assign import assign_groups_at_step
 from grouptron.groups.scene import groups_at_step
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.inference.forecast import Forecast
-from grouptron.inference.inputs import as_track_array, refuse_future_neighbours
+from grouptron.inference.inputs import (
+    as_track_array,
+    check_track_rows,
+    frame_argument,
+    integer_argument,
+    refuse_future_neighbours,
+)
 from grouptron.inference.stream import StreamSession
 from grouptron.model.batch import Batch, batches
 from grouptron.model.checkpoint import load_trained_model
@@ -62,6 +68,9 @@ log = logging.getLogger(__name__)
 MostLikely = Literal["ml", "ml-argmax", "mean", "ml-top10"]
 MOST_LIKELY_CHOICES = tuple(POINT_FORECASTS)
 OLDER_NAMES = {"mixture-mode": "ml", "argmax-latent": "ml-argmax"}
+MAX_SAMPLES = 10_000
+"""Sampled futures per agent at most: more only fill memory (10,000 x 12 steps is 1.9 MB an
+agent)."""
 """Names these choices had before the vocabulary was unified (still accepted)."""
 
 
@@ -110,26 +119,28 @@ class Predictor:
         max_missed_steps: int = 2,
     ) -> None:
         own = "ml" if latent_values else default_point_forecast(config.model)
-        named: str = most_likely or own
-        most_likely = OLDER_NAMES.get(named, named)  # type: ignore[assignment]
-        if most_likely not in MOST_LIKELY_CHOICES:
+        named: Any = own if most_likely is None else most_likely
+        if isinstance(named, str):
+            named = OLDER_NAMES.get(named, named)
+        if named not in MOST_LIKELY_CHOICES:
             raise GrouptronError(
                 f"most_likely must be one of {', '.join(MOST_LIKELY_CHOICES)}, not {most_likely!r}"
             )
+        most_likely = named
         refuse_future_neighbours(config.data, source)
         self.device = available_device(device)
         self.model = model.eval().to(self.device)
         self.config = config
         self.source = source
         Z = config.model.latent_modes
-        if latent_values is not None and not (
-            isinstance(latent_values, int) and 1 <= latent_values <= Z
-        ):
-            raise GrouptronError(
-                f"latent_values must be an integer from 1 to {Z} or None, not {latent_values!r}"
-            )
+        if latent_values is not None:
+            latent_values = integer_argument(latent_values, "latent_values", 1, Z)
         if most_likely == "mean" and latent_values not in (None, Z):
             raise GrouptronError("latent_values is for most_likely='ml'; the mean uses all")
+        if most_likely == "ml-argmax" and latent_values not in (None, 1):
+            raise GrouptronError(
+                "latent_values is for most_likely='ml'; 'ml-argmax' decodes one latent value"
+            )
         if most_likely == "ml-top10":  # a name for ml of the 10 most probable latent values
             top = min(TOP_LATENT_VALUES, Z)
             if latent_values not in (None, top):
@@ -143,16 +154,8 @@ class Predictor:
         self.mixture = mixture
         self.check_speed = check_speed
         history = config.data.history_steps
-        if not (isinstance(min_points, int) and 2 <= min_points <= history):
-            raise GrouptronError(
-                f"min_points must be an integer from 2 to {history}, not {min_points!r}"
-            )
-        if not (isinstance(max_missed_steps, int) and max_missed_steps >= 0):
-            raise GrouptronError(
-                f"max_missed_steps must be an integer >= 0, not {max_missed_steps!r}"
-            )
-        self.min_points = min_points
-        self.max_missed_steps = max_missed_steps
+        self.min_points = integer_argument(min_points, "min_points", 2, history)
+        self.max_missed_steps = integer_argument(max_missed_steps, "max_missed_steps", 0)
         self._warned_central = False
 
     @classmethod
@@ -172,6 +175,8 @@ class Predictor:
     ) -> Predictor:
         """Load a ``.safetensors`` checkpoint (never a pickle) by path or shipped name
         (default: :data:`DEFAULT_CHECKPOINT`)."""
+        if threads is not None:
+            threads = integer_argument(threads, "threads", 1)
         path = resolve_checkpoint(name_or_path, checkpoints_dir)
         model, config = load_trained_model(path)
         if threads is not None:
@@ -237,8 +242,14 @@ class Predictor:
         values = as_track_array(tracks)
         if len(values) == 0:
             raise GrouptronError("tracks are empty: no frame, id, x, y rows")
+        check_track_rows(values, self.frames_per_step)
         self.check_plausible(values)
-        frame = int(values[:, 0].max()) if t is None else int(t)
+        frame = int(values[:, 0].max()) if t is None else frame_argument(t, "t")
+        if (frame - values[:, 0].min()) % self.frames_per_step:
+            raise GrouptronError(
+                f"t={frame} is not on the {self.frames_per_step}-frame grid of the tracks "
+                f"(first frame {values[:, 0].min():.0f})"
+            )
         # Only the rows a forecast at ``frame`` reads, so that a long recording is not turned
         # into a scene for every frame asked about (central derivatives read two steps ahead).
         ahead = 0 if live else 2 * self.frames_per_step
@@ -258,8 +269,8 @@ class Predictor:
         *,
         warn_if_central: bool = True,
     ) -> Forecast:
-        if num_samples < 0:
-            raise GrouptronError(f"num_samples must be >= 0, not {num_samples}")
+        num_samples = integer_argument(num_samples, "num_samples", 0, MAX_SAMPLES)
+        seed = integer_argument(seed, "seed", 0, 2**63 - 1)
         if warn_if_central:
             self._warn_if_central()
         data = self.config.data
@@ -395,7 +406,7 @@ class Predictor:
         return Forecast(
             frame=frame,
             frames=np.zeros(0, dtype=np.int64),
-            ids=np.zeros(0),
+            ids=np.zeros(0, dtype=np.int64),
             most_likely=np.zeros((0, H, 2)),
             samples=np.zeros((0, num_samples, H, 2)) if num_samples else None,
             mixture_log_weights=np.zeros((0, Z)) if self.mixture else None,

@@ -8,7 +8,7 @@ import numpy as np
 
 from grouptron.errors import GrouptronError
 from grouptron.inference.forecast import Forecast
-from grouptron.inference.inputs import as_track_array, frame_arrays
+from grouptron.inference.inputs import as_track_array, frame_argument, frame_arrays
 
 if TYPE_CHECKING:
     from grouptron.inference.predictor import Predictor
@@ -41,6 +41,7 @@ class StreamSession:
     ) -> Forecast:
         """Add the agents observed at ``frame`` ((N,) ids, (N, 2) positions in metres) and
         forecast every agent with enough history."""
+        frame = frame_argument(frame, "frame")
         ids_arr, xy_arr = frame_arrays(frame, ids, xy)
         if self._last_frame is not None:
             if frame <= self._last_frame:
@@ -55,8 +56,9 @@ class StreamSession:
         new = np.column_stack([np.full(len(ids_arr), float(frame)), ids_arr, xy_arr])
         as_track_array(new)  # finite, shape
         rows = np.concatenate([self._rows, new])
-        self._rows = rows[rows[:, 0] >= frame - self.window_frames]
-        self._last_frame = frame
-        if not self._judged:
-            self._judged = self.predictor.check_plausible(self._rows, min_pairs=STREAM_MIN_PAIRS)
-        return self.predictor._forecast(self._rows, frame, num_samples, seed)
+        rows = rows[rows[:, 0] >= frame - self.window_frames]
+        judged = self._judged or self.predictor.check_plausible(rows, min_pairs=STREAM_MIN_PAIRS)
+        forecast = self.predictor._forecast(rows, frame, num_samples, seed)
+        # Kept only once the update is accepted: a refused one leaves the session as it was.
+        self._rows, self._last_frame, self._judged = rows, frame, judged
+        return forecast

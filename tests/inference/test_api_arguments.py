@@ -1,0 +1,94 @@
+"""Arguments of the Python API: one clear ``GrouptronError`` for anything malformed, NumPy
+integers taken as integers, and a refused streaming update that leaves the session usable."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grouptron import Predictor
+from grouptron.errors import GrouptronError
+
+
+@pytest.fixture(scope="module")
+def predictor(tiny_checkpoints: Path) -> Predictor:
+    return Predictor.from_checkpoint(tiny_checkpoints / "grouptron-eth-backward")
+
+
+def walk(people: int = 3, steps: int = 10) -> np.ndarray:
+    """(R, 4) rows frame, id, x, y: people 1.. walking east at 1.25 m/s, 1 m apart."""
+    return np.array(
+        [(10 * k, p, 0.5 * k, float(p)) for k in range(steps) for p in range(1, people + 1)]
+    )
+
+
+def test_a_refused_streaming_update_leaves_the_session_as_it_was(predictor: Predictor) -> None:
+    session, again = predictor.stream(), predictor.stream()
+    positions = [[0.0, 1.0], [0.0, 2.0]]
+    for k in range(4):
+        xy = [[0.5 * k, 1.0], [0.5 * k, 2.0]]
+        session.update(10 * k, [1, 2], xy)
+        again.update(10 * k, [1, 2], xy)
+    with pytest.raises(GrouptronError, match="whole numbers"):
+        session.update(40, [1, 2.5], positions)
+    with pytest.raises(GrouptronError, match="out of range"):
+        session.update(40, [1, 2], [[1e9, 0.0], [0.0, 2.0]])
+    expected = again.update(40, [1, 2], [[2.0, 1.0], [2.0, 2.0]])
+    found = session.update(40, [1, 2], [[2.0, 1.0], [2.0, 2.0]])
+    np.testing.assert_array_equal(found.most_likely, expected.most_likely)
+
+
+def test_frames_t_samples_and_seeds_must_be_integers(predictor: Predictor) -> None:
+    rows = walk()
+    shifted = rows.copy()
+    shifted[shifted[:, 0] == 90, 0] += 0.5  # only the last frame: it used to give nothing
+    cases = [
+        (lambda: predictor.predict(shifted), "row 27: frame 90.5 is not a whole number"),
+        (lambda: predictor.predict(rows, t=45), "t=45 is not on the 10-frame grid"),
+        (lambda: predictor.predict(rows, t=50.7), "t must be an integer"),
+        (lambda: predictor.predict(rows, t="abc"), "t must be an integer"),
+        (lambda: predictor.predict(rows, t=float("nan")), "t must be an integer"),
+        (lambda: predictor.predict(rows, num_samples=2.5), "num_samples must be an integer"),
+        (lambda: predictor.predict(rows, num_samples=10**12), "from 0 to 10000"),
+        (lambda: predictor.predict(rows, num_samples=2, seed=None), "seed must be an integer"),
+        (lambda: predictor.stream().update(0.5, [1], [[0.0, 0.0]]), "frame must be an integer"),
+    ]
+    for call, message in cases:
+        with pytest.raises(GrouptronError, match=message):
+            call()
+    big = rows.copy()
+    big[:, 1] += 2**60
+    with pytest.raises(GrouptronError, match=r"id .* is beyond 2\*\*53"):
+        predictor.predict(big)
+    twice = np.vstack([rows, rows[-1:]])
+    with pytest.raises(GrouptronError, match="row 29: pedestrian 3 appears twice at frame 90"):
+        predictor.predict(twice)
+    # Whole floats and NumPy integers are integers.
+    t = predictor.predict(rows, t=np.int64(90), num_samples=np.int64(2), seed=np.int64(1))
+    assert len(predictor.predict(rows, t=90.0)) == len(t) == 3
+
+
+def test_constructor_arguments_are_checked(predictor: Predictor, tiny_checkpoints: Path) -> None:
+    model, config = predictor.model, predictor.config
+    folder = tiny_checkpoints / "grouptron-eth-backward"
+    cases = [
+        (lambda: Predictor(model, config, most_likely=""), "most_likely must be one of"),
+        (lambda: Predictor(model, config, most_likely=["ml"]), "most_likely must be one of"),
+        (lambda: Predictor(model, config, latent_values=True), "latent_values must be"),
+        (
+            lambda: Predictor(model, config, most_likely="ml-argmax", latent_values=5),
+            "'ml-argmax' decodes one latent value",
+        ),
+        (lambda: Predictor(model, config, device=None), "device must be a name"),
+        (lambda: Predictor.from_checkpoint(folder, threads=0), "threads must be an integer"),
+        (lambda: Predictor.from_checkpoint(None), "a checkpoint is a shipped name or a path"),
+    ]
+    for call, message in cases:
+        with pytest.raises(GrouptronError, match=message):
+            call()
+    trimmed = Predictor(model, config, latent_values=np.int64(3), min_points=np.int64(3))
+    assert (trimmed.latent_values, trimmed.min_points) == (3, 3)
+    empty = predictor.predict(walk(steps=1))
+    assert empty.ids.dtype == np.int64 and len(empty) == 0
