@@ -196,3 +196,10 @@ def test_predict_writes_to_standard_output_with_a_dash(
     assert printed.out == (tmp_path / "f.csv").read_text()
     assert "to standard output" in printed.err
     assert not Path("-").exists()  # no file named "-" in the working directory
+
+
+def test_a_misread_time_column_is_named_not_reported_as_duplicates(tmp_path: Path) -> None:
+    tracks = tmp_path / "huge.txt"
+    tracks.write_text("0 1 2 3\n1e20 1 2.4 3\n")
+    with pytest.raises(GrouptronError, match=r"its times span 1e\+19 steps"):
+        read_resampled(tracks, RecordingFormat())

@@ -92,3 +92,18 @@ def test_constructor_arguments_are_checked(predictor: Predictor, tiny_checkpoint
     assert (trimmed.latent_values, trimmed.min_points) == (3, 3)
     empty = predictor.predict(walk(steps=1))
     assert empty.ids.dtype == np.int64 and len(empty) == 0
+
+
+def test_tables_of_every_common_kind_are_read_by_column_name(predictor: Predictor) -> None:
+    rows = walk()
+    expected = predictor.predict(rows).most_likely
+    columns = {name: rows[:, i] for i, name in enumerate(("frame", "id", "x", "y"))}
+    structured = np.zeros(len(rows), dtype=[(n, "f8") for n in ("x", "y", "id", "frame")])
+    for name, column in columns.items():
+        structured[name] = column
+    for table in (columns, structured):
+        np.testing.assert_array_equal(predictor.predict(table).most_likely, expected)
+    with pytest.raises(GrouptronError, match="must be numbers: columns"):
+        predictor.predict({**columns, "x": ["a"] * len(rows)})
+    with pytest.raises(GrouptronError, match=r"load_tracks\(path\)"):
+        predictor.predict("tracks.txt")

@@ -38,6 +38,9 @@ MAX_MEDIAN_SPEED_MPS = 3.0
 ON_GRID_TOLERANCE = 1e-6
 """Observation times within this many steps of a grid point count as on the grid."""
 IGNORED = {"-", "_", "skip", "z"}
+MAX_SPAN_STEPS = 2**40
+"""More 0.4 s steps than this (14,000 years) is a time column misread, not a recording; it
+would also lose exactness in the float64 grid arithmetic."""
 
 
 @dataclass(frozen=True)
@@ -243,6 +246,12 @@ def resample(recording: Recording, fmt: RecordingFormat, dt_s: float = DT_S) -> 
     frames and the first frame is on it (ETH/UCY: 10, TrajNet: 12); else its "frames" are the
     grid steps (``first_frame`` 0, ``frames_per_step`` 1).
     """
+    span_steps = (recording.time_s.max() - recording.time_s.min()) / dt_s
+    if not span_steps < MAX_SPAN_STEPS:
+        raise GrouptronError(
+            f"{recording.path}: its times span {span_steps:.3g} steps of {dt_s} s; check the "
+            "time column (frame numbers with --fps, or 't' in seconds)"
+        )
     order = np.lexsort((recording.time_s, recording.ped_id))
     ids, time_s = recording.ped_id[order], recording.time_s[order]
     pos, lines = recording.pos_m[order], recording.line[order]

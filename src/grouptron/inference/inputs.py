@@ -3,6 +3,8 @@ clear line when malformed, never reshaped into scrambled points."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from os import PathLike
 from typing import Any
 
 import numpy as np
@@ -62,12 +64,25 @@ def check_track_rows(values: np.ndarray, frames_per_step: int) -> None:
 
 
 def as_track_array(tracks: Any) -> np.ndarray:
-    """(R, 4) float64 ``frame, id, x, y`` from an array or a table with those columns."""
-    if hasattr(tracks, "columns"):  # a DataFrame-like table: pick the columns by name
-        missing = [c for c in TRACK_COLUMNS if c not in list(tracks.columns)]
+    """(R, 4) float64 ``frame, id, x, y`` from an array, or a table with those columns (a
+    DataFrame, a dict of columns or a NumPy structured array)."""
+    if isinstance(tracks, str | PathLike):
+        raise GrouptronError(
+            f"tracks are rows of numbers, not a file name ({tracks}): read a file with "
+            "grouptron.load_tracks(path)"
+        )
+    names = getattr(getattr(tracks, "dtype", None), "names", None)
+    if hasattr(tracks, "columns") or isinstance(tracks, Mapping) or names:
+        # A table: pick the columns by name.
+        present = list(tracks.columns if hasattr(tracks, "columns") else names or tracks)
+        missing = [c for c in TRACK_COLUMNS if c not in present]
         if missing:
             raise GrouptronError(f"tracks lack the columns {missing} (need frame, id, x, y)")
-        tracks = np.column_stack([np.asarray(tracks[c], dtype=np.float64) for c in TRACK_COLUMNS])
+        tracks = [np.asarray(tracks[c]) for c in TRACK_COLUMNS]
+        try:
+            tracks = np.column_stack([np.asarray(c, dtype=np.float64) for c in tracks])
+        except (TypeError, ValueError):
+            raise GrouptronError("tracks must be numbers: columns frame, id, x, y") from None
     try:
         values = np.asarray(tracks, dtype=np.float64)
     except (TypeError, ValueError):
