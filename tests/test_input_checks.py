@@ -118,13 +118,13 @@ def test_default_layout_files_get_the_speed_check_and_max_gap(
     argv = ["groups", "detect", "--tracks", str(centimetres), "--out", str(out)]
     assert main([*argv, "--no-speed-check"]) == 0
     gapped = walkers(tmp_path / "gap.txt", skip=(12,))
-    for max_gap, tracks_of_1 in (("0.8", 2), ("2.0", 1)):
+    # Without --max-gap an ETH/UCY-style file's gap splits the track; with it, gaps up to it
+    # are bridged (person 1 is then grouped at the missing step too, interpolated there).
+    for max_gap, bridged in (([], False), (["--max-gap", "0.8"], True), (["--max-gap", "2"], True)):
         argv = ["groups", "detect", "--tracks", str(gapped), "--out", str(out)]
-        assert main([*argv, "--max-gap", max_gap]) == 0
+        assert main([*argv, *max_gap]) == 0
         frames = np.loadtxt(out, delimiter=",", skiprows=1)
-        steps_of_1 = frames[frames[:, 1] == 1, 0] // 10
-        # Bridged: person 1 is grouped at the missing step too (interpolated there).
-        assert (12 in steps_of_1) == (tracks_of_1 == 1)
+        assert (120 in frames[frames[:, 1] == 1, 0]) == bridged
     fails(["groups", "detect", "--tracks", str(gapped), "--max-gap", "-1"], capsys, "--max-gap")
 
 
@@ -203,3 +203,30 @@ def test_a_misread_time_column_is_named_not_reported_as_duplicates(tmp_path: Pat
     tracks.write_text("0 1 2 3\n1e20 1 2.4 3\n")
     with pytest.raises(GrouptronError, match=r"its times span 1e\+19 steps"):
         read_resampled(tracks, RecordingFormat())
+
+
+def test_an_explicit_max_gap_keeps_the_files_own_frame_grid(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], tiny_checkpoints: Path
+) -> None:
+    """A file on a 12-frame grid (30 fps) read with --frames-per-step 12 and --max-gap: frames
+    keep their numbers (6, 18, ...), only the missing one is added."""
+    rows = [
+        (6 + 12 * k, p, 0.5 * k, float(p)) for k in range(14) for p in (1, 2) if (p, k) != (1, 9)
+    ]
+    tracks = write_tracks(tmp_path / "grid12.txt", rows)
+    checkpoint = str(tiny_checkpoints / "grouptron-eth-backward" / "best.safetensors")
+    out = tmp_path / "f.csv"
+    argv = ["predict", "--checkpoint", checkpoint, "--tracks", str(tracks), "--quiet"]
+    assert main([*argv, "--frames-per-step", "12", "--max-gap", "1", "--out", str(out)]) == 0
+    frames = np.loadtxt(out, delimiter=",", skiprows=1)[:, 0]
+    assert set(frames.tolist()) <= {6 + 12 * k for k in range(14)}
+    walk = walkers(tmp_path / "walk.txt")
+    plot = ["plot", "--checkpoint", checkpoint, "--tracks", str(walk), "--out"]
+    fails([*plot, str(tmp_path / "p.png"), "--frame", "15"], capsys, "--frame 15 is not on the")
+
+
+def test_an_empty_comma_separated_field_is_refused(tmp_path: Path) -> None:
+    tracks = tmp_path / "holes.csv"
+    tracks.write_text("0,1,0.0,1.0\n0,2,,5\n")
+    with pytest.raises(GrouptronError, match=r"holes\.csv:2: an empty field"):
+        read_tracks(tracks)

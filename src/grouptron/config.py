@@ -6,7 +6,7 @@ import dataclasses
 import difflib
 import json
 import typing
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, is_dataclass
 from pathlib import Path
 from typing import Any, Literal, TypeVar
 
@@ -384,6 +384,12 @@ _NESTED: dict[str, type] = {
 }
 
 
+def _section_names() -> set[str]:
+    """The settings of an experiment that are tables of their own (``train``, ``data``...)."""
+    defaults = ExperimentConfig()
+    return {f.name for f in fields(defaults) if is_dataclass(getattr(defaults, f.name))}
+
+
 def merge_settings(base: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
     """``base`` with ``overrides`` laid over it, section by section (nested dicts merge)."""
     merged = dict(base)
@@ -391,10 +397,13 @@ def merge_settings(base: dict[str, Any], overrides: dict[str, Any]) -> dict[str,
         if isinstance(value, dict) and isinstance(merged.get(key), dict):
             merged[key] = merge_settings(merged[key], value)
         elif isinstance(merged.get(key), dict) or (isinstance(value, dict) and key in merged):
-            single = merged[key] if isinstance(value, dict) else value
-            raise GrouptronError(
-                f"settings: {key} must be a table of settings ({key}.NAME=VALUE), not {single!r}"
-            )
+            # One side is a table, the other a single value: say which the settings expect.
+            if key in _section_names():
+                single = value if isinstance(merged.get(key), dict) else merged[key]
+                why = f"must be a table of settings ({key}.NAME=VALUE), not {single!r}"
+            else:
+                why = f"is a single setting ({key}=VALUE), not a table"
+            raise GrouptronError(f"settings: {key} {why}")
         else:
             merged[key] = value
     return merged

@@ -63,7 +63,8 @@ def test_frames_t_samples_and_seeds_must_be_integers(predictor: Predictor) -> No
     with pytest.raises(GrouptronError, match=r"id .* is beyond 2\*\*53"):
         predictor.predict(big)
     twice = np.vstack([rows, rows[-1:]])
-    with pytest.raises(GrouptronError, match="row 29: pedestrian 3 appears twice at frame 90"):
+    match = r"row 30: pedestrian 3 appears twice at frame 90 \(also row 29\)"
+    with pytest.raises(GrouptronError, match=match):
         predictor.predict(twice)
     # Whole floats and NumPy integers are integers.
     t = predictor.predict(rows, t=np.int64(90), num_samples=np.int64(2), seed=np.int64(1))

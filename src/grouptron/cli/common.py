@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.constants import DT_S, SPLITS
+from grouptron.constants import DT_S, FRAMES_PER_STEP, SPLITS
 from grouptron.data.reader import TrackTable, read_tracks
 from grouptron.data.recording import (
     UNITS_M,
@@ -196,9 +196,10 @@ def add_recording_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--max-gap",
         type=float,
-        default=RecordingFormat().max_gap_s,
         help="seconds without an observation after which a track is split; shorter gaps are "
-        "bridged by linear interpolation on the 0.4 s resampling grid",
+        f"bridged by linear interpolation on the 0.4 s resampling grid (default: "
+        f"{RecordingFormat().max_gap_s} for recordings in other layouts; an ETH/UCY-style file "
+        "has its gaps split unless this is given)",
     )
     parser.add_argument(
         "--no-speed-check",
@@ -216,7 +217,7 @@ def own_layout(args: argparse.Namespace) -> bool:
         parse_columns(args.columns) != default.columns
         or args.fps is not None
         or args.units != default.units
-        or args.max_gap != default.max_gap_s
+        or args.max_gap is not None
         or Path(args.tracks).suffix == ".ndjson"
     )
 
@@ -226,7 +227,8 @@ def read_track_table(args: argparse.Namespace, frames_per_step: int) -> TrackTab
     ``--on-gap``), or a recording in its own layout (``--columns``, ``--fps``, ``--units``;
     TrajNet++ ``.ndjson``) resampled to 0.4 s steps, in its own frame numbers where a step is a
     whole number of them, else in steps."""
-    fmt = recording_format(args)  # checks every option, also for an ETH/UCY-style file
+    # Checks every option, also for an ETH/UCY-style file, whose frames per step set its rate.
+    fmt = recording_format(args, frames_per_step)
     if own_layout(args):
         return read_resampled(Path(args.tracks), fmt)
     table = read_tracks(args.tracks, frames_per_step, args.on_gap)
@@ -238,12 +240,19 @@ def read_track_table(args: argparse.Namespace, frames_per_step: int) -> TrackTab
     return table
 
 
-def recording_format(args: argparse.Namespace) -> RecordingFormat:
+def recording_format(
+    args: argparse.Namespace, frames_per_step: int = FRAMES_PER_STEP
+) -> RecordingFormat:
+    """The layout the recording options describe; without ``--fps`` a ``frame`` column has
+    ``frames_per_step`` frames per 0.4 s step (ETH/UCY: 10, i.e. 25 fps)."""
+    fps = args.fps
+    if fps is None and frames_per_step != FRAMES_PER_STEP:
+        fps = frames_per_step / DT_S
     return RecordingFormat(
         columns=parse_columns(args.columns),
-        fps=args.fps,
+        fps=fps,
         units=args.units,
-        max_gap_s=args.max_gap,
+        max_gap_s=RecordingFormat().max_gap_s if args.max_gap is None else args.max_gap,
         check_speed=not args.no_speed_check,
     )
 

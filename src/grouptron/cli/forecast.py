@@ -126,6 +126,11 @@ def cmd_plot(args: argparse.Namespace) -> int:
     for predictor in predictors:
         warn_look_ahead(predictor.source, predictor.config.data.derivatives)
     table = read_track_table(args, predictors[0].config.data.frames_per_step)
+    if (args.frame - table.first_frame) % table.frames_per_step:
+        raise GrouptronError(
+            f"--frame {args.frame} is not on the {table.frames_per_step}-frame grid of "
+            f"{args.tracks} (first frame {table.first_frame})"
+        )
     for predictor in predictors:  # forecast on the file's own frame grid
         data = dataclasses.replace(predictor.config.data, frames_per_step=table.frames_per_step)
         predictor.config = dataclasses.replace(predictor.config, data=data)

@@ -65,8 +65,12 @@ def _data_lines(path: Path, text: str) -> tuple[list[int], list[list[str]]]:
     numbers: list[int] = []
     rows: list[list[str]] = []
     for number, line in enumerate(text.splitlines(), start=1):
-        tokens = line.replace(",", " ").split()
-        if not tokens or tokens[0].startswith("#"):
+        tokens = line.split()
+        if "," in line:  # comma-separated: an empty field is a missing value, not a gap
+            tokens = [t.strip() for t in line.strip().rstrip(",").split(",")]
+            if "" in tokens and any(tokens):
+                raise DataFormatError(path, f"an empty field in {line.strip()[:60]!r}", number)
+        if not any(tokens) or tokens[0].startswith("#"):
             continue  # blank or a comment
         if not rows and _is_header(tokens):
             continue  # a header line such as "frame id x y" (names, no numbers)

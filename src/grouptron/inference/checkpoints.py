@@ -39,12 +39,12 @@ def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | N
         return path
     if path.is_dir() and (path / BEST_WEIGHTS_FILE).is_file():
         return path / BEST_WEIGHTS_FILE
-    if path.is_dir():
+    if path.suffix == ".safetensors" or len(path.parts) > 1:  # a path, not a shipped name
         raise GrouptronError(
             f"{path}: a folder without {BEST_WEIGHTS_FILE}; name the checkpoint file"
+            if path.is_dir()
+            else f"{path}: checkpoint not found"
         )
-    if path.suffix == ".safetensors" or len(path.parts) > 1:  # a path, not a shipped name
-        raise GrouptronError(f"{path}: checkpoint not found")
     folders = [Path(d) for d in (checkpoints_dir, os.environ.get(CHECKPOINTS_ENV)) if d]
     folders += [Path("checkpoints"), PACKAGE_CHECKPOINTS]
     for folder in folders:
@@ -54,6 +54,10 @@ def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | N
     known = sorted(
         {p.parent.name for f in folders if f.is_dir() for p in f.glob(f"*/{BEST_WEIGHTS_FILE}")}
     )
+    if path.is_dir():  # a folder here, named like a checkpoint, but not one
+        raise GrouptronError(
+            f"{path}: a folder without {BEST_WEIGHTS_FILE}, and no shipped checkpoint has that name"
+        )
     close = difflib.get_close_matches(str(name_or_path), known, n=3)
     if close:
         raise GrouptronError(f"no checkpoint {name_or_path!s}; did you mean {' or '.join(close)}?")

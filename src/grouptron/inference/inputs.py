@@ -32,7 +32,7 @@ def frame_argument(value: Any, name: str) -> int:
     """A frame number handed to the API: an integer, or a float holding one exactly."""
     if isinstance(value, float | np.floating) and np.isfinite(value) and value == int(value):
         value = int(value)
-    return integer_argument(value, name, -MAX_EXACT_INTEGER, MAX_EXACT_INTEGER)
+    return integer_argument(value, name, 1 - MAX_EXACT_INTEGER, MAX_EXACT_INTEGER - 1)
 
 
 def check_track_rows(values: np.ndarray, frames_per_step: int) -> None:
@@ -56,10 +56,11 @@ def check_track_rows(values: np.ndarray, frames_per_step: int) -> None:
         )
     _, index, counts = np.unique(values[:, :2], axis=0, return_index=True, return_counts=True)
     if (counts > 1).any():
-        row = int(index[np.flatnonzero(counts > 1)[0]])
-        frame, ped = values[row, :2]
+        frame, ped = values[index[np.flatnonzero(counts > 1)[0]], :2]
+        first, row = np.flatnonzero((values[:, 0] == frame) & (values[:, 1] == ped))[:2]
         raise GrouptronError(
-            f"tracks row {row}: pedestrian {ped:.0f} appears twice at frame {frame:.0f}"
+            f"tracks row {row}: pedestrian {ped:.0f} appears twice at frame {frame:.0f} (also "
+            f"row {first})"
         )
 
 

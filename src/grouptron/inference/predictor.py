@@ -68,10 +68,10 @@ log = logging.getLogger(__name__)
 MostLikely = Literal["ml", "ml-argmax", "mean", "ml-top10"]
 MOST_LIKELY_CHOICES = tuple(POINT_FORECASTS)
 OLDER_NAMES = {"mixture-mode": "ml", "argmax-latent": "ml-argmax"}
+"""Names these choices had before the vocabulary was unified (still accepted)."""
 MAX_SAMPLES = 10_000
 """Sampled futures per agent at most: more only fill memory (10,000 x 12 steps is 1.9 MB an
 agent)."""
-"""Names these choices had before the vocabulary was unified (still accepted)."""
 
 
 class Predictor:
@@ -270,7 +270,7 @@ class Predictor:
         warn_if_central: bool = True,
     ) -> Forecast:
         num_samples = integer_argument(num_samples, "num_samples", 0, MAX_SAMPLES)
-        seed = integer_argument(seed, "seed", 0, 2**63 - 1)
+        seed = integer_argument(seed, "seed", -(2**63), 2**64 - 1)  # torch's seed range
         if warn_if_central:
             self._warn_if_central()
         data = self.config.data
