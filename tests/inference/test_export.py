@@ -115,3 +115,11 @@ def test_export_without_the_extra_is_one_clear_error(
     assert main(["export", "--checkpoint", str(path), "--out", str(tmp_path / "m.onnx")]) != 0
     assert "grouptron[export]" in capsys.readouterr().err
     assert not (tmp_path / "m.onnx").exists()
+
+
+def test_export_refuses_a_folder_before_exporting(tiny_checkpoints: Path, tmp_path: Path) -> None:
+    model, config = load_trained_model(
+        resolve_checkpoint(tiny_checkpoints / "grouptron-eth-backward")
+    )
+    with pytest.raises(GrouptronError, match="is a folder"):
+        export_onnx(model, config, str(tmp_path))  # a str path is taken too

@@ -21,7 +21,7 @@ from grouptron.data.reader import table_from_values
 from grouptron.data.samples import scene_samples
 from grouptron.data.scene import build_scene
 from grouptron.errors import GrouptronError
-from grouptron.io import save_atomically
+from grouptron.io import refuse_folder, save_atomically
 from grouptron.model.batch import Batch, GroupBatch, make_batch
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model, uses_groups
@@ -131,9 +131,11 @@ def example_batch(config: ExperimentConfig) -> Batch:
     return make_batch(samples, index, config.data, groups=groups_for_model(samples, config))
 
 
-def export_onnx(model: TrajectronCVAE, config: ExperimentConfig, out: Path) -> list[str]:
+def export_onnx(model: TrajectronCVAE, config: ExperimentConfig, out: str | Path) -> list[str]:
     """Write the network as ONNX to ``out`` (sample, node and group counts dynamic), with the
     constants a caller needs in its metadata; returns the input names."""
+    out = Path(out)
+    refuse_folder(out)  # before the export, not after it
     try:
         import onnx
         import onnxscript  # noqa: F401  (the exporter needs it; fail here with the hint)
