@@ -225,8 +225,43 @@ def test_an_explicit_max_gap_keeps_the_files_own_frame_grid(
     fails([*plot, str(tmp_path / "p.png"), "--frame", "15"], capsys, "--frame 15 is not on the")
 
 
-def test_an_empty_comma_separated_field_is_refused(tmp_path: Path) -> None:
+READERS = {"eth/ucy": read_tracks, "any layout": lambda p: read_resampled(p, RecordingFormat())}
+
+
+@pytest.mark.parametrize("reader", READERS)
+@pytest.mark.parametrize(
+    ("content", "line"),
+    [("0,1,0.0,1.0\n0,2,,5\n", 2), ("frame,id,x,y\n0,1,0.0,1.0\n,2,0.0,5\n", 3)],
+)
+def test_an_empty_comma_separated_field_is_refused(
+    tmp_path: Path, reader: str, content: str, line: int
+) -> None:
     tracks = tmp_path / "holes.csv"
-    tracks.write_text("0,1,0.0,1.0\n0,2,,5\n")
-    with pytest.raises(GrouptronError, match=r"holes\.csv:2: an empty field"):
-        read_tracks(tracks)
+    tracks.write_text(content)
+    with pytest.raises(GrouptronError, match=rf"holes\.csv:{line}: an empty field"):
+        READERS[reader](tracks)
+
+
+@pytest.mark.parametrize("reader", READERS)
+def test_a_trailing_comma_ends_a_line_and_a_line_of_commas_is_blank(
+    tmp_path: Path, reader: str
+) -> None:
+    tracks = tmp_path / "commas.csv"
+    tracks.write_text("0,1,0.0,1.0,\n,,,\n10,1,0.4,1.0,\n")
+    assert READERS[reader](tracks).step.tolist() == [0, 1]
+
+
+def test_both_readers_name_a_bad_number_alike(tmp_path: Path) -> None:
+    tracks = tmp_path / "bad.txt"
+    tracks.write_text("0 1 0.0 1.0\n10 1.5 0.4 1.0\n")
+    for read in READERS.values():
+        with pytest.raises(GrouptronError, match=r"bad\.txt:2: id must be a whole number, not 1.5"):
+            read(tracks)
+    tracks.write_text("0 1 0.0 1.0\n10 1 nan 1.0\n")
+    for read in READERS.values():
+        with pytest.raises(GrouptronError, match=r"bad\.txt:2: x is not finite"):
+            read(tracks)
+    # An ignored column may hold anything.
+    tracks.write_text("0 1 0.0 1.0 nan\n10 1 0.4 1.0 nan\n")
+    table = read_resampled(tracks, RecordingFormat(columns=("frame", "id", "x", "y", "z")))
+    assert table.step.tolist() == [0, 1]

@@ -62,7 +62,7 @@ def test_a_description_names_its_parts_and_their_format(tmp_path: Path) -> None:
         ('name = "x"\nfiles = 3\n[parts]\ntrain = ["walk0.csv"]\n', "unknown keys files"),
         ('name = "x"\n[parts]\ntrain = ["missing.csv"]\n', "train files not found"),
         ('name = "x"\n[parts]\ntest2 = ["walk0.csv"]\n', "unknown part 'test2'"),
-        ('name = "x"\n[format]\nfps = -1\n[parts]\ntrain = ["walk0.csv"]\n', "--fps must be"),
+        ('name = "x"\n[format]\nfps = -1\n[parts]\ntrain = ["walk0.csv"]\n', "format: fps must be"),
         ("name = ", "cannot read the dataset description"),
     ],
 )

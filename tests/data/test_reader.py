@@ -46,8 +46,8 @@ def test_steps_count_from_first_frame(tmp_path: Path) -> None:
         ("0 1 0.0 0.0\n10 1 abc 0.0\n", 2, "x is not a number"),
         ("0 1 0.0 nan\n", 1, "y is not finite"),
         ("0 1 inf 0.0\n", 1, "x is not finite"),
-        ("0 1 0.0 0.0\n10.5 1 0.0 0.0\n", 2, "frame must be an integer"),
-        ("0 1.5 0.0 0.0\n", 1, "id must be an integer"),
+        ("0 1 0.0 0.0\n10.5 1 0.0 0.0\n", 2, "frame must be a whole number, not 10.5"),
+        ("0 1.5 0.0 0.0\n", 1, "id must be a whole number, not 1.5"),
         ("0 1 0.0 0.0\n10 1 1.0 0.0\n0 1 2.0 0.0\n", 3, "duplicate row for pedestrian 1"),
         ("0 1 0.0 0.0\n15 1 1.0 0.0\n", 2, "not on the 10-frame grid"),
         ("0 1 0.0 0.0\nframe id x y\n", 2, "frame is not a number"),  # a header only first

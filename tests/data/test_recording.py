@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -13,10 +14,12 @@ from grouptron.config import DataConfig
 from grouptron.data.reader import read_tracks
 from grouptron.data.recording import (
     RecordingFormat,
+    load_tracks,
     parse_columns,
     read_recording,
     read_resampled,
 )
+from grouptron.data.spelling import FLAGS
 from grouptron.errors import DataFormatError, GrouptronError
 from grouptron.evaluation.evaluate import constant_velocity_scores
 from grouptron.evaluation.recordings import recording_samples
@@ -148,8 +151,12 @@ def test_a_file_in_centimetres_is_refused_with_the_units_hint(tmp_path: Path) ->
     times = np.arange(0.0, 8.0, 1 / 16)
     path = write_recording(tmp_path / "cm.txt", times, columns="id,frame,x,y", scale=100.0, fps=16)
     fmt = RecordingFormat(columns=("id", "frame", "x", "y"), fps=16)
-    with pytest.raises(GrouptronError, match=r"median walking speed is .* m/s.*--units cm"):
+    with pytest.raises(GrouptronError, match=r"median walking speed is .* m/s.*units='cm'"):
         read_resampled(path, fmt)
+    with pytest.raises(GrouptronError, match=r"--units cm\?\) and --fps, or pass --no-speed"):
+        read_resampled(path, dataclasses.replace(fmt, spelling=FLAGS))
+    with pytest.raises(GrouptronError, match=r"and fps, or pass check_speed=False to go on"):
+        load_tracks(path, columns="id,frame,x,y", fps=16)
     forced = RecordingFormat(columns=("id", "frame", "x", "y"), fps=16, check_speed=False)
     assert len(read_resampled(path, forced).step) > 0  # an explicit flag lets an expert go on
 
@@ -160,16 +167,21 @@ def test_a_file_in_centimetres_is_refused_with_the_units_hint(tmp_path: Path) ->
         (("frame", "x", "y"), None, "m", "exactly one 'id'"),
         (("frame", "t", "id", "x", "y"), None, "m", "one time column"),
         (("id", "x", "y"), None, "m", "one time column"),
-        (("t", "id", "x", "y"), 30.0, "m", "--fps applies to a 'frame' column"),
-        (("frame", "id", "x", "y"), -4.0, "m", "--fps must be a positive number"),
-        (("frame", "id", "x", "y"), None, "inch", "--units must be one of"),
+        (("t", "id", "x", "y"), 30.0, "m", "{fps} applies to a 'frame' column"),
+        (("frame", "id", "x", "y"), -4.0, "m", "{fps} must be a positive number"),
+        (("frame", "id", "x", "y"), None, "inch", "{units} must be one of"),
     ],
 )
 def test_bad_formats_are_refused_in_one_line(
     columns: tuple[str, ...], fps: float | None, units: str, message: str
 ) -> None:
-    with pytest.raises(GrouptronError, match=message):
+    """Options are named as the caller wrote them: keywords, or the command line's flags."""
+    with pytest.raises(GrouptronError, match=message.format(fps="^fps", units="^units")):
         RecordingFormat(columns=columns, fps=fps, units=units)
+    with pytest.raises(GrouptronError, match=message.format(fps="--fps", units="--units")):
+        RecordingFormat(columns=columns, fps=fps, units=units, spelling=FLAGS)
+    with pytest.raises(GrouptronError, match=message.format(fps="^fps", units="^units")):
+        load_tracks("unread.txt", columns=columns, fps=fps, units=units)
 
 
 def test_bad_rows_name_the_line(tmp_path: Path) -> None:
@@ -178,7 +190,7 @@ def test_bad_rows_name_the_line(tmp_path: Path) -> None:
     with pytest.raises(DataFormatError, match=r":3: not a number"):
         read_resampled(path, RecordingFormat())
     path.write_text("0 1 0 0\n10 1 0.4\n")
-    with pytest.raises(DataFormatError, match=r":2: 3 columns, but --columns names 4"):
+    with pytest.raises(DataFormatError, match=r":2: 3 columns, but 4 column names were given"):
         read_resampled(path, RecordingFormat())
     path.write_text("0 1 0 0\n0 1 0.4 0\n")
     with pytest.raises(DataFormatError, match="two rows for pedestrian 1"):
@@ -205,6 +217,7 @@ def test_the_command_line_refuses_bad_reader_options_with_exit_2(
     assert main(command) == 2
     err = capsys.readouterr().err
     assert err.startswith(("grouptron: error:", "usage:")) and "Traceback" not in err
+    assert any(flag in err for flag in argv if flag.startswith("--"))  # named as flags
 
 
 @pytest.mark.realdata
@@ -287,7 +300,7 @@ def test_the_python_api_reads_any_layout_for_the_predictor(
     predictor = Predictor.from_checkpoint(tiny_checkpoints / "grouptron-eth-backward")
     forecast = predictor.predict(rows, t=200)
     assert len(forecast) == 3 and np.isfinite(forecast.most_likely).all()
-    with pytest.raises(GrouptronError, match="--units"):
+    with pytest.raises(GrouptronError, match=r"units='cm'"):
         load_tracks(native, columns="id,frame,x,y", fps=16)
 
 

@@ -21,6 +21,7 @@ from grouptron.data.recording import (
     parse_columns,
     read_resampled,
 )
+from grouptron.data.spelling import FLAGS
 from grouptron.devices import available_device
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import MODES
@@ -214,7 +215,7 @@ def own_layout(args: argparse.Namespace) -> bool:
     of its own asks for gaps to be bridged by resampling)."""
     default = RecordingFormat()
     return (
-        parse_columns(args.columns) != default.columns
+        parse_columns(args.columns, FLAGS) != default.columns
         or args.fps is not None
         or args.units != default.units
         or args.max_gap is not None
@@ -249,11 +250,12 @@ def recording_format(
     if fps is None and frames_per_step != FRAMES_PER_STEP:
         fps = frames_per_step / DT_S
     return RecordingFormat(
-        columns=parse_columns(args.columns),
+        columns=parse_columns(args.columns, FLAGS),
         fps=fps,
         units=args.units,
         max_gap_s=RecordingFormat().max_gap_s if args.max_gap is None else args.max_gap,
         check_speed=not args.no_speed_check,
+        spelling=FLAGS,
     )
 
 

@@ -94,6 +94,8 @@ def read_dataset(path: str | Path) -> DatasetDescription:
         recording = RecordingFormat(**fmt)
     except TypeError as exc:
         raise GrouptronError(f"{path}: bad format ({exc})") from None
+    except GrouptronError as exc:
+        raise GrouptronError(f"{path}: format: {exc}") from None
     parts = _parts(path, values.get("parts"))
     return DatasetDescription(name.strip(), path.resolve(), parts, recording)
 

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from grouptron.data.fields import refuse_bad_numbers
 from grouptron.errors import DataFormatError
 from grouptron.io import write_text_atomically
 
@@ -33,7 +34,7 @@ def read_ndjson(path: Path) -> tuple[np.ndarray, np.ndarray, float]:
             is not a positive number.
     """
     rows, line_of_row, fps = _entries(path)
-    _check_values(path, rows, line_of_row)
+    refuse_bad_numbers(path, rows, line_of_row, dict(enumerate("fpxy")), whole=(0, 1))
     # Scenes repeat rows: keep each (frame, id) once, from its first line; two different
     # positions for one (frame, id) are refused by the resampling's duplicate check.
     _, first = np.unique(rows, axis=0, return_index=True)
@@ -73,19 +74,6 @@ def _entries(path: Path) -> tuple[np.ndarray, np.ndarray, list[float]]:
     if not rows:
         raise DataFormatError(path, "no track rows")
     return np.asarray(rows), np.asarray(numbers), fps
-
-
-def _check_values(path: Path, rows: np.ndarray, line_of_row: np.ndarray) -> None:
-    """Refuse non-finite values and frames or ids that are not whole numbers."""
-    for column, name in enumerate(("f", "p", "x", "y")):
-        bad = np.flatnonzero(~np.isfinite(rows[:, column]))
-        if bad.size:
-            raise DataFormatError(path, f"{name} is not finite", int(line_of_row[bad[0]]))
-        if column < 2:
-            bad = np.flatnonzero(rows[:, column] != np.round(rows[:, column]))
-            if bad.size:
-                why = f"{name} must be a whole number, not {rows[bad[0], column]:g}"
-                raise DataFormatError(path, why, int(line_of_row[bad[0]]))
 
 
 def write_forecast_ndjson(

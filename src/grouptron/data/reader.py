@@ -16,6 +16,7 @@ from typing import Literal
 import numpy as np
 
 from grouptron.constants import FRAMES_PER_STEP
+from grouptron.data.fields import EmptyFieldError, refuse_bad_numbers, split_fields
 from grouptron.errors import DataFormatError
 
 log = logging.getLogger(__name__)
@@ -65,12 +66,11 @@ def _data_lines(path: Path, text: str) -> tuple[list[int], list[list[str]]]:
     numbers: list[int] = []
     rows: list[list[str]] = []
     for number, line in enumerate(text.splitlines(), start=1):
-        tokens = line.split()
-        if "," in line:  # comma-separated: an empty field is a missing value, not a gap
-            tokens = [t.strip() for t in line.strip().rstrip(",").split(",")]
-            if "" in tokens and any(tokens):
-                raise DataFormatError(path, f"an empty field in {line.strip()[:60]!r}", number)
-        if not any(tokens) or tokens[0].startswith("#"):
+        try:
+            tokens = split_fields(line)
+        except EmptyFieldError as exc:
+            raise DataFormatError(path, str(exc), number) from None
+        if not tokens or tokens[0].startswith("#"):
             continue  # blank or a comment
         if not rows and _is_header(tokens):
             continue  # a header line such as "frame id x y" (names, no numbers)
@@ -136,22 +136,6 @@ def _parse(path: Path) -> tuple[np.ndarray, np.ndarray]:
     if not np.isfinite(values).all():
         raise _find_bad_value(path, numbers, rows)
     return values, np.asarray(numbers)
-
-
-def _check_integers(path: Path, values: np.ndarray, lines: np.ndarray) -> None:
-    for column in (0, 1):
-        bad = np.flatnonzero(values[:, column] != np.round(values[:, column]))
-        if bad.size:
-            row = int(bad[0])
-            raise DataFormatError(
-                path,
-                f"{COLUMNS[column]} must be an integer, found {values[row, column]:g}",
-                int(lines[row]),
-            )
-        too_big = np.flatnonzero(np.abs(values[:, column]) > 2**53)
-        if too_big.size:
-            row = int(too_big[0])
-            raise DataFormatError(path, f"{COLUMNS[column]} is out of range", int(lines[row]))
 
 
 def read_tracks(
@@ -225,7 +209,7 @@ def table_from_values(
         why = "no 'frame id x y' rows" if len(values) == 0 else "frames per step must be >= 1"
         raise DataFormatError(source, f"{why}, not {frames_per_step}" if len(values) else why)
     path = source
-    _check_integers(path, values, lines)
+    refuse_bad_numbers(path, values, lines, dict(enumerate(COLUMNS)), whole=(0, 1))
     _check_range(path, values, lines)
     frame = values[:, 0].astype(np.int64)
     ped_id = values[:, 1].astype(np.int64)

@@ -1,7 +1,7 @@
 """Recordings in their own format: any column layout, frame rate, time base and units,
 resampled onto the model's 0.4 s step.
 
-A :class:`RecordingFormat` says how a file is laid out (``--columns``, ``--fps``, ``--units``).
+A :class:`RecordingFormat` says how a file is laid out (``columns``, ``fps``, ``units``).
 :func:`read_recording` reads it into times in seconds, ids and positions in metres;
 :func:`resample` puts every track on a common grid of ``dt_s`` steps by linear interpolation
 between the track's own observations (never extrapolated; a gap longer than ``max_gap_s``
@@ -17,16 +17,18 @@ import math
 import re
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from numbers import Real
 from pathlib import Path
 
 import numpy as np
 
 from grouptron.constants import DT_S, FRAMES_PER_STEP
+from grouptron.data.fields import EmptyFieldError, has_empty_field, refuse_bad_numbers, split_fields
 from grouptron.data.ndjson import read_ndjson
 from grouptron.data.neighbours import ranges_to_indices
 from grouptron.data.reader import TrackTable, table_from_values
+from grouptron.data.spelling import KEYWORDS, OptionSpelling
 from grouptron.errors import DataFormatError, GrouptronError
 
 UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001}
@@ -58,6 +60,8 @@ class RecordingFormat:
         max_gap_s: a track with no observation for longer than this is split in two; shorter
             gaps are bridged by interpolation.
         check_speed: refuse recordings whose median walking speed is implausible.
+        spelling: how messages name these options: as keywords (``max_gap_s``), or as the
+            command line's flags (``--max-gap``) for a format the flags set.
     """
 
     columns: tuple[str, ...] = DEFAULT_COLUMNS
@@ -65,30 +69,38 @@ class RecordingFormat:
     units: str = "m"
     max_gap_s: float = 0.8
     check_speed: bool = True
+    spelling: OptionSpelling = field(default=KEYWORDS, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         names = [c for c in self.columns if c not in IGNORED]
+        columns, fps = self.spelling.setting("columns", ",".join(self.columns)), self.option("fps")
         for needed in ("id", "x", "y"):
             if names.count(needed) != 1:
-                raise GrouptronError(
-                    f"--columns {','.join(self.columns)}: needs exactly one {needed!r} column"
-                )
+                raise GrouptronError(f"{columns}: needs exactly one {needed!r} column")
         if ("frame" in names) == ("t" in names):
             raise GrouptronError(
-                f"--columns {','.join(self.columns)}: needs one time column, 'frame' (frame "
-                "numbers, with --fps) or 't' (seconds)"
+                f"{columns}: needs one time column, 'frame' (frame numbers, with {fps}) or 't' "
+                "(seconds)"
             )
         if self.fps is not None and "t" in names:
-            raise GrouptronError("--fps applies to a 'frame' column; a 't' column is in seconds")
-        for name, value in (("--fps", self.fps), ("--max-gap", self.max_gap_s)):
+            raise GrouptronError(f"{fps} applies to a 'frame' column; a 't' column is in seconds")
+        for name, value in (("fps", self.fps), ("max_gap_s", self.max_gap_s)):
             if value is not None and (isinstance(value, bool) or not isinstance(value, Real)):
-                raise GrouptronError(f"{name} must be a number, not {value!r}")
+                raise GrouptronError(f"{self.option(name)} must be a number, not {value!r}")
         if self.fps is not None and not (math.isfinite(self.fps) and self.fps > 0):
-            raise GrouptronError(f"--fps must be a positive number, not {self.fps}")
+            raise GrouptronError(f"{fps} must be a positive number, not {self.fps}")
         if self.units not in UNITS_M:
-            raise GrouptronError(f"--units must be one of {', '.join(UNITS_M)}, not {self.units!r}")
+            raise GrouptronError(
+                f"{self.option('units')} must be one of {', '.join(UNITS_M)}, not {self.units!r}"
+            )
         if not self.max_gap_s > 0:
-            raise GrouptronError(f"--max-gap must be positive (seconds), not {self.max_gap_s}")
+            raise GrouptronError(
+                f"{self.option('max_gap_s')} must be positive (seconds), not {self.max_gap_s}"
+            )
+
+    def option(self, name: str) -> str:
+        """An option's name as whoever set it writes it (``--max-gap`` or ``max_gap_s``)."""
+        return self.spelling.name(name)
 
     @property
     def time_column(self) -> str:
@@ -99,11 +111,12 @@ class RecordingFormat:
         return 1.0 / (self.fps if self.fps is not None else ETH_UCY_FPS)
 
 
-def parse_columns(text: str) -> tuple[str, ...]:
+def parse_columns(text: str, spelling: OptionSpelling = KEYWORDS) -> tuple[str, ...]:
     """``"frame,id,x,y"`` (commas or spaces) -> ``("frame", "id", "x", "y")``."""
     names = tuple(n.strip().lower() for n in re.split(r"[,\s]+", text.strip()) if n.strip())
     if not names:
-        raise GrouptronError("--columns is empty; e.g. --columns frame,id,x,y")
+        example = spelling.setting("columns", "frame,id,x,y")
+        raise GrouptronError(f"{spelling.name('columns')} is empty; e.g. {example}")
     return names
 
 
@@ -135,7 +148,10 @@ def _numbers(path: Path, width: int) -> tuple[np.ndarray, np.ndarray]:
     rows: list[list[float]] = []
     lines: list[int] = []
     for number, raw in enumerate(text.splitlines(), start=1):
-        fields = [f for f in re.split(r"[,\s]+", raw.strip()) if f]
+        try:
+            fields = split_fields(raw)
+        except EmptyFieldError as exc:
+            raise DataFormatError(path, str(exc), number) from None
         if not fields or fields[0].startswith("#"):
             continue
         try:
@@ -146,7 +162,7 @@ def _numbers(path: Path, width: int) -> tuple[np.ndarray, np.ndarray]:
             raise DataFormatError(path, f"not a number in {raw.strip()!r}", number) from None
         if len(values) < width:
             raise DataFormatError(
-                path, f"{len(values)} columns, but --columns names {width}", number
+                path, f"{len(values)} columns, but {width} column names were given", number
             )
         rows.append(values[:width])
         lines.append(number)
@@ -166,6 +182,8 @@ def _is_number(token: str) -> bool:
 def _parse_fast(text: str, width: int) -> tuple[np.ndarray, np.ndarray] | None:
     """NumPy's parser over the whole file, when every line is numbers (no header, no blank or
     comment lines, at least ``width`` columns); None otherwise."""
+    if has_empty_field(text):
+        return None  # the slow path names the line
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # an empty file: the slow path says so in one line
@@ -193,14 +211,10 @@ def read_recording(path: Path, fmt: RecordingFormat) -> Recording:
             seconds_per_frame,
         )
     values, lines = _numbers(Path(path), len(fmt.columns))
-    bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
-    if bad.size:
-        raise DataFormatError(path, "a value is not finite", int(lines[bad[0]]))
-    column = {name: i for i, name in enumerate(fmt.columns)}
+    column = {name: fmt.columns.index(name) for name in ("id", "x", "y", fmt.time_column)}
+    used = {i: name for name, i in column.items()}  # ignored columns may hold anything
+    refuse_bad_numbers(Path(path), values, lines, used, whole=(column["id"],))
     ped_id = values[:, column["id"]]
-    if (ped_id != np.round(ped_id)).any():
-        row = int(np.flatnonzero(ped_id != np.round(ped_id))[0])
-        raise DataFormatError(path, f"id {ped_id[row]} is not a whole number", int(lines[row]))
     time = values[:, column[fmt.time_column]]
     time_s = time if fmt.time_column == "t" else time * fmt.seconds_per_frame
     scale = UNITS_M[fmt.units]
@@ -227,13 +241,14 @@ def check_plausible(recording: Recording, fmt: RecordingFormat) -> None:
     median = median_speed_mps(recording.ped_id, recording.time_s, recording.pos_m)
     if median > MAX_MEDIAN_SPEED_MPS:
         walking = [u for u in ("cm", "mm") if 0.2 <= median * UNITS_M[u] / UNITS_M[fmt.units] < 3]
-        hints = [f"--units {u}" for u in walking]
+        spelling = fmt.spelling
+        hints = [spelling.setting("units", u) for u in walking]
         raise GrouptronError(
             f"{recording.path}: the median walking speed is {median:.3g} m/s, implausible for "
-            f"pedestrians (read with --units {fmt.units}"
+            f"pedestrians (read with {spelling.setting('units', fmt.units)}"
             f"{'' if fmt.time_column == 't' else f', {1 / fmt.seconds_per_frame:g} fps'}); "
-            f"check the units{' (' + ' or '.join(hints) + '?)' if hints else ''} and --fps, or "
-            "pass --no-speed-check to go on"
+            f"check the units{' (' + ' or '.join(hints) + '?)' if hints else ''} and "
+            f"{fmt.option('fps')}, or pass {spelling.setting('check_speed', False)} to go on"
         )
 
 
@@ -250,7 +265,7 @@ def resample(recording: Recording, fmt: RecordingFormat, dt_s: float = DT_S) -> 
     if not span_steps < MAX_SPAN_STEPS:
         raise GrouptronError(
             f"{recording.path}: its times span {span_steps:.3g} steps of {dt_s} s; check the "
-            "time column (frame numbers with --fps, or 't' in seconds)"
+            f"time column (frame numbers with {fmt.option('fps')}, or 't' in seconds)"
         )
     order = np.lexsort((recording.time_s, recording.ped_id))
     ids, time_s = recording.ped_id[order], recording.time_s[order]
@@ -331,6 +346,10 @@ def load_tracks(
         rows = load_tracks("corridor.txt", columns="id,frame,x,y,z", fps=16, units="cm")
         forecast = Predictor.from_checkpoint("grouptron-univ-backward").predict(rows)
     """
+    if not isinstance(columns, str) and not (
+        isinstance(columns, Sequence) and all(isinstance(name, str) for name in columns)
+    ):
+        raise GrouptronError(f"columns must be a string or a list of names, not {columns!r}")
     fmt = RecordingFormat(
         columns=parse_columns(columns if isinstance(columns, str) else ",".join(columns)),
         fps=fps,
