@@ -10,12 +10,15 @@ import numpy as np
 import pytest
 
 from grouptron.cli import main
+from grouptron.config import DataConfig
+from grouptron.data.dataset import cache_key
 from grouptron.data.reader import read_tracks
-from grouptron.data.recording import RecordingFormat, read_resampled
+from grouptron.data.recording import RecordingFormat, _parse_fast, read_resampled
+from grouptron.data.spelling import FLAGS, KEYWORDS
 from grouptron.errors import GrouptronError
 from grouptron.groups.labels import read_id_map
 from grouptron.inference.checkpoints import resolve_checkpoint
-from tests.conftest import write_tracks
+from tests.conftest import REPO, write_tracks
 
 
 def walkers(path: Path, scale: float = 1.0, skip: tuple[int, ...] = ()) -> Path:
@@ -243,12 +246,43 @@ def test_an_empty_comma_separated_field_is_refused(
 
 
 @pytest.mark.parametrize("reader", READERS)
-def test_a_trailing_comma_ends_a_line_and_a_line_of_commas_is_blank(
-    tmp_path: Path, reader: str
-) -> None:
+@pytest.mark.parametrize(
+    "content",
+    [
+        "0,1,0.0,1.0,\n,,,\n10,1,0.4,1.0,,\n",  # padding commas; a line of commas is blank
+        "# recorded 2020,,,\n0,1,0.0,1.0\n#,,\n10,1,0.4,1.0\n",  # commas in comments
+        "frame id x y\n0\t1\t0.0\t1.0,\n10 1,0.4, 1.0\n",  # separators mixed, a header
+        "0\t1\t0.0\t1.0,\n10 1,0.4, 1.0\n",  # the same without a header
+    ],
+)
+def test_commas_that_hide_no_value_are_read(tmp_path: Path, reader: str, content: str) -> None:
     tracks = tmp_path / "commas.csv"
-    tracks.write_text("0,1,0.0,1.0,\n,,,\n10,1,0.4,1.0,\n")
-    assert READERS[reader](tracks).step.tolist() == [0, 1]
+    tracks.write_text(content)
+    table = READERS[reader](tracks)
+    assert table.step.tolist() == [0, 1]
+    np.testing.assert_allclose(table.pos_m, [[0.0, 1.0], [0.4, 1.0]])
+
+
+def test_columns_past_the_named_ones_and_an_index_header_are_ignored(tmp_path: Path) -> None:
+    """A pandas ``to_csv`` file (an unnamed index column) and empty fields past the named
+    columns; the NumPy fast path still reads plain comma- and tab-separated files."""
+    pandas = tmp_path / "pandas.csv"
+    pandas.write_text(",frame,id,x,y\n0,0,1,0.0,1.0\n1,10,1,0.4,1.0\n")
+    fmt = RecordingFormat(columns=("skip", "frame", "id", "x", "y"))
+    assert read_resampled(pandas, fmt).step.tolist() == [0, 1]
+    extra = tmp_path / "extra.csv"
+    extra.write_text("0,1,0.0,1.0,,car\n10,1,0.4,1.0,,car\n")
+    assert read_resampled(extra, RecordingFormat()).step.tolist() == [0, 1]
+    for text in ("0,1,0.0,1.0\n", "0, 1, 0.0, 1.0,\n", "0\t1\t0.0\t1.0\n", "0 1 0 1 ,x\n"):
+        assert _parse_fast(text * 3, 4) is not None, text
+    assert _parse_fast("0,1,,1.0\n", 4) is None and _parse_fast(",1,0,1.0\n", 4) is None
+
+
+def test_the_cache_key_ignores_how_messages_name_options() -> None:
+    files, config = [REPO / "README.md"], DataConfig()
+    keys = {cache_key(files, config, 8, RecordingFormat(spelling=s)) for s in (FLAGS, KEYWORDS)}
+    assert len(keys) == 1
+    assert cache_key(files, config, 8, RecordingFormat(units="cm")) not in keys
 
 
 def test_both_readers_name_a_bad_number_alike(tmp_path: Path) -> None:
@@ -257,9 +291,9 @@ def test_both_readers_name_a_bad_number_alike(tmp_path: Path) -> None:
     for read in READERS.values():
         with pytest.raises(GrouptronError, match=r"bad\.txt:2: id must be a whole number, not 1.5"):
             read(tracks)
-    tracks.write_text("0 1 0.0 1.0\n10 1 nan 1.0\n")
-    for read in READERS.values():
-        with pytest.raises(GrouptronError, match=r"bad\.txt:2: x is not finite"):
+    tracks.write_text("0 1 0.0 1.0\n10 1 0.4 nan\n20 1 nan 1.0\n")
+    for read in READERS.values():  # the first line at fault, whatever its column
+        with pytest.raises(GrouptronError, match=r"bad\.txt:2: y is not finite"):
             read(tracks)
     # An ignored column may hold anything.
     tracks.write_text("0 1 0.0 1.0 nan\n10 1 0.4 1.0 nan\n")

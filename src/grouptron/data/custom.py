@@ -26,6 +26,7 @@ from grouptron.config import DataConfig
 from grouptron.constants import SPLITS
 from grouptron.data.dataset import PartData, load_files_part
 from grouptron.data.recording import RecordingFormat, parse_columns
+from grouptron.data.spelling import FILE_KEYS
 from grouptron.errors import GrouptronError
 
 if sys.version_info >= (3, 11):
@@ -88,10 +89,10 @@ def read_dataset(path: str | Path) -> DatasetDescription:
     bad = sorted(set(fmt) - set(FORMAT_KEYS)) if isinstance(fmt, dict) else ["format"]
     if bad:
         raise GrouptronError(f"{path}: unknown format keys {', '.join(bad)} ({FORMAT_KEYS})")
-    if isinstance(fmt.get("columns"), str):
-        fmt = {**fmt, "columns": parse_columns(fmt["columns"])}
     try:
-        recording = RecordingFormat(**fmt)
+        if isinstance(fmt.get("columns"), str):
+            fmt = {**fmt, "columns": parse_columns(fmt["columns"], FILE_KEYS)}
+        recording = RecordingFormat(**fmt, spelling=FILE_KEYS)
     except TypeError as exc:
         raise GrouptronError(f"{path}: bad format ({exc})") from None
     except GrouptronError as exc:

@@ -1,7 +1,9 @@
 """Fields of text tables and checks of their numbers, shared by every track reader.
 
-A line is split on commas when it has one, else on whitespace. An empty comma-separated field
-is a missing value: merging it away would shift every column after it, so it is refused.
+Fields are separated by commas, whitespace or both (``0 1,0.0, 1.0``). Two commas with only
+whitespace between them, or a comma that starts a line, leave an empty field: a missing value
+that merging away would shift every column after it. Commas that end a line (spreadsheet
+padding) end it; a line whose first character is ``#`` is a comment.
 """
 
 from __future__ import annotations
@@ -16,35 +18,34 @@ from grouptron.errors import DataFormatError
 
 MAX_WHOLE_NUMBER = 2**53
 """float64 stops counting in ones above this: frame numbers and ids beyond it are rounded."""
-_EMPTY_COMMA_FIELD = re.compile(r"(^|,)[ \t]*,", re.MULTILINE)
-
-
-class EmptyFieldError(ValueError):
-    """A comma-separated line with an empty field."""
+_SEPARATOR = re.compile(r"\s*,\s*|\s+")
+_EMPTY_INSIDE = re.compile(r",[ \t]*,")
+_EMPTY_FIRST = re.compile(r"\n[ \t]*,")
 
 
 def split_fields(line: str) -> list[str]:
-    """The fields of one line; [] for a blank line or one of commas only. One trailing comma
-    ends the line without adding a field.
-
-    Raises:
-        EmptyFieldError: for an empty comma-separated field, such as ``1,,2,3``.
-    """
-    text = line.strip()
-    if "," not in text:
-        return text.split()
-    fields = [field.strip() for field in text.removesuffix(",").split(",")]
-    if not any(fields):
+    """The fields of one line, an empty string for each empty field; [] for a blank line, a
+    comment or a line of commas only."""
+    text = line.strip().rstrip(",").strip()
+    if not text or text.startswith("#"):
         return []
-    if "" in fields:
-        raise EmptyFieldError(f"an empty field in {text[:60]!r}")
-    return fields
+    return _SEPARATOR.split(text)
 
 
-def has_empty_field(text: str) -> bool:
-    """Whether any line of ``text`` has an empty comma-separated field (a whole-file test for
-    parsers that cannot tell, before they run)."""
-    return _EMPTY_COMMA_FIELD.search(text) is not None
+def empty_field_error(
+    source: Path, fields: Sequence[str], text: str, line: int
+) -> DataFormatError | None:
+    """The error for an empty field among ``fields`` (the used columns of line number
+    ``line``, whose ``text`` it quotes), if any."""
+    if "" not in fields:
+        return None
+    return DataFormatError(source, f"an empty field in {text.strip()[:60]!r}", line)
+
+
+def may_have_empty_field(text: str) -> bool:
+    """Whether some line of ``text`` may have an empty field (or trailing commas): a quick
+    whole-file test for parsers that would merge it, such as NumPy's."""
+    return _EMPTY_INSIDE.search(text) is not None or _EMPTY_FIRST.search("\n" + text) is not None
 
 
 def refuse_bad_numbers(
@@ -54,27 +55,38 @@ def refuse_bad_numbers(
     names: Mapping[int, str],
     whole: Sequence[int] = (),
 ) -> None:
-    """Refuse, naming ``source`` and the line, the first value of a named column that is not
-    finite, then the first value of a ``whole`` column that is not a whole number or is too
-    large to count exactly.
+    """Refuse, naming ``source`` and the line, the first row (in file order) with a value of a
+    named column that is not finite, then the first with a value of a ``whole`` column that
+    is not a whole number or is too large to count exactly.
 
     Args:
-        values: (R, C) the numbers read.
+        values: (R, C) the numbers read, rows in file order.
         lines: (R,) the file line (or row number) of every row.
         names: column index -> the name to print, for every column to check.
         whole: the indices of columns that hold whole numbers (frames, ids).
     """
-    for column, name in names.items():
-        bad = np.flatnonzero(~np.isfinite(values[:, column]))
-        if bad.size:
-            raise DataFormatError(source, f"{name} is not finite", int(lines[bad[0]]))
-    for column in whole:
-        name, column_values = names[column], values[:, column]
-        bad = np.flatnonzero(column_values != np.round(column_values))
-        if bad.size:
-            why = f"{name} must be a whole number, not {column_values[bad[0]]:g}"
-            raise DataFormatError(source, why, int(lines[bad[0]]))
-        bad = np.flatnonzero(np.abs(column_values) > MAX_WHOLE_NUMBER)
-        if bad.size:
-            why = f"{name} {column_values[bad[0]]:.3g} is out of range (|{name}| <= 2**53)"
-            raise DataFormatError(source, why, int(lines[bad[0]]))
+    columns = list(names)
+    finite = np.isfinite(values[:, columns])  # (R, len(names))
+    if not finite.all():
+        row, at = _first(~finite)
+        raise DataFormatError(source, f"{names[columns[at]]} is not finite", int(lines[row]))
+    if not whole:
+        return
+    kept = values[:, list(whole)]  # (R, len(whole))
+    fractional = kept != np.round(kept)
+    if fractional.any():
+        row, at = _first(fractional)
+        why = f"{names[whole[at]]} must be a whole number, not {kept[row, at]:g}"
+        raise DataFormatError(source, why, int(lines[row]))
+    too_large = np.abs(kept) > MAX_WHOLE_NUMBER
+    if too_large.any():
+        row, at = _first(too_large)
+        name = names[whole[at]]
+        why = f"{name} {kept[row, at]:.3g} is out of range (|{name}| <= 2**53)"
+        raise DataFormatError(source, why, int(lines[row]))
+
+
+def _first(mask: np.ndarray) -> tuple[int, int]:
+    """(row, column) of the first True of an (R, C) mask in row-major order."""
+    row = int(np.flatnonzero(mask.any(axis=1))[0])
+    return row, int(np.flatnonzero(mask[row])[0])

@@ -16,7 +16,7 @@ from typing import Literal
 import numpy as np
 
 from grouptron.constants import FRAMES_PER_STEP
-from grouptron.data.fields import EmptyFieldError, refuse_bad_numbers, split_fields
+from grouptron.data.fields import empty_field_error, refuse_bad_numbers, split_fields
 from grouptron.errors import DataFormatError
 
 log = logging.getLogger(__name__)
@@ -66,11 +66,8 @@ def _data_lines(path: Path, text: str) -> tuple[list[int], list[list[str]]]:
     numbers: list[int] = []
     rows: list[list[str]] = []
     for number, line in enumerate(text.splitlines(), start=1):
-        try:
-            tokens = split_fields(line)
-        except EmptyFieldError as exc:
-            raise DataFormatError(path, str(exc), number) from None
-        if not tokens or tokens[0].startswith("#"):
+        tokens = split_fields(line)
+        if not tokens:
             continue  # blank or a comment
         if not rows and _is_header(tokens):
             continue  # a header line such as "frame id x y" (names, no numbers)
@@ -80,6 +77,9 @@ def _data_lines(path: Path, text: str) -> tuple[list[int], list[list[str]]]:
                 f"expected 4 columns (frame id x y), found {len(tokens)}: {line.strip()[:60]!r}",
                 number,
             )
+        empty = empty_field_error(path, tokens, line, number)
+        if empty is not None:
+            raise empty
         numbers.append(number)
         rows.append(tokens)
     return numbers, rows

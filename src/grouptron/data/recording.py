@@ -16,7 +16,7 @@ import io
 import math
 import re
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from numbers import Real
 from pathlib import Path
@@ -24,7 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from grouptron.constants import DT_S, FRAMES_PER_STEP
-from grouptron.data.fields import EmptyFieldError, has_empty_field, refuse_bad_numbers, split_fields
+from grouptron.data.fields import (
+    empty_field_error,
+    may_have_empty_field,
+    refuse_bad_numbers,
+    split_fields,
+)
 from grouptron.data.ndjson import read_ndjson
 from grouptron.data.neighbours import ranges_to_indices
 from grouptron.data.reader import TrackTable, table_from_values
@@ -148,23 +153,24 @@ def _numbers(path: Path, width: int) -> tuple[np.ndarray, np.ndarray]:
     rows: list[list[float]] = []
     lines: list[int] = []
     for number, raw in enumerate(text.splitlines(), start=1):
+        fields = split_fields(raw)
+        if not fields:
+            continue  # blank or a comment
+        if len(fields) < width:
+            if not rows and not any(_is_number(f) for f in fields):
+                continue  # a header line: names only
+            raise DataFormatError(
+                path, f"{len(fields)} columns, but {width} column names were given", number
+            )
         try:
-            fields = split_fields(raw)
-        except EmptyFieldError as exc:
-            raise DataFormatError(path, str(exc), number) from None
-        if not fields or fields[0].startswith("#"):
-            continue
-        try:
-            values = [float(f) for f in fields]
+            values = [float(f) for f in fields[:width]]  # columns past the named ones: ignored
         except ValueError:
             if not rows and not any(_is_number(f) for f in fields):
                 continue  # a header line: names only
-            raise DataFormatError(path, f"not a number in {raw.strip()!r}", number) from None
-        if len(values) < width:
-            raise DataFormatError(
-                path, f"{len(values)} columns, but {width} column names were given", number
-            )
-        rows.append(values[:width])
+            why = empty_field_error(path, fields[:width], raw, number)
+            bad = why or DataFormatError(path, f"not a number in {raw.strip()!r}", number)
+            raise bad from None
+        rows.append(values)
         lines.append(number)
     if not rows:
         raise DataFormatError(path, "no rows of numbers")
@@ -182,8 +188,8 @@ def _is_number(token: str) -> bool:
 def _parse_fast(text: str, width: int) -> tuple[np.ndarray, np.ndarray] | None:
     """NumPy's parser over the whole file, when every line is numbers (no header, no blank or
     comment lines, at least ``width`` columns); None otherwise."""
-    if has_empty_field(text):
-        return None  # the slow path names the line
+    if may_have_empty_field(text):
+        return None  # NumPy would merge an empty field: the slow path names its line
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # an empty file: the slow path says so in one line
@@ -333,7 +339,7 @@ def read_resampled(path: Path, fmt: RecordingFormat, dt_s: float = DT_S) -> Trac
 def load_tracks(
     path: str | Path,
     *,
-    columns: str | Sequence[str] = "frame,id,x,y",
+    columns: str | Iterable[str] = "frame,id,x,y",
     fps: float | None = None,
     units: str = "m",
     max_gap_s: float = 0.8,
@@ -346,12 +352,13 @@ def load_tracks(
         rows = load_tracks("corridor.txt", columns="id,frame,x,y,z", fps=16, units="cm")
         forecast = Predictor.from_checkpoint("grouptron-univ-backward").predict(rows)
     """
-    if not isinstance(columns, str) and not (
-        isinstance(columns, Sequence) and all(isinstance(name, str) for name in columns)
-    ):
-        raise GrouptronError(f"columns must be a string or a list of names, not {columns!r}")
+    if not isinstance(columns, str):
+        names = list(columns) if isinstance(columns, Iterable) else [columns]
+        if not all(isinstance(name, str) for name in names):
+            raise GrouptronError(f"columns must be a string or a list of names, not {columns!r}")
+        columns = ",".join(names)
     fmt = RecordingFormat(
-        columns=parse_columns(columns if isinstance(columns, str) else ",".join(columns)),
+        columns=parse_columns(columns),
         fps=fps,
         units=units,
         max_gap_s=max_gap_s,
