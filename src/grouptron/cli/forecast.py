@@ -142,6 +142,11 @@ def cmd_plot(args: argparse.Namespace) -> int:
         return 0
     step = data.frames_per_step
     wanted = range(args.frame, args.until + 1, step)
+    # Every frame reads only its own window: cut a long file to the frames drawn once, not
+    # once per frame (central derivatives read two steps past the horizon's start).
+    first = args.frame - max(p.window_frames for p in predictors)
+    last = args.until + (data.horizon_steps + 2) * step
+    rows = rows[(rows[:, 0] >= first) & (rows[:, 0] <= last)]
     present = set(rows[:, 0].astype(np.int64).tolist())
     drawn = [
         (frame, _plot_panels(args, predictors, rows, frame, required=False))
