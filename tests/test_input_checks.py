@@ -233,15 +233,21 @@ READERS = {"eth/ucy": read_tracks, "any layout": lambda p: read_resampled(p, Rec
 
 @pytest.mark.parametrize("reader", READERS)
 @pytest.mark.parametrize(
-    ("content", "line"),
-    [("0,1,0.0,1.0\n0,2,,5\n", 2), ("frame,id,x,y\n0,1,0.0,1.0\n,2,0.0,5\n", 3)],
+    ("content", "line", "why"),
+    [
+        ("0,1,0.0,1.0\n0,2,,5\n", 2, "an empty field in"),
+        ("frame,id,x,y\n0,1,0.0,1.0\n,2,0.0,5\n", 3, "an empty field in"),
+        ("0\t1\t0,5\t1,25\n10\t1\t0,9\t1,25\n", 1, "decimal commas in"),
+        ("frame id x y\n0 1 0.5 1\n10 1 0,9 1\n", 3, "decimal commas in"),
+    ],
 )
-def test_an_empty_comma_separated_field_is_refused(
-    tmp_path: Path, reader: str, content: str, line: int
+def test_commas_that_would_shift_the_columns_are_refused(
+    tmp_path: Path, reader: str, content: str, line: int, why: str
 ) -> None:
-    tracks = tmp_path / "holes.csv"
+    """An empty comma-separated field, or decimal commas read as separators."""
+    tracks = tmp_path / "bad.csv"
     tracks.write_text(content)
-    with pytest.raises(GrouptronError, match=rf"holes\.csv:{line}: an empty field"):
+    with pytest.raises(GrouptronError, match=rf"bad\.csv:{line}: {why}"):
         READERS[reader](tracks)
 
 
@@ -276,6 +282,7 @@ def test_columns_past_the_named_ones_and_an_index_header_are_ignored(tmp_path: P
     for text in ("0,1,0.0,1.0\n", "0, 1, 0.0, 1.0,\n", "0\t1\t0.0\t1.0\n", "0 1 0 1 ,x\n"):
         assert _parse_fast(text * 3, 4) is not None, text
     assert _parse_fast("0,1,,1.0\n", 4) is None and _parse_fast(",1,0,1.0\n", 4) is None
+    assert _parse_fast("0 1 0,5 1,25\n", 4) is None  # decimal commas: the slow path refuses
 
 
 def test_the_cache_key_ignores_how_messages_name_options() -> None:

@@ -21,6 +21,9 @@ MAX_WHOLE_NUMBER = 2**53
 _SEPARATOR = re.compile(r"\s*,\s*|\s+")
 _EMPTY_INSIDE = re.compile(r",[ \t]*,")
 _EMPTY_FIRST = re.compile(r"\n[ \t]*,")
+_DECIMAL_COMMA = re.compile(r"[-+]?\d+,\d+(?:[eE][-+]?\d+)?")
+_DIGIT_COMMA_DIGIT = re.compile(r"\d,\d")
+_BLANK_INSIDE = re.compile(r"\S[ \t]+\S")
 
 
 def split_fields(line: str) -> list[str]:
@@ -40,6 +43,25 @@ def empty_field_error(
     if "" not in fields:
         return None
     return DataFormatError(source, f"an empty field in {text.strip()[:60]!r}", line)
+
+
+def decimal_comma_error(source: Path, text: str, line: int) -> DataFormatError | None:
+    """The error for a line written with decimal commas (``0\t1\t0,5\t1,25``), if it is one:
+    fields separated by whitespace, one of them a number with a comma for its point, none with
+    a point. Read as separators, its commas would silently shift every column."""
+    tokens = text.split()
+    if len(tokens) < 2 or any("." in token for token in tokens):
+        return None
+    if not any(_DECIMAL_COMMA.fullmatch(token) for token in tokens):
+        return None
+    why = f"decimal commas in {text.strip()[:60]!r}? write numbers with a decimal point"
+    return DataFormatError(source, why, line)
+
+
+def may_have_decimal_commas(text: str) -> bool:
+    """Whether some line of ``text`` may be written with decimal commas (a quick whole-file
+    test: a comma between digits and whitespace between fields)."""
+    return _DIGIT_COMMA_DIGIT.search(text) is not None and _BLANK_INSIDE.search(text) is not None
 
 
 def may_have_empty_field(text: str) -> bool:

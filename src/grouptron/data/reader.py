@@ -16,7 +16,12 @@ from typing import Literal
 import numpy as np
 
 from grouptron.constants import FRAMES_PER_STEP
-from grouptron.data.fields import empty_field_error, refuse_bad_numbers, split_fields
+from grouptron.data.fields import (
+    decimal_comma_error,
+    empty_field_error,
+    refuse_bad_numbers,
+    split_fields,
+)
 from grouptron.errors import DataFormatError
 
 log = logging.getLogger(__name__)
@@ -71,6 +76,9 @@ def _data_lines(path: Path, text: str) -> tuple[list[int], list[list[str]]]:
             continue  # blank or a comment
         if not rows and _is_header(tokens):
             continue  # a header line such as "frame id x y" (names, no numbers)
+        decimal = decimal_comma_error(path, line, number) if "," in line else None
+        if decimal is not None:
+            raise decimal
         if len(tokens) != len(COLUMNS):
             raise DataFormatError(
                 path,

@@ -25,7 +25,9 @@ import numpy as np
 
 from grouptron.constants import DT_S, FRAMES_PER_STEP
 from grouptron.data.fields import (
+    decimal_comma_error,
     empty_field_error,
+    may_have_decimal_commas,
     may_have_empty_field,
     refuse_bad_numbers,
     split_fields,
@@ -156,6 +158,9 @@ def _numbers(path: Path, width: int) -> tuple[np.ndarray, np.ndarray]:
         fields = split_fields(raw)
         if not fields:
             continue  # blank or a comment
+        decimal = decimal_comma_error(path, raw, number) if "," in raw else None
+        if decimal is not None:
+            raise decimal
         if len(fields) < width:
             if not rows and not any(_is_number(f) for f in fields):
                 continue  # a header line: names only
@@ -188,8 +193,8 @@ def _is_number(token: str) -> bool:
 def _parse_fast(text: str, width: int) -> tuple[np.ndarray, np.ndarray] | None:
     """NumPy's parser over the whole file, when every line is numbers (no header, no blank or
     comment lines, at least ``width`` columns); None otherwise."""
-    if may_have_empty_field(text):
-        return None  # NumPy would merge an empty field: the slow path names its line
+    if may_have_empty_field(text) or may_have_decimal_commas(text):
+        return None  # NumPy would misread these: the slow path names the line
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # an empty file: the slow path says so in one line
