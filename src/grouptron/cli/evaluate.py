@@ -267,7 +267,11 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "  grouptron evaluate --model constant-velocity --tracks corridor.txt "
         "--columns id,frame,x,y,z --fps 16 --units cm",
     )
-    evaluate.add_argument("--checkpoint", help="a .safetensors checkpoint written by training")
+    evaluate.add_argument(
+        "--checkpoint",
+        help="a .safetensors checkpoint, a training run's folder or a shipped name "
+        "(checkpoints/README.md)",
+    )
     evaluate.add_argument(
         "--model", choices=("constant-velocity",), help="score a baseline instead of a checkpoint"
     )

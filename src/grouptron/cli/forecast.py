@@ -212,7 +212,10 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "frame; --min-points 2 forecasts from as few as 2), write the 12 predicted positions "
         "as CSV rows 'frame,id,step,x,y': frame is "
         "the last observed frame, step k (1..12) the position k steps (k * frames-per-step "
-        "frames) later, x/y in the file's coordinates. --mode samples adds a 'sample' column "
+        "frames) later, x/y in metres in the file's frame of reference (converted from "
+        "--units). A recording resampled to 0.4 s steps that are no whole number of its "
+        "frames (e.g. 16 fps) is numbered in steps from its first time instead of frames. "
+        "--mode samples adds a 'sample' column "
         "and writes --samples futures per pedestrian and frame. The most likely (ml) output "
         "equals what `grouptron evaluate --mode ml` scores.",
         formatter_class=Formatter,
