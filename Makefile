@@ -28,7 +28,7 @@ $(STAMP): pyproject.toml
 # The paper's Tables I and II (most likely predictions) from the shipped checkpoints.
 demo: install
 	$(BIN)/grouptron data fetch
-	$(BIN)/grouptron report --mode ml
+	$(BIN)/grouptron report --mode ml --models trajectron++,grouptron --seeds 0
 
 lint: install
 	$(BIN)/ruff check src tests benchmarks campaign

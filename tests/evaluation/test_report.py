@@ -86,6 +86,21 @@ def test_checkpoints_are_found_by_their_stored_configuration(
         find_checkpoints(tmp_path, ("backward",))
     with pytest.raises(GrouptronError, match="does not exist"):
         find_checkpoints(tmp_path / "nowhere", ("central",))
+    # Filters by model and by training seed (make demo reports the paper's seed-0 models).
+    only = find_checkpoints(tmp_path, ("central",), models=("grouptron",))
+    assert [c.path.parent.name for c in only] == ["any-name"]
+    assert len(find_checkpoints(tmp_path, ("central",), seeds=(found[0].seed,))) == 2
+    with pytest.raises(GrouptronError, match="trained with seed 7"):
+        find_checkpoints(tmp_path, ("central",), seeds=(7,))
+
+
+def test_report_refuses_unknown_models_and_seeds(capsys: pytest.CaptureFixture[str]) -> None:
+    for argv, why in (
+        (["--models", "trajectron"], "--models: unknown model 'trajectron'"),
+        (["--seeds", "0,x"], "--seeds must be integers"),
+    ):
+        assert main(["report", "--mode", "ml", *argv]) == 2
+        assert why in capsys.readouterr().err
 
 
 def _run(model: str, seed: int, fde: np.ndarray, steps: np.ndarray) -> ScoredRun:

@@ -40,6 +40,7 @@ from grouptron.io import (
     refuse_folder,
     write_text_atomically,
 )
+from grouptron.model.factory import MODEL_NAMES
 from grouptron.model.predict import POINT_FORECASTS
 
 
@@ -50,6 +51,10 @@ def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
         parts.append(f"--nll-max-samples {args.nll_max_samples}")
     if args.checkpoints != REPORT_CHECKPOINTS:
         parts.append(f"--checkpoints {args.checkpoints}")
+    if args.models:
+        parts.append(f"--models {args.models}")
+    if args.seeds:
+        parts.append(f"--seeds {args.seeds}")
     if args.seed:
         parts.append(f"--seed {args.seed}")
     if args.diagnostics:
@@ -59,6 +64,27 @@ def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
     if args.out:
         parts.append(f"--out {args.out}")
     return " ".join(parts)
+
+
+def _checkpoint_filters(
+    models: str | None, seeds: str | None
+) -> tuple[tuple[str, ...], tuple[int, ...] | None]:
+    """``--models`` and ``--seeds`` as names and integers, checked (None: every one)."""
+    names = MODEL_NAMES if models is None else tuple(m.strip() for m in models.split(","))
+    unknown = [m for m in names if m not in MODEL_NAMES]
+    if unknown or not names:
+        raise GrouptronError(
+            f"--models: unknown model {', '.join(map(repr, unknown)) or repr(models)}; choose "
+            f"from {', '.join(MODEL_NAMES)}"
+        )
+    if seeds is None:
+        return names, None
+    try:
+        return names, tuple(int(s) for s in seeds.split(","))
+    except ValueError:
+        raise GrouptronError(
+            f"--seeds must be integers separated by commas, not {seeds!r}"
+        ) from None
 
 
 def _emit(args: argparse.Namespace, text: str) -> int:
@@ -99,10 +125,13 @@ def cmd_report(args: argparse.Namespace) -> int:
     if args.out:
         refuse_folder(Path(args.out))  # before the work, not after it
     if args.dataset:
-        if args.out_of_domain:
-            raise GrouptronError("--out-of-domain goes with the benchmark report, not --dataset")
+        if args.out_of_domain or args.models or args.seeds:
+            raise GrouptronError(
+                "--out-of-domain, --models and --seeds go with the benchmark report, not --dataset"
+            )
         return cmd_report_dataset(args)
     modes = eval_modes(args.mode)
+    models, seeds = _checkpoint_filters(args.models, args.seeds)
     point_modes = [m for m in modes if m in POINT_FORECASTS]
     if args.out_of_domain and not point_modes:
         raise GrouptronError(
@@ -124,7 +153,7 @@ def cmd_report(args: argparse.Namespace) -> int:
         diagnostics=args.diagnostics,
     )
     data_dir = resolve_data_dir(args.data_dir)
-    checkpoints = find_checkpoints(Path(args.checkpoints), schemes)
+    checkpoints = find_checkpoints(Path(args.checkpoints), schemes, models, seeds)
     torch.set_num_threads(args.threads)
     report = run_report(
         data_dir,
@@ -163,7 +192,8 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "ones, the difference in percent, best-of-20, KDE NLL and the reproduction targets.",
         formatter_class=Formatter,
         epilog="examples:\n"
-        "  grouptron report --mode ml                      # Tables I and II only (minutes)\n"
+        "  grouptron report --mode ml --models trajectron++,grouptron --seeds 0   # make demo\n"
+        "  grouptron report --mode ml                      # Tables I and II only\n"
         "  grouptron report --out RESULTS.md\n"
         "  grouptron report --derivatives central --format json --out results.json",
     )
@@ -196,6 +226,16 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         default=ReportSettings().nll_max_samples,
         help="KDE NLL on at most this many seeded random test samples per split (0: all, "
         "hours: the NLL decodes 2000 futures per sample and dominates the run time)",
+    )
+    report.add_argument(
+        "--models",
+        help="comma-separated models to report (default: every one found; "
+        f"{', '.join(MODEL_NAMES)})",
+    )
+    report.add_argument(
+        "--seeds",
+        help="comma-separated training seeds to report (default: every seed found; the "
+        "mean +- sd over seeds needs several)",
     )
     report.add_argument("--out", help="write the report here (default: standard output)")
     report.add_argument(

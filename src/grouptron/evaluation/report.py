@@ -73,10 +73,16 @@ class ReportSettings:
             raise GrouptronError("the NLL sample cap must be >= 0 (0 means all samples)")
 
 
-def find_checkpoints(root: Path, schemes: Sequence[DerivativeScheme]) -> list[ReportCheckpoint]:
-    """Every ``*/best.safetensors`` under ``root`` whose stored configuration is one of our
-    models on an ETH/UCY split under one of ``schemes``, in table order (derivatives, model,
-    split, seed). Folder names do not matter; several seeds of one model and split are kept.
+def find_checkpoints(
+    root: Path,
+    schemes: Sequence[DerivativeScheme],
+    models: Sequence[str] = MODEL_NAMES,
+    seeds: Sequence[int] | None = None,
+) -> list[ReportCheckpoint]:
+    """Every ``*/best.safetensors`` under ``root`` whose stored configuration is one of
+    ``models`` on an ETH/UCY split under one of ``schemes`` (and trained with one of ``seeds``;
+    None: any), in table order (derivatives, model, split, seed). Folder names do not matter;
+    several seeds of one model and split are kept.
 
     Missing (model, split, derivatives) cells are logged (they stay empty); none at all is an
     error.
@@ -84,22 +90,29 @@ def find_checkpoints(root: Path, schemes: Sequence[DerivativeScheme]) -> list[Re
     found = []
     for path, config in stored_checkpoints(root):
         derivatives = config.data.derivatives
-        if derivatives in schemes and config.split in SPLITS and config.model_name in MODEL_NAMES:
+        if (
+            derivatives in schemes
+            and config.split in SPLITS
+            and config.model_name in models
+            and (seeds is None or config.train.seed in seeds)
+        ):
             found.append(
                 ReportCheckpoint(
                     config.model_name, config.split, derivatives, path, config.train.seed
                 )
             )
     if not found:
+        seeded = "" if seeds is None else f" trained with seed {' or '.join(map(str, seeds))}"
         raise GrouptronError(
             f"no checkpoints in {root} for the {'/'.join(schemes)} derivatives: expected "
-            f"folders with a {BEST_WEIGHTS_FILE} of {' or '.join(MODEL_NAMES)} on an ETH/UCY split"
+            f"folders with a {BEST_WEIGHTS_FILE} of {' or '.join(models)} on an ETH/UCY split"
+            f"{seeded}"
         )
     order = {name: i for i, name in enumerate((*schemes, *MODEL_NAMES, *SPLITS))}
     found.sort(key=lambda c: (order[c.derivatives], order[c.model], order[c.split], c.seed))
     have = {(c.model, c.split, c.derivatives) for c in found}
     # The paper's two models are expected on every split; a variant only where it was trained.
-    expected = [m for m in MODEL_NAMES if m in PAPER_MODELS or any(c.model == m for c in found)]
+    expected = [m for m in models if m in PAPER_MODELS or any(c.model == m for c in found)]
     missing = [
         f"{m}-{s}-{p}" for p in schemes for m in expected for s in SPLITS if (m, s, p) not in have
     ]
