@@ -168,7 +168,10 @@ def test_the_report_command_refuses_out_of_domain_with_a_dataset_and_bad_descrip
     tmp_path: Path, corridor: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     assert main(["report", "--dataset", str(corridor), "--out-of-domain", str(corridor)]) == 2
-    assert "--out-of-domain goes with the benchmark report" in capsys.readouterr().err
+    assert (
+        "--out-of-domain, --models and --seeds go with the benchmark report"
+        in capsys.readouterr().err
+    )
     no_point = ["report", "--out-of-domain", str(corridor), "--mode", "best-of-20"]
     assert main(no_point) == 2
     assert "add one of ml, ml-argmax, mean, ml-top10 to --mode" in capsys.readouterr().err
