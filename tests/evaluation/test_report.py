@@ -46,6 +46,21 @@ def test_subset_means_of_per_sample_scores_equal_evaluating_the_subset(
     assert summary.fde == pytest.approx(direct.fde, rel=1e-5)
 
 
+def test_forecasts_scored_from_one_decode_equal_those_scored_alone(
+    tiny_checkpoints: Path, synthetic_data_dir: Path
+) -> None:
+    model, config = load_trained_model(
+        tiny_checkpoints / "trajectron++-eth-central/best.safetensors"
+    )
+    samples = load_part(synthetic_data_dir, "eth", "test", config.data).samples
+    together = score_samples(model, config, samples, ("mean", "ml-argmax", "ml"), batch_size=7)
+    assert [s.mode for s in together] == ["mean", "ml-argmax", "ml"]
+    for scores in together:
+        (alone,) = score_samples(model, config, samples, (scores.mode,), batch_size=7)
+        np.testing.assert_array_equal(scores.fde, alone.fde)
+        np.testing.assert_array_equal(scores.ade, alone.ade)
+
+
 def test_nll_subsample_is_seeded_and_capped() -> None:
     assert nll_subsample(10, 0, 0).all()
     assert nll_subsample(10, 50, 0).all()
