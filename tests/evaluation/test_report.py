@@ -12,7 +12,9 @@ import numpy as np
 import pytest
 
 from grouptron.cli import main
+from grouptron.config import ExperimentConfig
 from grouptron.data.dataset import load_part
+from grouptron.data.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, evaluate_model, score_samples
 from grouptron.evaluation.report import (
@@ -28,15 +30,21 @@ from grouptron.evaluation.report_tables import report_markdown
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.scored import ScoredRun
 from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.cvae import TrajectronCVAE
+
+
+def _eth_test(
+    checkpoints: Path, data_dir: Path
+) -> tuple[TrajectronCVAE, ExperimentConfig, SampleSet]:
+    """The tiny Trajectron++ eth checkpoint and the synthetic eth test samples."""
+    model, config = load_trained_model(checkpoints / "trajectron++-eth-central/best.safetensors")
+    return model, config, load_part(data_dir, "eth", "test", config.data).samples
 
 
 def test_subset_means_of_per_sample_scores_equal_evaluating_the_subset(
     tiny_checkpoints: Path, synthetic_data_dir: Path
 ) -> None:
-    model, config = load_trained_model(
-        tiny_checkpoints / "trajectron++-eth-central/best.safetensors"
-    )
-    samples = load_part(synthetic_data_dir, "eth", "test", config.data).samples
+    model, config, samples = _eth_test(tiny_checkpoints, synthetic_data_dir)
     keep = np.arange(len(samples)) % 3 == 0
     (per_sample,) = score_samples(model, config, samples, ("ml",), batch_size=7)
     (direct,) = evaluate_model(model, config, samples.subset(keep), ("ml",), batch_size=5)
@@ -49,10 +57,7 @@ def test_subset_means_of_per_sample_scores_equal_evaluating_the_subset(
 def test_forecasts_scored_from_one_decode_equal_those_scored_alone(
     tiny_checkpoints: Path, synthetic_data_dir: Path
 ) -> None:
-    model, config = load_trained_model(
-        tiny_checkpoints / "trajectron++-eth-central/best.safetensors"
-    )
-    samples = load_part(synthetic_data_dir, "eth", "test", config.data).samples
+    model, config, samples = _eth_test(tiny_checkpoints, synthetic_data_dir)
     together = score_samples(model, config, samples, ("mean", "ml-argmax", "ml"), batch_size=7)
     assert [s.mode for s in together] == ["mean", "ml-argmax", "ml"]
     for scores in together:
