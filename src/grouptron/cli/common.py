@@ -78,7 +78,11 @@ def add_gap_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def add_data_options(parser: argparse.ArgumentParser, derivatives: bool = True) -> None:
+def add_data_options(
+    parser: argparse.ArgumentParser,
+    derivatives: bool = True,
+    cache_help: str = "rebuild samples instead of using the cache",
+) -> None:
     parser.add_argument(
         "--data-dir",
         help="ETH/UCY folder (default: $GROUPTRON_DATA, else ~/.cache/grouptron/eth_ucy)",
@@ -91,9 +95,7 @@ def add_data_options(parser: argparse.ArgumentParser, derivatives: bool = True) 
             "ahead; the default) or 'backward' (causal); a checkpoint brings its own",
         )
     add_gap_option(parser)
-    parser.add_argument(
-        "--no-cache", action="store_true", help="rebuild samples instead of using the cache"
-    )
+    parser.add_argument("--no-cache", action="store_true", help=cache_help)
 
 
 def int_at_least(value: str, lowest: int) -> int:

@@ -18,7 +18,7 @@ from grouptron.cli.common import (
     show_progress,
 )
 from grouptron.data.custom import read_dataset
-from grouptron.data.locate import resolve_data_dir
+from grouptron.data.locate import resolve_data_dir, score_cache_dir
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.dataset_report import dataset_report
 from grouptron.evaluation.evaluate import MODES
@@ -150,6 +150,7 @@ def cmd_report(args: argparse.Namespace) -> int:
         seed=args.seed,
         nll_max_samples=args.nll_max_samples,
         use_cache=not args.no_cache,
+        score_cache=None if args.no_cache else score_cache_dir(),
         diagnostics=args.diagnostics,
     )
     data_dir = resolve_data_dir(args.data_dir)
@@ -171,6 +172,7 @@ def cmd_report(args: argparse.Namespace) -> int:
             point_modes,
             default_model=DEFAULT_CHECKPOINT,
             progress=show_progress(args),
+            score_cache=settings.score_cache,
         )
         report = dataclasses.replace(report, out_of_domain=ood)
     if args.format == "json":
@@ -189,7 +191,9 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         description="Evaluate every best.safetensors in the folders of --checkpoints "
         "on its test set (and univ ones on UNIV-40/45/50), with constant velocity alongside, "
         "and write the Grouptron paper's Tables I and II with our numbers beside the published "
-        "ones, the difference in percent, best-of-20, KDE NLL and the reproduction targets.",
+        "ones, the difference in percent, best-of-20, KDE NLL and the reproduction targets. "
+        "Per-sample scores are cached, so running it again scores only new or changed "
+        "checkpoints and modes.",
         formatter_class=Formatter,
         epilog="examples:\n"
         "  grouptron report --mode ml --models trajectron++,grouptron --seeds 0   # make demo\n"
@@ -262,5 +266,11 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     )
     add_threads_option(report)
     report.add_argument("--quiet", action="store_true", help="no progress output")
-    add_data_options(report, derivatives=False)
+    add_data_options(
+        report,
+        derivatives=False,
+        cache_help="rebuild samples and score every checkpoint again instead of using the "
+        "caches (scores are kept in $GROUPTRON_CACHE/scores, else ~/.cache/grouptron/scores, "
+        "under a key of the weights, samples, settings and scoring code)",
+    )
     report.set_defaults(handler=cmd_report)

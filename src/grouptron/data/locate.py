@@ -34,6 +34,13 @@ def preprocessed_cache_dir() -> Path:
     return Path(from_env).expanduser() if from_env else user_cache_dir() / "preprocessed"
 
 
+def score_cache_dir() -> Path:
+    """Where the report keeps per-sample scores (``$GROUPTRON_CACHE/scores`` or the user
+    cache's ``scores``)."""
+    from_env = os.environ.get(CACHE_ENV, "").strip()
+    return (Path(from_env).expanduser() if from_env else user_cache_dir()) / "scores"
+
+
 def split_files(data_dir: Path, split: str, part: str) -> list[Path]:
     """The sorted ``*.txt`` files of ``<data_dir>/<split>/<part>/``.
 

@@ -67,6 +67,8 @@ def _mean(values: np.ndarray) -> float:
     return float(values.mean()) if len(values) else math.nan
 
 
+# One loop over modes and batches, so that point forecasts, best-of-20 and the NLL read the
+# very same batches (their per-sample scores are paired later).
 @torch.inference_mode()
 def score_samples(
     model: TrajectronCVAE,
@@ -84,16 +86,16 @@ def score_samples(
     """Per-sample ADE/FDE (metres) of each requested mode, and the KDE NLL for ``"nll"``.
 
     Every sample is predicted independently of its batch, so means over a subset of these
-    scores equal an evaluation of that subset (UNIV-N is scored this way). Sampling modes use a
-    generator seeded with ``seed``, so results are reproducible. Grouptron needs the samples'
-    ``groups``. The model must already be on ``device``.
+    scores equal an evaluation of that subset (UNIV-N is scored this way). Each sampling mode
+    starts its own generator from ``seed``, so results are reproducible and a mode scores the
+    same whichever other modes are asked with it. Grouptron needs the samples' ``groups``. The
+    model must already be on ``device``.
     """
     unknown = set(modes) - set(MODES)
     if unknown:
         raise ValueError(f"unknown evaluation modes {sorted(unknown)}")
     model.eval()
     horizon, dt = config.data.horizon_steps, config.data.dt_s
-    generator = torch.Generator(device=device).manual_seed(seed)
     count = len(samples)
     nll_batch = max(1, batch_size // 64)
     results: dict[str, SampleScores] = {}
@@ -103,6 +105,7 @@ def score_samples(
         )
     for mode in (m for m in modes if m not in results):
         ade, fde, nll = (np.full(count, np.nan) for _ in range(3))
+        generator = torch.Generator(device=device).manual_seed(seed)  # per mode: see above
         size = nll_batch if mode == "nll" else batch_size
         iterator = batches(samples, config, size, groups)
         total = -(-count // size)

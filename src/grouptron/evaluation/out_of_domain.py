@@ -18,8 +18,9 @@ from grouptron.data.custom import DatasetDescription
 from grouptron.data.samples import SampleSet, concatenate_samples
 from grouptron.data.subsets import density_masks, time_step_ids
 from grouptron.errors import GrouptronError
-from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
+from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores
 from grouptron.evaluation.recordings import recording_samples
+from grouptron.evaluation.score_cache import cached_score_samples
 from grouptron.evaluation.scored import CONSTANT_VELOCITY
 from grouptron.evaluation.uncertainty import Interval, mean_interval
 from grouptron.model.checkpoint import load_trained_model, stored_checkpoints
@@ -156,11 +157,12 @@ def score_out_of_domain(
     *,
     default_model: str | None = None,
     progress: bool = False,
+    score_cache: Path | None = None,
 ) -> OutOfDomain:
     """Constant velocity and every checkpoint (rows named by its folder) in each point-forecast
     ``mode`` on every prepared recording: per-recording rows and pooled rows by density bin,
     95% intervals over resampled time steps; ``default_model`` names the folder whose targets
-    are checked."""
+    are checked; ``score_cache`` keeps per-sample scores between runs (None: not kept)."""
     unknown = [m for m in modes if m not in POINT_FORECASTS]
     if unknown or not modes:
         raise GrouptronError(
@@ -177,8 +179,8 @@ def score_out_of_domain(
         model, config = load_trained_model(path)
         samples = _samples(recordings.datasets, config.data)
         groups = groups_for_model(samples, config)
-        scored = score_samples(
-            model, config, samples, tuple(modes), groups=groups, progress=progress
+        scored = cached_score_samples(
+            score_cache, model, config, samples, modes, groups=groups, progress=progress
         )
         for scores in scored:
             per_recording, per_bin = _rows(

@@ -35,10 +35,10 @@ from grouptron.evaluation.evaluate import (
     MODES,
     SampleScores,
     constant_velocity_scores,
-    score_samples,
 )
 from grouptron.evaluation.report_stats import Report, build_report
 from grouptron.evaluation.results import EvaluationResult
+from grouptron.evaluation.score_cache import cached_score_samples
 from grouptron.evaluation.scored import CONSTANT_VELOCITY, ReportCheckpoint, ScoredRun
 from grouptron.evaluation.test_sets import load_test_set, subset_with_groups
 from grouptron.geometry import DerivativeScheme
@@ -59,6 +59,9 @@ class ReportSettings:
     test samples of all checkpoints, minutes for 300 per split)."""
     batch_size: int = 256
     use_cache: bool = True
+    score_cache: Path | None = None
+    """Where per-sample scores are kept between reports (``evaluation.score_cache``; None: not
+    kept), so that a report scores only checkpoints, modes and settings it has not seen."""
     diagnostics: bool = False
     """Also score by density and with each input taken away (``evaluation.diagnostics``):
     one more ML pass per ablation a model has."""
@@ -204,7 +207,9 @@ def score_checkpoint(
     rows, by_mode = [], {}
     full_modes = tuple(m for m in settings.modes if m != "nll")
     batch, seed = settings.batch_size, settings.seed
-    for scores in score_samples(
+    cache = settings.score_cache
+    for scores in cached_score_samples(
+        cache,
         model,
         experiment,
         samples,
@@ -220,7 +225,8 @@ def score_checkpoint(
     if "nll" in settings.modes:
         keep = nll_subsample(len(samples), settings.nll_max_samples, seed)
         some, some_groups = subset_with_groups(samples, groups, keep)
-        (scores,) = score_samples(
+        (scores,) = cached_score_samples(
+            cache,
             model,
             experiment,
             some,
@@ -236,8 +242,8 @@ def score_checkpoint(
     if not settings.diagnostics:
         return run
     ablated = {
-        ablation: score_samples(
-            model, experiment, samples, ("ml",), batch_size=batch, progress=progress,
+        ablation: cached_score_samples(
+            cache, model, experiment, samples, ("ml",), batch_size=batch, progress=progress,
             groups=groups, ablate=(ablation,),
         )[0]
         for ablation in model_ablations(experiment)

@@ -1,0 +1,203 @@
+"""Per-sample scores kept on disk, so that a report scores only what it has not scored before.
+
+Regenerating a report after one checkpoint was added or retrained should cost that
+checkpoint's scoring, not every checkpoint's again. Each mode's (S,) ADE/FDE/NLL arrays are
+stored as one ``.npz`` (never pickle) under a key that hashes everything they depend on: the
+model's weights and configuration, the test samples and groups (their contents, not their file
+names), the mode, seed, batch size and ablation, the library versions, and the source of every
+grouptron module that scoring runs. Anything changed is a miss, never a stale score.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import hashlib
+import json
+import logging
+from collections.abc import Sequence
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from grouptron.config import ExperimentConfig
+from grouptron.data.samples import SampleSet
+from grouptron.evaluation.evaluate import SampleScores, score_samples
+from grouptron.groups.assign import SampleGroups
+from grouptron.io import save_atomically
+from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.predict import Ablation
+
+log = logging.getLogger(__name__)
+
+SCORE_CACHE_FORMAT = 1
+PACKAGE = "grouptron"
+SCORING_MODULE = "grouptron.evaluation.evaluate"
+
+
+def cached_score_samples(
+    folder: Path | None,
+    model: TrajectronCVAE,
+    config: ExperimentConfig,
+    samples: SampleSet,
+    modes: Sequence[str],
+    *,
+    batch_size: int = 256,
+    seed: int = 0,
+    progress: bool = False,
+    groups: SampleGroups | None = None,
+    ablate: Ablation = (),
+) -> list[SampleScores]:
+    """:func:`score_samples` on the CPU, each mode read from ``folder`` when it was scored
+    before (None: no cache). The modes not found are scored together and stored."""
+    if folder is None:
+        return score_samples(
+            model, config, samples, tuple(modes), batch_size=batch_size, seed=seed,
+            progress=progress, groups=groups, ablate=ablate,
+        )  # fmt: skip
+    common = _common_key(model, config, samples, groups, batch_size, seed, ablate)
+    paths = {mode: folder / f"{_mode_key(common, mode)}.npz" for mode in modes}
+    found = {mode: _read(paths[mode], mode, len(samples)) for mode in modes}
+    missing = tuple(mode for mode in modes if found[mode] is None)
+    if missing:
+        scored = score_samples(
+            model, config, samples, missing, batch_size=batch_size, seed=seed,
+            progress=progress, groups=groups, ablate=ablate,
+        )  # fmt: skip
+        for scores in scored:
+            _write(paths[scores.mode], scores)
+            found[scores.mode] = scores
+    return [found[mode] for mode in modes]  # type: ignore[misc]
+
+
+def _read(path: Path, mode: str, count: int) -> SampleScores | None:
+    """The stored scores, or None when absent or unreadable (then scored again)."""
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as stored:
+            arrays = [np.asarray(stored[name], dtype=np.float64) for name in ("ade", "fde", "nll")]
+    except (OSError, ValueError, KeyError, EOFError) as error:
+        log.warning("ignoring unreadable cached scores %s (%s)", path, error)
+        return None
+    if any(a.shape != (count,) for a in arrays):
+        log.warning("ignoring cached scores %s: not %d samples", path, count)
+        return None
+    return SampleScores(mode, *arrays)
+
+
+def _write(path: Path, scores: SampleScores) -> None:
+    def save(temporary: Path) -> None:
+        with temporary.open("wb") as handle:
+            np.savez(handle, ade=scores.ade, fde=scores.fde, nll=scores.nll)
+
+    try:
+        save_atomically(path, save)
+    except OSError as error:  # a read-only or full cache costs time, not the report
+        log.warning("could not cache scores in %s (%s)", path, error)
+
+
+def _mode_key(common: str, mode: str) -> str:
+    return hashlib.sha256(f"{common}:{mode}".encode()).hexdigest()[:32]
+
+
+def _common_key(
+    model: TrajectronCVAE,
+    config: ExperimentConfig,
+    samples: SampleSet,
+    groups: SampleGroups | None,
+    batch_size: int,
+    seed: int,
+    ablate: Ablation,
+) -> str:
+    digest = hashlib.sha256()
+    settings = {
+        "format": SCORE_CACHE_FORMAT,
+        "source": scoring_source_digest(_model_modules(model)),
+        "torch": torch.__version__,
+        "numpy": np.__version__,
+        "config": dataclasses.asdict(config),
+        "batch_size": batch_size,
+        "seed": seed,
+        "ablate": list(ablate),
+    }
+    digest.update(json.dumps(settings, sort_keys=True, default=str).encode())
+    for name, tensor in model.state_dict().items():
+        _update(digest, name, tensor.detach().cpu().contiguous().numpy())
+    for part in (samples, groups):
+        if part is not None:
+            for field in dataclasses.fields(part):
+                _update(digest, field.name, np.asarray(getattr(part, field.name)))
+    return digest.hexdigest()
+
+
+def _update(digest: hashlib._Hash, name: str, array: np.ndarray) -> None:
+    """Hash an array with its name, dtype and shape (equal bytes of another shape differ)."""
+    digest.update(f"{name}:{array.dtype.str}:{array.shape}".encode())
+    digest.update(np.ascontiguousarray(array).tobytes())
+
+
+def _model_modules(model: torch.nn.Module) -> tuple[str, ...]:
+    """The grouptron modules that define the model's class and its bases."""
+    names = {c.__module__ for c in type(model).__mro__}
+    return tuple(sorted(n for n in names if n.startswith(f"{PACKAGE}.")))
+
+
+@cache
+def scoring_source_digest(modules: tuple[str, ...] = ()) -> str:
+    """SHA256 of the source of :data:`SCORING_MODULE`, ``modules`` (the model's classes) and
+    every grouptron module they import, directly or not: the code that turns weights and
+    samples into scores."""
+    digest = hashlib.sha256()
+    for path in sorted(scoring_sources(modules)):
+        digest.update(path.name.encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def scoring_sources(modules: Sequence[str] = ()) -> set[Path]:
+    """The source files of :data:`SCORING_MODULE`, ``modules`` and their grouptron imports,
+    transitively."""
+    root = Path(__file__).resolve().parents[1]  # the package folder
+    seen: set[Path] = set()
+    pending: list[tuple[str, ...]] = [(name,) for name in (SCORING_MODULE, *modules)]
+    while pending:
+        found = (_module_path(root, module) for module in pending.pop())
+        path = next((p for p in found if p is not None), None)
+        if path is None or path in seen:
+            continue
+        seen.add(path)
+        package = ".".join(path.relative_to(root.parent).with_suffix("").parts)
+        if path.name != "__init__.py":
+            package = package.rpartition(".")[0]
+        pending += _imports(path, package)
+    return seen
+
+
+def _module_path(root: Path, module: str) -> Path | None:
+    if module != PACKAGE and not module.startswith(f"{PACKAGE}."):
+        return None
+    folder = root.joinpath(*module.split(".")[1:])
+    for candidate in (folder.with_name(f"{folder.name}.py"), folder / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def _imports(path: Path, package: str) -> list[tuple[str, ...]]:
+    """The modules ``path`` imports (relative ones resolved against ``package``), each as the
+    names to try in order: ``from a import b`` is module ``a.b`` if there is one, else ``a``
+    (a package's ``__init__`` counts only when a name is taken from it)."""
+    names: list[tuple[str, ...]] = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            names += [(alias.name,) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parent = package.rsplit(".", node.level - 1)[0] if node.level > 1 else package
+                base = f"{parent}.{base}" if base else parent
+            names += [(f"{base}.{alias.name}", base) for alias in node.names]
+    return names
