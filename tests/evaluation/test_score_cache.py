@@ -3,22 +3,29 @@
 from __future__ import annotations
 
 import dataclasses
+import sys
 from pathlib import Path
+from types import FrameType
 
 import numpy as np
 import pytest
 import torch
 
+import grouptron
 from grouptron.config import ExperimentConfig
+from grouptron.data.dataset import load_part
 from grouptron.data.samples import SampleSet
 from grouptron.evaluation import score_cache
 from grouptron.evaluation.evaluate import score_samples
 from grouptron.evaluation.report import ReportCheckpoint, ReportSettings, score_checkpoint
 from grouptron.evaluation.score_cache import cached_score_samples, scoring_sources
+from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.factory import build_model, groups_for_model, load_weights
 from tests.evaluation.test_report import _eth_test
 
 MODES = ("ml", "best-of-20")
+MODES_ALL = ("ml", "mean", "ml-argmax", "ml-top10", "best-of-20", "nll")
 EthTest = tuple[TrajectronCVAE, ExperimentConfig, SampleSet]
 
 
@@ -47,7 +54,9 @@ def test_cached_scores_are_read_back_unchanged_and_only_missing_modes_are_scored
     calls = _count_scored(monkeypatch)
     first = cached_score_samples(tmp_path, model, config, samples, MODES, batch_size=7)
     again = cached_score_samples(tmp_path, model, config, samples, (*MODES, "mean"), batch_size=7)
-    assert calls == [MODES, ("mean",)]
+    assert calls == [("ml",), ("best-of-20",), ("mean",)]  # each mode stored when scored
+    cached_score_samples(tmp_path, model, config, samples, ("mean", "ml-argmax", "ml"))
+    assert calls[3:] == [("ml", "mean"), ("ml-argmax",)]  # ml and mean share their decode
     fresh = score_samples(model, config, samples, (*MODES, "mean"), batch_size=7)
     for stored, direct in zip((*first, *again), (*fresh[:2], *fresh), strict=True):
         assert stored.mode == direct.mode
@@ -67,12 +76,35 @@ def test_any_change_of_weights_samples_or_settings_scores_again(
     cached_score_samples(tmp_path, model, config, samples, ("best-of-20",), seed=1)
     moved = dataclasses.replace(samples, fut_rel_m=samples.fut_rel_m + 0.01)
     cached_score_samples(tmp_path, model, config, moved, ("ml",))
+    reseeded = dataclasses.replace(config, train=dataclasses.replace(config.train, seed=5))
+    cached_score_samples(tmp_path, model, reseeded, samples, ("ml",))
     with torch.no_grad():
         next(model.parameters()).add_(1e-3)
     cached_score_samples(tmp_path, model, config, samples, ("ml",))
-    assert len(calls) == 7
+    assert len(calls) == 8
     cached_score_samples(tmp_path, model, config, samples, ("ml",))  # the last one, kept
-    assert len(calls) == 7
+    assert len(calls) == 8
+
+
+def test_other_groups_score_again(
+    tiny_checkpoints: Path,
+    synthetic_data_dir: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    model, config = load_trained_model(tiny_checkpoints / "grouptron-eth-central/best.safetensors")
+    samples = load_part(synthetic_data_dir, "eth", "test", config.data).samples
+    groups = groups_for_model(samples, config)
+    assert groups is not None
+    calls = _count_scored(monkeypatch)
+    cached_score_samples(tmp_path, model, config, samples, ("ml",), groups=groups)
+    together = dataclasses.replace(  # everyone in one group
+        groups, ego_group=0 * groups.ego_group, nbr_group=0 * groups.nbr_group
+    )
+    assert groups.nbr_group.any()
+    cached_score_samples(tmp_path, model, config, samples, ("ml",), groups=together)
+    cached_score_samples(tmp_path, model, config, samples, ("ml",), groups=groups)
+    assert len(calls) == 2
 
 
 def test_unreadable_or_mismatched_cache_files_are_scored_again(
@@ -80,15 +112,19 @@ def test_unreadable_or_mismatched_cache_files_are_scored_again(
 ) -> None:
     model, config, samples = eth
     (first,) = cached_score_samples(tmp_path, model, config, samples, ("ml",))
-    (stored,) = tmp_path.glob("*.npz")
+    (stored,) = tmp_path.glob("*/*.npz")
     calls = _count_scored(monkeypatch)
-    stored.write_bytes(b"not an npz")
-    (again,) = cached_score_samples(tmp_path, model, config, samples, ("ml",))
+    whole = stored.read_bytes()
+    damaged = [b"not an npz", whole[:-10], whole[: len(whole) // 2]]
+    for content in damaged:
+        stored.write_bytes(content)
+        (again,) = cached_score_samples(tmp_path, model, config, samples, ("ml",))
+        np.testing.assert_array_equal(first.fde, again.fde)
     np.savez(stored, ade=first.ade[:3], fde=first.fde[:3], nll=first.nll[:3])
     (third,) = cached_score_samples(tmp_path, model, config, samples, ("ml",))
-    assert len(calls) == 2
-    np.testing.assert_array_equal(first.fde, again.fde)
     np.testing.assert_array_equal(first.fde, third.fde)
+    assert len(calls) == len(damaged) + 1
+    assert stored.read_bytes() == whole  # scored again and stored again
 
 
 def test_a_sampling_mode_scores_the_same_whichever_modes_come_before_it(eth: EthTest) -> None:
@@ -99,11 +135,33 @@ def test_a_sampling_mode_scores_the_same_whichever_modes_come_before_it(eth: Eth
     np.testing.assert_array_equal(nll_after.nll, nll_alone.nll)
 
 
-def test_the_scoring_code_covers_the_models_and_what_scoring_imports() -> None:
-    names = {path.name for path in scoring_sources(("grouptron.model.grouptron",))}
-    assert {"evaluate.py", "metrics.py", "predict.py", "cvae.py", "batch.py"} <= names
-    assert {"grouptron.py", "stgcn.py"} <= names  # the model's own class and its encoders
-    assert not {"report.py", "app.py", "forecasts.py"} & names  # tables, CLI, plots: not scoring
+def test_every_module_that_runs_while_a_model_is_built_and_scored_is_in_the_key(
+    tiny_checkpoints: Path, synthetic_data_dir: Path
+) -> None:
+    stored, config = load_trained_model(tiny_checkpoints / "grouptron-eth-central/best.safetensors")
+    samples = load_part(synthetic_data_dir, "eth", "test", config.data).samples
+    samples = samples.subset(np.arange(len(samples)) < 4)
+    groups = groups_for_model(samples, config)
+    ran: set[Path] = set()
+
+    def record(frame: FrameType, event: str, arg: object) -> None:
+        if event == "call":
+            ran.add(Path(frame.f_code.co_filename).resolve())
+
+    sys.setprofile(record)
+    try:
+        model = build_model(config)
+        load_weights(model, stored.state_dict(), "test")
+        for ablate in ((), ("edges",), ("scene",)):
+            score_samples(model, config, samples, MODES_ALL, groups=groups, ablate=ablate)
+    finally:
+        sys.setprofile(None)
+    package = Path(grouptron.__file__).resolve().parent
+    ran_here = {path for path in ran if path.is_relative_to(package)}
+    covered = scoring_sources(score_cache._model_modules(model))
+    assert {"cvae.py", "stgcn.py", "predict.py", "factory.py"} <= {p.name for p in ran_here}
+    assert ran_here <= covered, sorted(str(p) for p in ran_here - covered)
+    assert not {"report.py", "app.py", "forecasts.py"} & {p.name for p in covered}
 
 
 def test_a_report_run_again_reads_every_score_from_the_cache(

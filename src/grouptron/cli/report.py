@@ -103,7 +103,12 @@ def cmd_report_dataset(args: argparse.Namespace) -> int:
     torch.set_num_threads(args.threads)
     modes = tuple(m for m in eval_modes(args.mode) if m != "nll")
     rows = dataset_report(
-        dataset, Path(args.checkpoints), modes=modes, seed=args.seed, use_cache=not args.no_cache
+        dataset,
+        Path(args.checkpoints),
+        modes=modes,
+        seed=args.seed,
+        use_cache=not args.no_cache,
+        score_cache=None if args.no_cache else score_cache_dir(),
     )
     if args.format == "json":
         text = results_json(rows) + "\n"
@@ -269,8 +274,9 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     add_data_options(
         report,
         derivatives=False,
-        cache_help="rebuild samples and score every checkpoint again instead of using the "
-        "caches (scores are kept in $GROUPTRON_CACHE/scores, else ~/.cache/grouptron/scores, "
-        "under a key of the weights, samples, settings and scoring code)",
+        cache_help="rebuild samples and score every checkpoint, reading and keeping nothing "
+        "(scores are kept in $GROUPTRON_CACHE/scores, else ~/.cache/grouptron/scores, under a "
+        "key of the weights, samples, settings and the code that builds and scores a model; "
+        "the folder can be deleted at any time)",
     )
     report.set_defaults(handler=cmd_report)

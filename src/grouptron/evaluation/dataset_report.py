@@ -11,8 +11,9 @@ import numpy as np
 from grouptron.data.custom import DatasetDescription, load_dataset_part
 from grouptron.data.subsets import time_step_ids
 from grouptron.errors import GrouptronError
-from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
+from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores
 from grouptron.evaluation.results import EvaluationResult
+from grouptron.evaluation.score_cache import cached_score_samples
 from grouptron.evaluation.uncertainty import mean_interval
 from grouptron.model.checkpoint import load_trained_model, stored_checkpoints
 from grouptron.model.factory import groups_for_model
@@ -53,8 +54,10 @@ def dataset_report(
     modes: tuple[str, ...] = ("ml",),
     seed: int = 0,
     use_cache: bool = True,
+    score_cache: Path | None = None,
 ) -> list[EvaluationResult]:
-    """Rows for constant velocity (once per kind of derivatives) and every checkpoint."""
+    """Rows for constant velocity (once per kind of derivatives) and every checkpoint;
+    ``score_cache`` keeps per-sample scores between runs (None: not kept)."""
     rows: list[EvaluationResult] = []
     paths = checkpoints_of(dataset, root)
     baselines_done: set[str] = set()
@@ -71,6 +74,9 @@ def dataset_report(
             rows.append(_row(template, cv, steps))
         groups = groups_for_model(samples, experiment)
         ours = dataclasses.replace(template, model=experiment.model_name, checkpoint=str(path))
-        for scores in score_samples(model, experiment, samples, modes, seed=seed, groups=groups):
+        scored = cached_score_samples(
+            score_cache, model, experiment, samples, modes, seed=seed, groups=groups
+        )
+        for scores in scored:
             rows.append(_row(ours, scores, steps))
     return rows

@@ -2,10 +2,12 @@
 
 Regenerating a report after one checkpoint was added or retrained should cost that
 checkpoint's scoring, not every checkpoint's again. Each mode's (S,) ADE/FDE/NLL arrays are
-stored as one ``.npz`` (never pickle) under a key that hashes everything they depend on: the
-model's weights and configuration, the test samples and groups (their contents, not their file
-names), the mode, seed, batch size and ablation, the library versions, and the source of every
-grouptron module that scoring runs. Anything changed is a miss, never a stale score.
+stored as one ``.npz`` (never pickle) as soon as that mode is scored, under a key that hashes
+everything they depend on: the model's weights and configuration, the test samples and groups
+(their contents, not their file names), the mode, seed, batch size and ablation, and the
+library versions. The files sit in a subfolder named by a hash of the source of every
+grouptron module that builds the model or scores it, so that edited code never reads old
+scores and the sets of older code can be deleted whole (any of it can be, at any time).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import dataclasses
 import hashlib
 import json
 import logging
+import zipfile
 from collections.abc import Sequence
 from functools import cache
 from pathlib import Path
@@ -24,7 +27,8 @@ import torch
 
 from grouptron.config import ExperimentConfig
 from grouptron.data.samples import SampleSet
-from grouptron.evaluation.evaluate import SampleScores, score_samples
+from grouptron.errors import GrouptronError
+from grouptron.evaluation.evaluate import SHARED_DECODE, SampleScores, score_samples
 from grouptron.groups.assign import SampleGroups
 from grouptron.io import save_atomically
 from grouptron.model.cvae import TrajectronCVAE
@@ -34,7 +38,8 @@ log = logging.getLogger(__name__)
 
 SCORE_CACHE_FORMAT = 1
 PACKAGE = "grouptron"
-SCORING_MODULE = "grouptron.evaluation.evaluate"
+SCORING_MODULES = ("grouptron.evaluation.evaluate", "grouptron.model.factory")
+"""Scoring, and the code that turns a stored configuration into a model."""
 
 
 def cached_score_samples(
@@ -51,19 +56,24 @@ def cached_score_samples(
     ablate: Ablation = (),
 ) -> list[SampleScores]:
     """:func:`score_samples` on the CPU, each mode read from ``folder`` when it was scored
-    before (None: no cache). The modes not found are scored together and stored."""
+    before (None: no cache). The modes not found are scored and stored one by one (``ml`` and
+    ``mean`` together: they share a decode), so a run stopped half-way keeps what it scored."""
     if folder is None:
         return score_samples(
             model, config, samples, tuple(modes), batch_size=batch_size, seed=seed,
             progress=progress, groups=groups, ablate=ablate,
         )  # fmt: skip
     common = _common_key(model, config, samples, groups, batch_size, seed, ablate)
-    paths = {mode: folder / f"{_mode_key(common, mode)}.npz" for mode in modes}
+    subfolder = folder / scoring_source_digest(_model_modules(model))[:16]
+    paths = {mode: subfolder / f"{_mode_key(common, mode)}.npz" for mode in modes}
     found = {mode: _read(paths[mode], mode, len(samples)) for mode in modes}
-    missing = tuple(mode for mode in modes if found[mode] is None)
-    if missing:
+    missing = [mode for mode in modes if found[mode] is None]
+    shared = tuple(m for m in SHARED_DECODE if m in missing)
+    calls = [shared] if len(shared) > 1 else []
+    calls += [(mode,) for mode in missing if len(shared) < 2 or mode not in shared]
+    for call in calls:
         scored = score_samples(
-            model, config, samples, missing, batch_size=batch_size, seed=seed,
+            model, config, samples, call, batch_size=batch_size, seed=seed,
             progress=progress, groups=groups, ablate=ablate,
         )  # fmt: skip
         for scores in scored:
@@ -74,12 +84,12 @@ def cached_score_samples(
 
 def _read(path: Path, mode: str, count: int) -> SampleScores | None:
     """The stored scores, or None when absent or unreadable (then scored again)."""
-    if not path.is_file():
-        return None
     try:
         with np.load(path, allow_pickle=False) as stored:
             arrays = [np.asarray(stored[name], dtype=np.float64) for name in ("ade", "fde", "nll")]
-    except (OSError, ValueError, KeyError, EOFError) as error:
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
         log.warning("ignoring unreadable cached scores %s (%s)", path, error)
         return None
     if any(a.shape != (count,) for a in arrays):
@@ -95,7 +105,7 @@ def _write(path: Path, scores: SampleScores) -> None:
 
     try:
         save_atomically(path, save)
-    except OSError as error:  # a read-only or full cache costs time, not the report
+    except (OSError, GrouptronError) as error:  # a read-only or full cache costs time only
         log.warning("could not cache scores in %s (%s)", path, error)
 
 
@@ -115,7 +125,6 @@ def _common_key(
     digest = hashlib.sha256()
     settings = {
         "format": SCORE_CACHE_FORMAT,
-        "source": scoring_source_digest(_model_modules(model)),
         "torch": torch.__version__,
         "numpy": np.__version__,
         "config": dataclasses.asdict(config),
@@ -140,29 +149,30 @@ def _update(digest: hashlib._Hash, name: str, array: np.ndarray) -> None:
 
 
 def _model_modules(model: torch.nn.Module) -> tuple[str, ...]:
-    """The grouptron modules that define the model's class and its bases."""
-    names = {c.__module__ for c in type(model).__mro__}
+    """The grouptron modules that define the classes of the model, its parts and their bases."""
+    names = {c.__module__ for part in model.modules() for c in type(part).__mro__}
     return tuple(sorted(n for n in names if n.startswith(f"{PACKAGE}.")))
 
 
 @cache
 def scoring_source_digest(modules: tuple[str, ...] = ()) -> str:
-    """SHA256 of the source of :data:`SCORING_MODULE`, ``modules`` (the model's classes) and
-    every grouptron module they import, directly or not: the code that turns weights and
-    samples into scores."""
+    """SHA256 of the source of :data:`SCORING_MODULES`, ``modules`` (the model's classes) and
+    every grouptron module they import, directly or not: the code that turns a configuration,
+    weights and samples into scores."""
     digest = hashlib.sha256()
+    root = Path(__file__).resolve().parents[1]
     for path in sorted(scoring_sources(modules)):
-        digest.update(path.name.encode())
+        digest.update(str(path.relative_to(root)).encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()
 
 
 def scoring_sources(modules: Sequence[str] = ()) -> set[Path]:
-    """The source files of :data:`SCORING_MODULE`, ``modules`` and their grouptron imports,
+    """The source files of :data:`SCORING_MODULES`, ``modules`` and their grouptron imports,
     transitively."""
     root = Path(__file__).resolve().parents[1]  # the package folder
     seen: set[Path] = set()
-    pending: list[tuple[str, ...]] = [(name,) for name in (SCORING_MODULE, *modules)]
+    pending: list[tuple[str, ...]] = [(name,) for name in (*SCORING_MODULES, *modules)]
     while pending:
         found = (_module_path(root, module) for module in pending.pop())
         path = next((p for p in found if p is not None), None)
