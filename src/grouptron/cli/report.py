@@ -87,6 +87,11 @@ def _checkpoint_filters(
         ) from None
 
 
+def _score_cache(args: argparse.Namespace) -> Path | None:
+    """Where scores are kept between reports; None with ``--no-cache``."""
+    return None if args.no_cache else score_cache_dir()
+
+
 def _emit(args: argparse.Namespace, text: str) -> int:
     """Write the report to --out (atomically) or standard output."""
     if args.out:
@@ -108,7 +113,7 @@ def cmd_report_dataset(args: argparse.Namespace) -> int:
         modes=modes,
         seed=args.seed,
         use_cache=not args.no_cache,
-        score_cache=None if args.no_cache else score_cache_dir(),
+        score_cache=_score_cache(args),
     )
     if args.format == "json":
         text = results_json(rows) + "\n"
@@ -155,7 +160,7 @@ def cmd_report(args: argparse.Namespace) -> int:
         seed=args.seed,
         nll_max_samples=args.nll_max_samples,
         use_cache=not args.no_cache,
-        score_cache=None if args.no_cache else score_cache_dir(),
+        score_cache=_score_cache(args),
         diagnostics=args.diagnostics,
     )
     data_dir = resolve_data_dir(args.data_dir)

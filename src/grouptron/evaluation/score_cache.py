@@ -19,18 +19,18 @@ import json
 import logging
 import zipfile
 from collections.abc import Sequence
-from functools import cache
+from functools import cache, partial
 from pathlib import Path
 
 import numpy as np
 import torch
 
 from grouptron.config import ExperimentConfig
+from grouptron.data.dataset import save_npz
 from grouptron.data.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SHARED_DECODE, SampleScores, score_samples
 from grouptron.groups.assign import SampleGroups
-from grouptron.io import save_atomically
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.predict import Ablation
 
@@ -38,6 +38,7 @@ log = logging.getLogger(__name__)
 
 SCORE_CACHE_FORMAT = 1
 PACKAGE = "grouptron"
+PACKAGE_DIR = Path(__file__).resolve().parents[1]
 SCORING_MODULES = ("grouptron.evaluation.evaluate", "grouptron.model.factory")
 """Scoring, and the code that turns a stored configuration into a model."""
 
@@ -58,25 +59,21 @@ def cached_score_samples(
     """:func:`score_samples` on the CPU, each mode read from ``folder`` when it was scored
     before (None: no cache). The modes not found are scored and stored one by one (``ml`` and
     ``mean`` together: they share a decode), so a run stopped half-way keeps what it scored."""
+    score = partial(
+        score_samples, model, config, samples, batch_size=batch_size, seed=seed,
+        progress=progress, groups=groups, ablate=ablate,
+    )  # fmt: skip
     if folder is None:
-        return score_samples(
-            model, config, samples, tuple(modes), batch_size=batch_size, seed=seed,
-            progress=progress, groups=groups, ablate=ablate,
-        )  # fmt: skip
+        return score(tuple(modes))
     common = _common_key(model, config, samples, groups, batch_size, seed, ablate)
     subfolder = folder / scoring_source_digest(_model_modules(model))[:16]
     paths = {mode: subfolder / f"{_mode_key(common, mode)}.npz" for mode in modes}
     found = {mode: _read(paths[mode], mode, len(samples)) for mode in modes}
     missing = [mode for mode in modes if found[mode] is None]
-    shared = tuple(m for m in SHARED_DECODE if m in missing)
-    calls = [shared] if len(shared) > 1 else []
-    calls += [(mode,) for mode in missing if len(shared) < 2 or mode not in shared]
-    for call in calls:
-        scored = score_samples(
-            model, config, samples, call, batch_size=batch_size, seed=seed,
-            progress=progress, groups=groups, ablate=ablate,
-        )  # fmt: skip
-        for scores in scored:
+    together = SHARED_DECODE if set(SHARED_DECODE) <= set(missing) else ()
+    calls = [together] if together else []
+    for call in calls + [(mode,) for mode in missing if mode not in together]:
+        for scores in score(call):
             _write(paths[scores.mode], scores)
             found[scores.mode] = scores
     return [found[mode] for mode in modes]  # type: ignore[misc]
@@ -99,12 +96,8 @@ def _read(path: Path, mode: str, count: int) -> SampleScores | None:
 
 
 def _write(path: Path, scores: SampleScores) -> None:
-    def save(temporary: Path) -> None:
-        with temporary.open("wb") as handle:
-            np.savez(handle, ade=scores.ade, fde=scores.fde, nll=scores.nll)
-
     try:
-        save_atomically(path, save)
+        save_npz(path, {"ade": scores.ade, "fde": scores.fde, "nll": scores.nll})
     except (OSError, GrouptronError) as error:  # a read-only or full cache costs time only
         log.warning("could not cache scores in %s (%s)", path, error)
 
@@ -160,9 +153,8 @@ def scoring_source_digest(modules: tuple[str, ...] = ()) -> str:
     every grouptron module they import, directly or not: the code that turns a configuration,
     weights and samples into scores."""
     digest = hashlib.sha256()
-    root = Path(__file__).resolve().parents[1]
     for path in sorted(scoring_sources(modules)):
-        digest.update(str(path.relative_to(root)).encode())
+        digest.update(str(path.relative_to(PACKAGE_DIR)).encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()
 
@@ -170,7 +162,7 @@ def scoring_source_digest(modules: tuple[str, ...] = ()) -> str:
 def scoring_sources(modules: Sequence[str] = ()) -> set[Path]:
     """The source files of :data:`SCORING_MODULES`, ``modules`` and their grouptron imports,
     transitively."""
-    root = Path(__file__).resolve().parents[1]  # the package folder
+    root = PACKAGE_DIR
     seen: set[Path] = set()
     pending: list[tuple[str, ...]] = [(name,) for name in (*SCORING_MODULES, *modules)]
     while pending:
