@@ -1,17 +1,23 @@
-"""Writing output files so that a failure never leaves a partial file behind."""
+"""Writing output files so that a failure never leaves a partial file behind, and reading
+back the array caches written that way (which a crash or an old version may have damaged)."""
 
 from __future__ import annotations
 
 import csv
+import logging
 import os
 import tempfile
-from collections.abc import Callable, Iterable, Sequence
+import zipfile
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import TextIO
+from typing import TextIO, TypeVar
 
 import numpy as np
 
 from grouptron.errors import GrouptronError
+
+log = logging.getLogger(__name__)
+Parsed = TypeVar("Parsed")
 
 
 def write_csv_atomically(
@@ -74,6 +80,35 @@ def save_atomically(
     finally:
         if temporary.exists():
             temporary.unlink()
+
+
+def save_npz(path: Path, arrays: Mapping[str, np.ndarray]) -> None:
+    """Write arrays as one ``.npz`` (never pickle), atomically: never a half-written file."""
+    save_atomically(path, lambda temporary: np.savez(temporary, **arrays))  # type: ignore[arg-type]
+
+
+def keep_cache_npz(path: Path, arrays: Mapping[str, np.ndarray]) -> None:
+    """:func:`save_npz` for a cache: a read-only or full cache folder costs speed only, so a
+    failure is logged, not raised."""
+    try:
+        save_npz(path, arrays)
+    except (OSError, GrouptronError) as error:
+        log.warning("could not write the cache file %s (%s)", path, error)
+
+
+def read_cache_npz(path: Path, parse: Callable[[dict[str, np.ndarray]], Parsed]) -> Parsed | None:
+    """``parse`` of the arrays stored at ``path``; None when there is no such file, or when it
+    cannot be read or parsed (a damaged or outdated cache: logged, and the caller rebuilds it).
+    ``parse`` refuses arrays it cannot use with a ``ValueError`` or ``KeyError``."""
+    try:
+        with np.load(path, allow_pickle=False) as stored:
+            arrays = {name: stored[name] for name in stored.files}
+        return parse(arrays)
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
+        log.warning("ignoring the unreadable cache file %s (%s); rebuilding it", path, error)
+        return None
 
 
 def refuse_folder(path: Path, *, inputs: tuple[str | Path, ...] = ()) -> None:

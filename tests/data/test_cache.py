@@ -58,3 +58,27 @@ def test_damaged_cache_is_rebuilt(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     (written,) = cache.glob("*.npz")
     written.write_bytes(b"not a zip file")
     assert len(load_part(root, "eth", "test", DataConfig()).samples) == expected
+
+
+def test_cache_file_missing_an_array_is_rebuilt(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    cache = cache_files(monkeypatch, tmp_path)
+    root = tiny_split(tmp_path / "data")
+    expected = len(load_part(root, "eth", "test", DataConfig()).samples)
+    (written,) = cache.glob("*.npz")
+    np.savez(written, unrelated=np.zeros(3))  # a readable zip of the wrong arrays
+    assert len(load_part(root, "eth", "test", DataConfig()).samples) == expected
+    with np.load(written) as rebuilt:
+        assert "unrelated" not in rebuilt.files
+
+
+def test_unwritable_cache_costs_speed_only(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    blocked = tmp_path / "cache"
+    blocked.write_text("a file where the cache folder should be")
+    monkeypatch.setenv("GROUPTRON_CACHE", str(blocked))
+    root = tiny_split(tmp_path / "data")
+    assert len(load_part(root, "eth", "test", DataConfig()).samples) > 0
+    assert "could not write the cache file" in caplog.text

@@ -5,8 +5,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import logging
-import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,9 +16,7 @@ from grouptron.data.reader import read_tracks
 from grouptron.data.recording import RecordingFormat, read_resampled
 from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
 from grouptron.data.scene import Scene, build_scene
-from grouptron.io import save_atomically
-
-log = logging.getLogger(__name__)
+from grouptron.io import keep_cache_npz, read_cache_npz
 
 CACHE_FORMAT_VERSION = 4  # 3: causal backward derivatives; 4: one-point tracks kept there
 """Bump when the content of cached sample sets changes."""
@@ -108,22 +104,15 @@ def cache_key(
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:32]
 
 
-def _save_part(path: Path, part: PartData) -> None:
+def _part_arrays(part: PartData) -> dict[str, np.ndarray]:
     arrays = {f"samples.{k}": v for k, v in part.samples.to_arrays().items()}
     arrays["scenes.name"] = np.asarray([s.name for s in part.scenes])
     for field in ("num_tracks", "num_steps", "max_present"):
         arrays[f"scenes.{field}"] = np.asarray([getattr(s, field) for s in part.scenes])
-    save_npz(path, arrays)
+    return arrays
 
 
-def save_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    """Write atomically: never a half-written cache."""
-    save_atomically(path, lambda temporary: np.savez(temporary, **arrays))  # type: ignore[arg-type]
-
-
-def _load_part(path: Path) -> PartData:
-    with np.load(path, allow_pickle=False) as npz:
-        arrays = {k: npz[k] for k in npz.files}
+def _parse_part(arrays: dict[str, np.ndarray]) -> PartData:
     samples = SampleSet.from_arrays(
         {k.removeprefix("samples."): v for k, v in arrays.items() if k.startswith("samples.")}
     )
@@ -171,14 +160,9 @@ def load_files_part(
         return build_part(files, config, min_history, recording)
     key = cache_key(files, config, min_history, recording)
     path = cache_path(name, part, config, key)
-    if path.exists():
-        try:
-            return _load_part(path)
-        except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
-            log.warning("ignoring unreadable cache file %s (%s); rebuilding", path, exc)
+    stored = read_cache_npz(path, _parse_part)
+    if stored is not None:
+        return stored
     data = build_part(files, config, min_history, recording)
-    try:
-        _save_part(path, data)
-    except OSError as exc:  # a read-only or full cache folder only costs speed
-        log.warning("could not write the preprocessing cache %s: %s", path, exc)
+    keep_cache_npz(path, _part_arrays(data))
     return data

@@ -26,12 +26,17 @@ _DIGIT_COMMA_DIGIT = re.compile(r"\d,\d")
 _BLANK_INSIDE = re.compile(r"\S[ \t]+\S")
 
 
-def split_fields(line: str) -> list[str]:
-    """The fields of one line, an empty string for each empty field; [] for a blank line, a
-    comment or a line of commas only."""
+def split_fields(source: Path, line: str, number: int) -> list[str]:
+    """The fields of line ``number`` of ``source``, an empty string for each empty field; []
+    for a blank line, a comment or a line of commas only. A line written with decimal commas
+    is refused here, once for every reader: split at its commas, it would shift every column."""
     text = line.strip().rstrip(",").strip()
     if not text or text.startswith("#"):
         return []
+    if "," in text:
+        decimal = _decimal_comma_error(source, text, number)
+        if decimal is not None:
+            raise decimal
     return _SEPARATOR.split(text)
 
 
@@ -45,7 +50,7 @@ def empty_field_error(
     return DataFormatError(source, f"an empty field in {text.strip()[:60]!r}", line)
 
 
-def decimal_comma_error(source: Path, text: str, line: int) -> DataFormatError | None:
+def _decimal_comma_error(source: Path, text: str, line: int) -> DataFormatError | None:
     """The error for a line written with decimal commas (``0\t1\t0,5\t1,25``), if it is one:
     fields separated by whitespace, one of them a number with a comma for its point, none with
     a point. Read as separators, its commas would silently shift every column."""

@@ -17,7 +17,6 @@ import numpy as np
 
 from grouptron.constants import FRAMES_PER_STEP
 from grouptron.data.fields import (
-    decimal_comma_error,
     empty_field_error,
     refuse_bad_numbers,
     split_fields,
@@ -71,14 +70,11 @@ def _data_lines(path: Path, text: str) -> tuple[list[int], list[list[str]]]:
     numbers: list[int] = []
     rows: list[list[str]] = []
     for number, line in enumerate(text.splitlines(), start=1):
-        tokens = split_fields(line)
+        tokens = split_fields(path, line, number)
         if not tokens:
             continue  # blank or a comment
         if not rows and _is_header(tokens):
             continue  # a header line such as "frame id x y" (names, no numbers)
-        decimal = decimal_comma_error(path, line, number) if "," in line else None
-        if decimal is not None:
-            raise decimal
         if len(tokens) != len(COLUMNS):
             raise DataFormatError(
                 path,

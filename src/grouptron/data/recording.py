@@ -25,7 +25,6 @@ import numpy as np
 
 from grouptron.constants import DT_S, FRAMES_PER_STEP
 from grouptron.data.fields import (
-    decimal_comma_error,
     empty_field_error,
     may_have_decimal_commas,
     may_have_empty_field,
@@ -155,12 +154,9 @@ def _numbers(path: Path, width: int) -> tuple[np.ndarray, np.ndarray]:
     rows: list[list[float]] = []
     lines: list[int] = []
     for number, raw in enumerate(text.splitlines(), start=1):
-        fields = split_fields(raw)
+        fields = split_fields(path, raw, number)
         if not fields:
             continue  # blank or a comment
-        decimal = decimal_comma_error(path, raw, number) if "," in raw else None
-        if decimal is not None:
-            raise decimal
         if len(fields) < width:
             if not rows and not any(_is_number(f) for f in fields):
                 continue  # a header line: names only

@@ -16,8 +16,6 @@ import ast
 import dataclasses
 import hashlib
 import json
-import logging
-import zipfile
 from collections.abc import Sequence
 from functools import cache, partial
 from pathlib import Path
@@ -26,15 +24,12 @@ import numpy as np
 import torch
 
 from grouptron.config import ExperimentConfig
-from grouptron.data.dataset import save_npz
 from grouptron.data.samples import SampleSet
-from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SHARED_DECODE, SampleScores, score_samples
 from grouptron.groups.assign import SampleGroups
+from grouptron.io import keep_cache_npz, read_cache_npz
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.predict import Ablation
-
-log = logging.getLogger(__name__)
 
 SCORE_CACHE_FORMAT = 1
 PACKAGE = "grouptron"
@@ -81,25 +76,18 @@ def cached_score_samples(
 
 def _read(path: Path, mode: str, count: int) -> SampleScores | None:
     """The stored scores, or None when absent or unreadable (then scored again)."""
-    try:
-        with np.load(path, allow_pickle=False) as stored:
-            arrays = [np.asarray(stored[name], dtype=np.float64) for name in ("ade", "fde", "nll")]
-    except FileNotFoundError:
-        return None
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
-        log.warning("ignoring unreadable cached scores %s (%s)", path, error)
-        return None
-    if any(a.shape != (count,) for a in arrays):
-        log.warning("ignoring cached scores %s: not %d samples", path, count)
-        return None
-    return SampleScores(mode, *arrays)
+
+    def parse(stored: dict[str, np.ndarray]) -> SampleScores:
+        arrays = [np.asarray(stored[name], dtype=np.float64) for name in ("ade", "fde", "nll")]
+        if any(a.shape != (count,) for a in arrays):
+            raise ValueError(f"not {count} samples")
+        return SampleScores(mode, *arrays)
+
+    return read_cache_npz(path, parse)
 
 
 def _write(path: Path, scores: SampleScores) -> None:
-    try:
-        save_npz(path, {"ade": scores.ade, "fde": scores.fde, "nll": scores.nll})
-    except (OSError, GrouptronError) as error:  # a read-only or full cache costs time only
-        log.warning("could not cache scores in %s (%s)", path, error)
+    keep_cache_npz(path, {"ade": scores.ade, "fde": scores.fde, "nll": scores.nll})
 
 
 def _mode_key(common: str, mode: str) -> str:

@@ -4,19 +4,14 @@ from __future__ import annotations
 
 import hashlib
 import json
-import logging
-import zipfile
 from pathlib import Path
 
-import numpy as np
-
 from grouptron.config import DataConfig, GroupConfig, config_to_dict
-from grouptron.data.dataset import cache_key, cache_path, min_history_for, save_npz
+from grouptron.data.dataset import cache_key, cache_path, min_history_for
 from grouptron.data.locate import split_files
 from grouptron.data.samples import SampleSet
 from grouptron.groups.assign import SampleGroups, assign_groups
-
-log = logging.getLogger(__name__)
+from grouptron.io import keep_cache_npz, read_cache_npz
 
 
 def load_groups(
@@ -39,15 +34,9 @@ def load_groups(
     )
     key = hashlib.sha256(payload.encode()).hexdigest()[:32]
     path = cache_path(split, part, config, "groups-" + key)
-    if path.exists():
-        try:
-            with np.load(path, allow_pickle=False) as npz:
-                return SampleGroups.from_arrays({k: npz[k] for k in npz.files})
-        except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
-            log.warning("ignoring unreadable cache file %s (%s); rebuilding", path, exc)
+    stored = read_cache_npz(path, SampleGroups.from_arrays)
+    if stored is not None:
+        return stored
     found = assign_groups(samples, groups, config.position_scale_m)
-    try:
-        save_npz(path, found.to_arrays())
-    except OSError as exc:
-        log.warning("could not write the preprocessing cache %s: %s", path, exc)
+    keep_cache_npz(path, found.to_arrays())
     return found
