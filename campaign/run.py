@@ -33,13 +33,21 @@ The paper models' queue needs nothing newer than the package code its runs start
 variant's preset is imported only for ``--variant``), so ``PYTHONPATH=<checkout of that
 commit>/src python campaign/run.py`` keeps those runs on their own code. ``--status`` prints
 every queued run's progress and an estimate of the time left.
+
+Workers: several copies of the script may work through one queue at once (one per core, or on
+machines sharing ``--out``). Each takes the first unfinished run that no other worker holds:
+a worker holds a run by a kernel lock (``flock``) on its folder's ``.worker-lock``, which the
+training process inherits, so the lock ends when both have exited; a killed worker never
+leaves a stale lock, and a lock file in a committed snapshot holds nothing.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import fcntl
 import json
+import os
 import shutil
 import statistics
 import subprocess
@@ -56,6 +64,7 @@ REPO = Path(__file__).resolve().parents[1]
 EPOCHS = 100
 SPLITS = ("univ", "eth", "hotel", "zara1", "zara2")
 MODELS = ("trajectron++", "grouptron")
+LOCK = ".worker-lock"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -116,6 +125,29 @@ def finished(folder: Path) -> bool:
     return (folder / "selection.json").exists()
 
 
+def claim(folder: Path) -> int | None:
+    """A file descriptor holding the run's lock, or None when another worker holds it."""
+    folder.mkdir(parents=True, exist_ok=True)
+    descriptor = os.open(folder / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(descriptor)
+        return None
+    return descriptor
+
+
+def held(folder: Path) -> bool:
+    """Whether some worker is training the run now (it holds the run's lock)."""
+    if not (folder / LOCK).exists():
+        return False
+    descriptor = claim(folder)
+    if descriptor is None:
+        return True
+    os.close(descriptor)
+    return False
+
+
 def progress(folder: Path) -> tuple[int, float | None]:
     """(epochs done, median wall seconds per epoch) of a run from its ``metrics.jsonl``."""
     path = folder / "metrics.jsonl"
@@ -151,7 +183,7 @@ def status(runs: list[Run], out: Path) -> list[str]:
         elif epochs == 0:
             state = "not started"
         else:
-            state = f"epoch {epochs} of {EPOCHS}"
+            state = f"epoch {epochs} of {EPOCHS}" + (" (training now)" if held(folder) else "")
             if seconds is not None:
                 left = (EPOCHS - epochs) * seconds / 3600
                 hours_left += left
@@ -253,13 +285,24 @@ def main() -> int:
         if finished(folder):
             print(f"{run.name}: finished", flush=True)
             continue
-        if not args.dry_run:
-            prepare(run, folder)
-        argv = command(run, folder, "bf16" if run.bf16_only else chosen, args.threads)
-        print(" ".join(argv), flush=True)
+        precision = "bf16" if run.bf16_only else chosen
         if args.dry_run:
+            print(" ".join(command(run, folder, precision, args.threads)), flush=True)
             continue
-        subprocess.run(argv, check=True, cwd=REPO)
+        lock = claim(folder)
+        if lock is None:
+            print(f"{run.name}: being trained by another worker", flush=True)
+            continue
+        try:
+            if finished(folder):  # another worker finished it while this one waited
+                continue
+            prepare(run, folder)
+            argv = command(run, folder, precision, args.threads)
+            print(" ".join(argv), flush=True)
+            # The training process inherits the lock: it outlives this worker if killed.
+            subprocess.run(argv, check=True, cwd=REPO, pass_fds=(lock,))
+        finally:
+            os.close(lock)
         print(json.dumps({"finished": run.name}), flush=True)
     return 0
 

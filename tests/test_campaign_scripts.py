@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import json
+import os
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -192,3 +193,34 @@ def test_the_variant_queue_names_each_named_group_variants_runs() -> None:
         "grouptron-robust-residual-hotel-backward",
     ]
     assert "grouptron-robust-residual-univ-central-s2" in names and len(names) == 11
+
+
+def test_workers_share_the_queue_one_run_each(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    script = _script("run")
+    name = "trajectron++-zara1-backward"
+    folder = tmp_path / name
+    started: list[list[str]] = []
+
+    def train(argv: list[str], **kwargs: object) -> None:
+        # While the run trains, its lock is held: another worker can neither claim it nor
+        # see it idle.
+        assert script.claim(folder) is None and script.held(folder)
+        started.append(argv)
+
+    monkeypatch.setattr(script.subprocess, "run", train)
+    monkeypatch.setattr(sys, "argv", ["run.py", "--out", str(tmp_path), "--only", name])
+    other_worker = script.claim(folder)
+    assert other_worker is not None
+    try:
+        assert script.main() == 0
+        assert (
+            started == [] and f"{name}: being trained by another worker" in capsys.readouterr().out
+        )
+    finally:
+        os.close(other_worker)
+    assert not script.held(folder)
+    assert script.main() == 0
+    assert len(started) == 1 and started[0][started[0].index("--split") + 1] == "zara1"
+    assert not script.held(folder)  # released when the training ends
