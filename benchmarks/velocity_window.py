@@ -10,7 +10,9 @@ later to turns. This prints, for each split's validation part (the other four lo
 which is all a model or a choice may look at) and test part (the held-out location), the
 FDE/ADE in metres of every window and, on test, each window's paired FDE difference to the
 one-step baseline with its 95% interval over resampled time steps. The window that validation
-prefers is marked with ``<``; test is only reported, never used to choose.
+prefers is marked with ``<``; test is only reported, never used to choose. Each part's median
+current speed and median turn between its last two displacements say how much of a
+displacement is annotation jitter.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from grouptron.config import DataConfig
+from grouptron.constants import DT_S
 from grouptron.data.dataset import load_part
 from grouptron.data.locate import resolve_data_dir
 from grouptron.data.subsets import time_step_ids
@@ -55,6 +58,20 @@ def windowed_velocity_forecast(
     return k[None, :, None] * velocity[:, None, :]
 
 
+def motion_medians(hist_rel_m: np.ndarray, hist_mask: np.ndarray) -> tuple[float, float]:
+    """Median speed at t in m/s (over the last 0.4 s step) and median turn in degrees between
+    the last two displacements, over the (S, T, 2) samples observed long enough."""
+    moved = hist_mask[:, -2]
+    speed = np.linalg.norm(hist_rel_m[moved, -2], axis=-1) / DT_S
+    both = hist_mask[:, -3]
+    before = hist_rel_m[both, -2] - hist_rel_m[both, -3]  # (S', 2) displacement t-2 -> t-1
+    last = -hist_rel_m[both, -2]  # (S', 2) displacement t-1 -> t
+    cosine = (before * last).sum(-1) / np.maximum(
+        np.linalg.norm(before, axis=-1) * np.linalg.norm(last, axis=-1), 1e-12
+    )
+    return float(np.median(speed)), float(np.degrees(np.median(np.arccos(np.clip(cosine, -1, 1)))))
+
+
 def errors(forecast_m: np.ndarray, future_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(S,) FDE and (S,) ADE in metres."""
     distance = np.linalg.norm(forecast_m - future_m, axis=-1)  # (S, H)
@@ -72,7 +89,8 @@ def main() -> None:
     if windows[0] != 1:
         parser.error("--windows: the first window must be 1 (the baseline)")
     config = DataConfig(derivatives="backward")
-    print("FDE/ADE in m of constant velocity averaged over the last n steps (causal inputs)")
+    print("FDE/ADE in m of constant velocity averaged over the last n steps (causal inputs);")
+    print("speed: median current speed, m/s; turn: median turn between the last two steps, deg")
     print(
         f"{'split':<6} {'part':<5} {'samples':>7} " + " ".join(f"{f'n={w}':>13}" for w in windows)
     )
@@ -95,7 +113,11 @@ def main() -> None:
                 f"{f:.3f}/{a.mean():.3f}" + ("<" if i == preferred else " ")
                 for i, (f, (_, a)) in enumerate(zip(fde, scored, strict=True))
             ]
-            print(f"{split:<6} {part:<5} {len(samples):>7} " + " ".join(f"{c:>13}" for c in cells))
+            speed, turn = motion_medians(samples.hist_rel_m, samples.hist_mask)
+            print(
+                f"{split:<6} {part:<5} {len(samples):>7} {speed:>6.2f} {turn:>6.1f} "
+                + " ".join(f"{c:>13}" for c in cells)
+            )
             if part == "test":
                 steps = time_step_ids(samples)
                 paired = [
@@ -103,7 +125,7 @@ def main() -> None:
                     for i in range(1, len(windows))
                 ]
                 print(
-                    f"{'':<6} {'':<5} {'':>7} {'':>13} "
+                    f"{'':<6} {'':<5} {'':>7} {'':>6} {'':>6} {'':>13} "
                     + " ".join(f"{p.signed_text():>13}" for p in paired)
                     + "  (FDE - n=1's, m)"
                 )
