@@ -85,3 +85,45 @@ def test_with_per_seed_intervals_every_seed_interval_must_be_below_zero() -> Non
         target_checks({}, ("backward",), _paired(-0.01), _seeds_with_intervals(0.02))
     )
     assert "NOT met" in crossing and "upper end: UNIV +0.020" in crossing
+
+
+def _causal_evidence(model_avg_fde: float) -> tuple[dict, list[PairedDifference]]:
+    """A model scored causally on all five splits (each 0.01 m below constant velocity) and
+    the averages of both."""
+    from grouptron.constants import SPLITS
+    from grouptron.evaluation.results import MEAN_ROW, EvaluationResult
+
+    rows = {
+        (model, "backward", MEAN_ROW, "ml"): EvaluationResult(
+            MEAN_ROW, model, None, 5, 0.5, fde, "ml", derivatives="backward"
+        )
+        for model, fde in (("trajectron++", model_avg_fde), ("constant-velocity", 1.2))
+    }
+    paired = [
+        PairedDifference(
+            "backward",
+            "ml",
+            "trajectron++",
+            "constant-velocity",
+            column,
+            100,
+            Interval(-0.01, -0.02, 0.0),
+            Interval(-0.01, -0.02, 0.0),
+        )
+        for column in (*SPLITS, MEAN_ROW)
+    ]
+    return rows, paired
+
+
+def test_the_causal_average_must_be_ten_percent_below_constant_velocity() -> None:
+    def average_line(model_avg_fde: float) -> str:
+        rows, paired = _causal_evidence(model_avg_fde)
+        (line,) = [c for c in target_checks(rows, ("backward",), paired) if "on AVG" in c]
+        return line
+
+    assert ": met (1.080 vs 1.200 m, 10.0% below" in average_line(1.08)
+    assert ": NOT met (1.100 vs 1.200 m, 8.3% below" in average_line(1.1)
+    assert "paired difference -0.010 [-0.020, +0.000]" in average_line(1.1)
+    # Every split at or below constant velocity is its own line.
+    rows, paired = _causal_evidence(1.1)
+    assert any("on every split: met" in c for c in target_checks(rows, ("backward",), paired))
