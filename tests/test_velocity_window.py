@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import importlib.util
+import sys
 from collections.abc import Callable
+from types import ModuleType
 
 import numpy as np
 
@@ -11,13 +13,21 @@ from grouptron.baselines.constant_velocity import constant_velocity
 from tests.conftest import REPO
 
 
-def _forecast() -> Callable[..., np.ndarray]:
+def _script() -> ModuleType:
     path = REPO / "benchmarks" / "velocity_window.py"
     spec = importlib.util.spec_from_file_location("velocity_window", path)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    forecast: Callable[..., np.ndarray] = module.windowed_velocity_forecast
+    sys.modules["velocity_window"] = module  # dataclasses look their module up
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        sys.modules.pop("velocity_window", None)
+    return module
+
+
+def _forecast() -> Callable[..., np.ndarray]:
+    forecast: Callable[..., np.ndarray] = _script().windowed_velocity_forecast
     return forecast
 
 
@@ -44,3 +54,17 @@ def test_the_window_shrinks_to_the_observed_steps() -> None:
     out = forecast(hist, mask, 3, 4)
     np.testing.assert_allclose(out[0], [[1.0, 0.0], [2.0, 0.0], [3.0, 0.0]])
     np.testing.assert_allclose(out[1], 0.0)
+
+
+def test_motion_counts_repeated_positions_and_turns_of_moving_samples_only() -> None:
+    hist = np.zeros((4, 8, 2))
+    mask = np.ones((4, 8), dtype=bool)
+    # 0: still (t-2 = t-1 = t); 1: stop-go (still, then 0.4 m at the last step);
+    # 2 and 3: 0.4 m steps that turn 90 and 0 degrees.
+    hist[1, -3:-1] = [-0.4, 0.0]
+    hist[2, -3:] = [[-0.4, -0.4], [0.0, -0.4], [0.0, 0.0]]
+    hist[3, -3:] = [[-0.8, 0.0], [-0.4, 0.0], [0.0, 0.0]]
+    seen = _script().motion(hist, mask)
+    assert seen.still == 0.25 and seen.stop_go == 0.25
+    assert seen.turn_deg == 45.0  # median of 90 and 0; the still and stop-go samples left out
+    np.testing.assert_allclose(seen.speed_m_s, 1.0)  # median of 0, 1, 1, 1 m/s
