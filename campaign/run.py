@@ -34,11 +34,12 @@ variant's preset is imported only for ``--variant``), so ``PYTHONPATH=<checkout 
 commit>/src python campaign/run.py`` keeps those runs on their own code. ``--status`` prints
 every queued run's progress and an estimate of the time left.
 
-Workers: several copies of the script may work through one queue at once (one per core, or on
-machines sharing ``--out``). Each takes the first unfinished run that no other worker holds:
-a worker holds a run by a kernel lock (``flock``) on its folder's ``.worker-lock``, which the
-training process inherits, so the lock ends when both have exited; a killed worker never
-leaves a stale lock, and a lock file in a committed snapshot holds nothing.
+Workers: several copies of the script may work through one queue at once on one machine (one
+per core). Each takes the first unfinished run that no other worker holds: a worker holds a
+run by a kernel lock (``flock``) on the run's folder itself, which the training process
+inherits, so the lock ends when both have exited; a killed worker never leaves a stale lock,
+and there is no lock file to clean up or commit. (Across machines sharing ``--out`` over a
+network file system the kernel lock is not reliable: give each machine its own ``--only``.)
 """
 
 from __future__ import annotations
@@ -52,6 +53,7 @@ import shutil
 import statistics
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import torch
@@ -64,7 +66,6 @@ REPO = Path(__file__).resolve().parents[1]
 EPOCHS = 100
 SPLITS = ("univ", "eth", "hotel", "zara1", "zara2")
 MODELS = ("trajectron++", "grouptron")
-LOCK = ".worker-lock"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -125,10 +126,10 @@ def finished(folder: Path) -> bool:
     return (folder / "selection.json").exists()
 
 
-def claim(folder: Path) -> int | None:
-    """A file descriptor holding the run's lock, or None when another worker holds it."""
-    folder.mkdir(parents=True, exist_ok=True)
-    descriptor = os.open(folder / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+def _lock(folder: Path) -> int | None:
+    """A read-only descriptor of ``folder`` holding its exclusive lock, or None when another
+    process holds it."""
+    descriptor = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
     try:
         fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
@@ -137,11 +138,22 @@ def claim(folder: Path) -> int | None:
     return descriptor
 
 
+def claim(folder: Path, retry_s: float = 1.0) -> int | None:
+    """A descriptor holding the run's lock, or None when another worker holds it. One retry
+    after ``retry_s``: ``--status`` takes the lock for an instant to see whether it is free."""
+    folder.mkdir(parents=True, exist_ok=True)
+    descriptor = _lock(folder)
+    if descriptor is None and retry_s > 0:
+        time.sleep(retry_s)
+        descriptor = _lock(folder)
+    return descriptor
+
+
 def held(folder: Path) -> bool:
     """Whether some worker is training the run now (it holds the run's lock)."""
-    if not (folder / LOCK).exists():
+    if not folder.is_dir():
         return False
-    descriptor = claim(folder)
+    descriptor = _lock(folder)
     if descriptor is None:
         return True
     os.close(descriptor)
@@ -181,7 +193,7 @@ def status(runs: list[Run], out: Path) -> list[str]:
         if finished(folder):
             state = "finished" + validation_summary(folder)
         elif epochs == 0:
-            state = "not started"
+            state = "starting (training now)" if held(folder) else "not started"
         else:
             state = f"epoch {epochs} of {EPOCHS}" + (" (training now)" if held(folder) else "")
             if seconds is not None:

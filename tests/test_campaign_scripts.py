@@ -206,12 +206,12 @@ def test_workers_share_the_queue_one_run_each(
     def train(argv: list[str], **kwargs: object) -> None:
         # While the run trains, its lock is held: another worker can neither claim it nor
         # see it idle.
-        assert script.claim(folder) is None and script.held(folder)
+        assert script.claim(folder, retry_s=0) is None and script.held(folder)
         started.append(argv)
 
     monkeypatch.setattr(script.subprocess, "run", train)
     monkeypatch.setattr(sys, "argv", ["run.py", "--out", str(tmp_path), "--only", name])
-    other_worker = script.claim(folder)
+    other_worker = script.claim(folder, retry_s=0)
     assert other_worker is not None
     try:
         assert script.main() == 0

@@ -239,6 +239,8 @@ READERS = {"eth/ucy": read_tracks, "any layout": lambda p: read_resampled(p, Rec
         ("frame,id,x,y\n0,1,0.0,1.0\n,2,0.0,5\n", 3, "an empty field in"),
         ("0\t1\t0,5\t1,25\n10\t1\t0,9\t1,25\n", 1, "decimal commas in"),
         ("frame id x y\n0 1 0.5 1\n10 1 0,9 1\n", 3, "decimal commas in"),
+        # A padding comma after a decimal comma once hid it: y was read as 1, not 1.25.
+        ("0 1 2 1,25,\n10 1 2 1,5,\n", 1, "decimal commas in"),
     ],
 )
 def test_commas_that_would_shift_the_columns_are_refused(

@@ -104,8 +104,8 @@ def read_cache_npz(path: Path, parse: Callable[[dict[str, np.ndarray]], Parsed])
         with np.load(path, allow_pickle=False) as stored:
             arrays = {name: stored[name] for name in stored.files}
         return parse(arrays)
-    except FileNotFoundError:
-        return None
+    except (FileNotFoundError, NotADirectoryError):
+        return None  # not written yet, or no cache folder at all: nothing to warn about
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
         log.warning("ignoring the unreadable cache file %s (%s); rebuilding it", path, error)
         return None

@@ -82,3 +82,4 @@ def test_unwritable_cache_costs_speed_only(
     root = tiny_split(tmp_path / "data")
     assert len(load_part(root, "eth", "test", DataConfig()).samples) > 0
     assert "could not write the cache file" in caplog.text
+    assert "ignoring" not in caplog.text  # nothing was there to read: no damaged-file warning
