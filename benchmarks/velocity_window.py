@@ -29,6 +29,7 @@ from grouptron.constants import DT_S, HISTORY_STEPS
 from grouptron.data.dataset import load_part
 from grouptron.data.locate import resolve_data_dir
 from grouptron.data.subsets import time_step_ids
+from grouptron.evaluation.metrics import ade, fde
 from grouptron.evaluation.uncertainty import mean_interval
 
 ZERO_M = 1e-6
@@ -93,12 +94,6 @@ def motion(hist_rel_m: np.ndarray, hist_mask: np.ndarray) -> Motion:
     )
 
 
-def errors(forecast_m: np.ndarray, future_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(S,) FDE and (S,) ADE in metres."""
-    distance = np.linalg.norm(forecast_m - future_m, axis=-1)  # (S, H)
-    return distance[:, -1], distance.mean(axis=1)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--splits", default="eth,hotel,univ,zara1,zara2")
@@ -124,19 +119,17 @@ def main() -> None:
         for part in ("val", "test"):
             samples = load_part(data_dir, split, part, config).samples
             horizon = samples.fut_rel_m.shape[1]
-            scored = [
-                errors(
-                    windowed_velocity_forecast(samples.hist_rel_m, samples.hist_mask, horizon, w),
-                    samples.fut_rel_m,
-                )
+            forecasts = [
+                windowed_velocity_forecast(samples.hist_rel_m, samples.hist_mask, horizon, w)
                 for w in windows
-            ]
-            fde = [float(f.mean()) for f, _ in scored]
+            ]  # each (S, H, 2)
+            fde_m = [fde(f, samples.fut_rel_m) for f in forecasts]  # each (S,)
+            ade_m = [ade(f, samples.fut_rel_m) for f in forecasts]
             if part == "val":
-                preferred = int(np.argmin(fde))
+                preferred = int(np.argmin([f.mean() for f in fde_m]))
             cells = [
-                f"{f:.3f}/{a.mean():.3f}" + ("<" if i == preferred else " ")
-                for i, (f, (_, a)) in enumerate(zip(fde, scored, strict=True))
+                f"{f.mean():.3f}/{a.mean():.3f}" + ("<" if i == preferred else " ")
+                for i, (f, a) in enumerate(zip(fde_m, ade_m, strict=True))
             ]
             seen = motion(samples.hist_rel_m, samples.hist_mask)
             print(
@@ -146,10 +139,7 @@ def main() -> None:
             )
             if part == "test":
                 steps = time_step_ids(samples)
-                paired = [
-                    mean_interval(scored[i][0] - scored[0][0], steps)
-                    for i in range(1, len(windows))
-                ]
+                paired = [mean_interval(fde_m[i] - fde_m[0], steps) for i in range(1, len(windows))]
                 print(
                     f"{'':<6} {'':<5} {'':>7} {'':>6} {'':>6} {'':>7} {'':>6} {'':>13} "
                     + " ".join(f"{p.signed_text():>13}" for p in paired)

@@ -107,16 +107,15 @@ def _causal_targets(
             f"split: {_verdict(ok)} (paired FDE differences, m: {evidence})"
         )
         average = rows.get((model, "backward", MEAN_ROW, "ml"))
-        if average is None or baseline is None:
+        if average is None or baseline is None or MEAN_ROW not in found:
             continue
         below = 1.0 - average.fde / baseline.fde
         met = below >= CAUSAL_MARGIN - 1e-12  # exactly at the margin meets it, bar rounding
-        interval = found[MEAN_ROW].fde.signed_text() if MEAN_ROW in found else "not paired"
         checks.append(
             f"{display_name(model)} (backward) ML FDE on AVG at least "
             f"{100 * CAUSAL_MARGIN:.0f}% below constant velocity's: "
             f"{_verdict(met)} ({average.fde:.3f} vs {baseline.fde:.3f} m, "
-            f"{100 * below:.1f}% below; paired difference {interval})"
+            f"{100 * below:.1f}% below; paired difference {found[MEAN_ROW].fde.signed_text()})"
         )
     return checks
 
