@@ -308,3 +308,62 @@ def test_both_readers_name_a_bad_number_alike(tmp_path: Path) -> None:
     tracks.write_text("0 1 0.0 1.0 nan\n10 1 0.4 1.0 nan\n")
     table = read_resampled(tracks, RecordingFormat(columns=("frame", "id", "x", "y", "z")))
     assert table.step.tolist() == [0, 1]
+
+
+def test_evaluate_reads_a_plain_file_as_predict_does(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    gapped = walkers(tmp_path / "gap.txt", skip=(12,))
+    argv = ["evaluate", "--model", "constant-velocity", "--tracks", str(gapped), "--quiet"]
+    fails([*argv, "--on-gap", "error"], capsys, "pedestrian 1 has a gap between frames 110 and 130")
+    fails([*argv, "--on-gap", "error", "--max-gap", "0.5"], capsys, "longer than --max-gap 0.5 s")
+    counts = {}
+    for extra in ([], ["--max-gap", "0.8"]):  # split (as predict does) or bridged
+        assert main([*argv, *extra, "--format", "json"]) == 0
+        counts[bool(extra)] = json.loads(capsys.readouterr().out)["results"][0]["samples"]
+    assert counts[False] < counts[True]
+
+
+def test_named_columns_let_extra_ones_be_ignored_and_rates_are_set_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], tiny_checkpoints: Path
+) -> None:
+    plain = walkers(tmp_path / "walk.txt")
+    wide = tmp_path / "wide.txt"
+    wide.write_text("".join(line + " 1.70\n" for line in plain.read_text().splitlines()))
+    checkpoint = str(tiny_checkpoints / "grouptron-eth-backward" / "best.safetensors")
+    argv = ["predict", "--checkpoint", checkpoint, "--tracks", str(wide), "--quiet"]
+    fails([*argv, "--out", str(tmp_path / "a.csv")], capsys, "name them with --columns")
+    assert main([*argv, "--out", str(tmp_path / "b.csv"), "--columns", "frame,id,x,y"]) == 0
+    rates = ["--fps", "25", "--frames-per-step", "20", "--out", str(tmp_path / "c.csv")]
+    fails([*argv, *rates], capsys, "--fps and --frames-per-step both set the frame rate")
+    seconds = ["--columns", "t,id,x,y", "--frames-per-step", "20", "--out", str(tmp_path / "d")]
+    err = fails([*argv, *seconds], capsys, "")
+    assert "--fps applies" not in err, err  # no option the user never gave is blamed
+
+
+def test_options_that_would_be_ignored_are_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tracks = walkers(tmp_path / "walk.txt")
+    detect = ["groups", "detect", "--tracks", str(tracks)]
+    fails([*detect, "--rule", "count", "--max-distance", "0.1"], capsys, "--rule count takes")
+    fails([*detect, "--rule", "count", "--velocity-weight", "5"], capsys, "--rule count takes")
+    fails([*detect, "--frame", "100"], capsys, "give --plot too")
+    assert main([*detect, "--max-distance", "5"]) == 0  # the threshold rule takes it
+    dataset = tmp_path / "mine.toml"
+    dataset.write_text(f'name = "mine"\n[parts]\ntest = ["{tracks.name}"]\n')
+    evaluate = ["evaluate", "--model", "constant-velocity", "--dataset", str(dataset)]
+    fails([*evaluate, "--fps", "30"], capsys, "a --dataset file gives its files' layout")
+    fails([*evaluate, "--units", "cm"], capsys, "a --dataset file gives its files' layout")
+    dataset.write_text('name = "mine"\n[parts]\ntest = []\n')
+    fails(evaluate, capsys, "the test part lists no files")
+
+
+def test_trajnet_files_with_a_missing_field_or_mixed_rates_are_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    detect = ["groups", "detect", "--tracks"]
+    no_x = ndjson(tmp_path / "a.ndjson", '{"track": {"f": 250, "p": 1, "y": 1.0}}')
+    fails([*detect, str(no_x)], capsys, "a TrajNet++ track needs f, p, x and y; 'x' is missing")
+    mixed = ndjson(tmp_path / "b.ndjson", '{"scene": {"id": 1, "p": 2, "s": 0, "e": 9, "fps": 5}}')
+    fails([*detect, str(mixed)], capsys, "its scenes have different fps (2.5, 5)")

@@ -32,6 +32,23 @@ def test_a_header_line_is_skipped(tmp_path: Path) -> None:
     np.testing.assert_array_equal(read_tracks(header).pos_m, read_tracks(plain).pos_m)
 
 
+@pytest.mark.parametrize(
+    ("header", "message"),
+    [
+        ("frame id y x", "column 3 'y', but it is read as 'x'"),  # would mirror the scene
+        ("id,frame,x,y", "column 1 'id', but it is read as 'frame'"),
+    ],
+)
+def test_a_header_that_contradicts_the_layout_is_refused(
+    tmp_path: Path, header: str, message: str
+) -> None:
+    plain = write_tracks(tmp_path / "plain.txt", [(0, 1, 0.5, 0.0), (10, 1, 1.0, 0.0)])
+    path = tmp_path / "header.txt"
+    path.write_text(header + "\n" + plain.read_text())
+    with pytest.raises(DataFormatError, match=rf"header.txt:1: the header names {message}"):
+        read_tracks(path)
+
+
 def test_steps_count_from_first_frame(tmp_path: Path) -> None:
     table = read_tracks(write_tracks(tmp_path / "a.txt", [(780, 1, 0, 0), (790, 1, 1, 0)]))
     assert table.first_frame == 780

@@ -147,6 +147,20 @@ def test_units_headers_commas_and_extra_columns(tmp_path: Path) -> None:
     np.testing.assert_allclose(a.pos_m, b.pos_m, atol=1e-5)
 
 
+def test_a_header_is_checked_against_the_columns_only_where_it_names_known_ones(
+    tmp_path: Path,
+) -> None:
+    times = np.arange(0.0, 8.0, 0.1)
+    path = write_recording(tmp_path / "h.csv", times, columns="id,t,y,x,z", sep=",", header=True)
+    with pytest.raises(DataFormatError, match=r"h.csv:1: .*column 3 'y', but it is read as 'x'"):
+        read_resampled(path, RecordingFormat(columns=("id", "t", "x", "y")))
+    swapped = read_resampled(path, RecordingFormat(columns=("id", "t", "y", "x")))
+    own = tmp_path / "own.csv"  # names the layout does not know are not judged
+    own.write_text("track,time,py,px,height\n" + path.read_text().split("\n", 1)[1])
+    unjudged = read_resampled(own, RecordingFormat(columns=("id", "t", "y", "x")))
+    np.testing.assert_array_equal(swapped.pos_m, unjudged.pos_m)
+
+
 def test_a_file_in_centimetres_is_refused_with_the_units_hint(tmp_path: Path) -> None:
     times = np.arange(0.0, 8.0, 1 / 16)
     path = write_recording(tmp_path / "cm.txt", times, columns="id,frame,x,y", scale=100.0, fps=16)

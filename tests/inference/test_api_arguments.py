@@ -54,6 +54,8 @@ def test_frames_t_samples_and_seeds_must_be_integers(predictor: Predictor) -> No
         (lambda: predictor.predict(rows, num_samples=10**12), "from 0 to 10000"),
         (lambda: predictor.predict(rows, num_samples=2, seed=None), "seed must be an integer"),
         (lambda: predictor.stream().update(0.5, [1], [[0.0, 0.0]]), "frame must be an integer"),
+        (lambda: predictor.predict(rows, t=1000), "t=1000 is outside the tracks' frames 0-90"),
+        (lambda: predictor.predict(rows, t=-10), "t=-10 is outside the tracks' frames 0-90"),
     ]
     for call, message in cases:
         with pytest.raises(GrouptronError, match=message):
@@ -108,3 +110,17 @@ def test_tables_of_every_common_kind_are_read_by_column_name(predictor: Predicto
         predictor.predict({**columns, "x": ["a"] * len(rows)})
     with pytest.raises(GrouptronError, match=r"load_tracks\(path\)"):
         predictor.predict("tracks.txt")
+
+
+@pytest.mark.parametrize("row", [1, 56])
+def test_a_far_position_names_the_callers_row_wherever_it_is(
+    predictor: Predictor, row: int
+) -> None:
+    rows = walk(steps=20)
+    # Row 1 (frame 0) lies outside the window a forecast at the last frame (190) reads.
+    assert 190 - predictor.window_frames > 0
+    rows[row, 3] = 1e300
+    with pytest.raises(GrouptronError, match=rf"^tracks row {row}: y = 1e\+300 m is out of range"):
+        predictor.predict(rows)
+    with pytest.raises(GrouptronError, match=r"^frame 0: row 1: x = 3e\+09 m is out of range"):
+        predictor.stream().update(0, [1, 2], [[0.0, 0.0], [3e9, 0.0]])

@@ -8,18 +8,16 @@ import logging
 import sys
 from pathlib import Path
 
-import numpy as np
 import torch
 
 from grouptron.constants import DT_S, FRAMES_PER_STEP, SPLITS
-from grouptron.data.reader import TrackTable, read_tracks
+from grouptron.data.reader import TrackTable
 from grouptron.data.recording import (
+    DEFAULT_COLUMNS,
     UNITS_M,
-    Recording,
     RecordingFormat,
-    check_plausible,
     parse_columns,
-    read_resampled,
+    read_table,
 )
 from grouptron.data.spelling import FLAGS
 from grouptron.devices import available_device
@@ -184,10 +182,10 @@ def add_recording_options(parser: argparse.ArgumentParser) -> None:
     """How a recording of one's own is laid out (any columns, frame rate, time base, units)."""
     parser.add_argument(
         "--columns",
-        default="frame,id,x,y",
         help="the columns of the files, in order, e.g. frame,id,x,y or id,frame,x,y,z or "
         "t,id,x,y: id, x, y and one time column, 'frame' (with --fps) or 't' (seconds, e.g. "
-        "Unix time); other names (z, -) and columns past the named ones are ignored",
+        "Unix time); other names (z, -) and columns past the named ones are ignored "
+        "(default: frame,id,x,y, exactly four columns)",
     )
     parser.add_argument(
         "--fps",
@@ -213,15 +211,14 @@ def add_recording_options(parser: argparse.ArgumentParser) -> None:
 
 
 def own_layout(args: argparse.Namespace) -> bool:
-    """Whether the recording options name anything but an ETH/UCY-style file (a ``--max-gap``
-    of its own asks for gaps to be bridged by resampling)."""
-    default = RecordingFormat()
+    """Whether the recording options describe a layout of its own rather than an ETH/UCY-style
+    file read as it is (a ``--max-gap`` of its own asks for gaps to be bridged by resampling;
+    naming ``--columns``, even the default order, lets columns past them be ignored)."""
     return (
-        parse_columns(args.columns, FLAGS) != default.columns
+        args.columns is not None
         or args.fps is not None
-        or args.units != default.units
+        or args.units != RecordingFormat().units
         or args.max_gap is not None
-        or Path(args.tracks).suffix == ".ndjson"
     )
 
 
@@ -230,17 +227,8 @@ def read_track_table(args: argparse.Namespace, frames_per_step: int) -> TrackTab
     ``--on-gap``), or a recording in its own layout (``--columns``, ``--fps``, ``--units``;
     TrajNet++ ``.ndjson``) resampled to 0.4 s steps, in its own frame numbers where a step is a
     whole number of them, else in steps."""
-    # Checks every option, also for an ETH/UCY-style file, whose frames per step set its rate.
     fmt = recording_format(args, frames_per_step)
-    if own_layout(args):
-        return read_resampled(Path(args.tracks), fmt)
-    table = read_tracks(args.tracks, frames_per_step, args.on_gap)
-    if fmt.check_speed:
-        # Steps of an ETH/UCY-style file are 0.4 s apart, whatever its frames per step.
-        time_s = table.step * DT_S
-        lines = np.zeros_like(table.step)  # not needed: the check names no line
-        check_plausible(Recording(table.path, table.ped_id, time_s, table.pos_m, lines), fmt)
-    return table
+    return read_table(Path(args.tracks), fmt, frames_per_step, args.on_gap)
 
 
 def recording_format(
@@ -248,15 +236,23 @@ def recording_format(
 ) -> RecordingFormat:
     """The layout the recording options describe; without ``--fps`` a ``frame`` column has
     ``frames_per_step`` frames per 0.4 s step (ETH/UCY: 10, i.e. 25 fps)."""
+    columns = DEFAULT_COLUMNS if args.columns is None else parse_columns(args.columns, FLAGS)
+    given_per_step = getattr(args, "frames_per_step", None)
+    if args.fps is not None and given_per_step not in (None, FRAMES_PER_STEP):
+        raise GrouptronError(
+            "--fps and --frames-per-step both set the frame rate: give one (--frames-per-step "
+            "is for a 'frame id x y' file read as it is)"
+        )
     fps = args.fps
-    if fps is None and frames_per_step != FRAMES_PER_STEP:
+    if fps is None and frames_per_step != FRAMES_PER_STEP and "t" not in columns:
         fps = frames_per_step / DT_S
     return RecordingFormat(
-        columns=parse_columns(args.columns, FLAGS),
+        columns=columns,
         fps=fps,
         units=args.units,
         max_gap_s=RecordingFormat().max_gap_s if args.max_gap is None else args.max_gap,
         check_speed=not args.no_speed_check,
+        as_is=not own_layout(args),
         spelling=FLAGS,
     )
 

@@ -17,6 +17,7 @@ from grouptron.cli.common import (
     add_threads_option,
     eval_modes,
     log,
+    own_layout,
     parse_splits,
     recording_format,
     show_progress,
@@ -105,6 +106,11 @@ def cmd_evaluate_tracks(args: argparse.Namespace) -> int:
 
 def cmd_evaluate_dataset(args: argparse.Namespace) -> int:
     """``evaluate --dataset``: the test part of a dataset of one's own."""
+    if own_layout(args) or args.no_speed_check:
+        raise GrouptronError(
+            "--columns, --fps, --units, --max-gap and --no-speed-check describe --tracks files; "
+            "a --dataset file gives its files' layout itself"
+        )
     dataset = read_dataset(args.dataset)
     model, experiment = None, None
     data = DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)

@@ -47,13 +47,24 @@ def _group_configs(args: argparse.Namespace) -> list[GroupConfig]:
     linkages = LINKAGES if args.linkage == "all" else (args.linkage or base.linkage,)
     distances = DISTANCE_KINDS if args.distance == "all" else (args.distance,)
     by_threshold = args.rule == "threshold"
+    if not by_threshold and (args.max_distance is not None or args.velocity_weight is not None):
+        raise GrouptronError(
+            "--max-distance and --velocity-weight set the threshold rule; --rule count takes "
+            "neither"
+        )
+    max_distance_m = (
+        DETECTION_GROUPS.max_distance_m if args.max_distance is None else args.max_distance
+    )
+    weight_s = (
+        DETECTION_GROUPS.velocity_weight_s if args.velocity_weight is None else args.velocity_weight
+    )
     return [
         dataclasses.replace(
             base,
             linkage=link,
             distance=dist,
-            max_distance_m=args.max_distance if by_threshold else None,
-            velocity_weight_s=args.velocity_weight if by_threshold else 0.0,
+            max_distance_m=max_distance_m if by_threshold else None,
+            velocity_weight_s=weight_s if by_threshold else 0.0,
         )
         for link in linkages
         for dist in distances
@@ -86,15 +97,13 @@ def _rule_options(parser: argparse.ArgumentParser, *, compare: bool) -> None:
     parser.add_argument(
         "--max-distance",
         type=positive_float,
-        default=DETECTION_GROUPS.max_distance_m,
-        help="metres: the threshold rule's cut",
+        help=f"metres: the threshold rule's cut (default {DETECTION_GROUPS.max_distance_m:g})",
     )
     parser.add_argument(
         "--velocity-weight",
         type=non_negative_float,
-        default=DETECTION_GROUPS.velocity_weight_s,
         help="seconds: the threshold rule keeps people at least this times their velocity "
-        "difference apart (0: positions only)",
+        f"difference apart (0: positions only; default {DETECTION_GROUPS.velocity_weight_s:g})",
     )
 
 
@@ -160,6 +169,8 @@ def cmd_groups_detect(args: argparse.Namespace) -> int:
     # Every output checked before the work, so that a bad one leaves no file behind.
     if args.out:
         refuse_folder(Path(args.out), inputs=(args.tracks,))
+    if args.frame is not None and not args.plot:
+        raise GrouptronError("--frame picks the step --plot draws: give --plot too")
     if args.plot:
         check_picture_path(Path(args.plot), option="--plot", inputs=(args.tracks,))
     scene = _track_scene(args)

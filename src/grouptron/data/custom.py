@@ -111,9 +111,11 @@ def _parts(path: Path, parts: Any) -> dict[str, tuple[Path, ...]]:
         if isinstance(files, str):
             files = [files]
         resolved = tuple((path.parent / f).resolve() for f in files)
+        if not resolved:
+            raise GrouptronError(f"{path}: the {part} part lists no files")
         missing = [str(f) for f in resolved if not f.is_file()]
-        if missing or not resolved:
-            raise GrouptronError(f"{path}: {part} files not found: {', '.join(missing) or '-'}")
+        if missing:
+            raise GrouptronError(f"{path}: {part} files not found: {', '.join(missing)}")
         out[part] = resolved
     return out
 

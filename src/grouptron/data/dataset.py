@@ -53,7 +53,7 @@ def load_scenes(
     if recording is None:
         tables = [read_tracks(f, config.frames_per_step, config.on_gap) for f in files]
     else:
-        tables = [read_resampled(f, recording, config.dt_s) for f in files]
+        tables = [read_resampled(f, recording, config.dt_s, config.on_gap) for f in files]
     return [build_scene(table, config) for table in tables]
 
 

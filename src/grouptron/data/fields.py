@@ -26,6 +26,27 @@ _DIGIT_COMMA_DIGIT = re.compile(r"\d,\d")
 _BLANK_INSIDE = re.compile(r"\S[ \t]+\S")
 
 
+KNOWN_COLUMNS = ("frame", "id", "x", "y", "t")
+"""Column names a layout gives meaning to: a header that uses them can be checked."""
+
+
+def refuse_header_disagreement(
+    source: Path, header: Sequence[str], columns: Sequence[str], number: int, hint: str
+) -> None:
+    """Refuse a header line whose names contradict the columns the file is read with (a file
+    whose header says ``frame id y x`` read as ``frame id x y`` would be silently mirrored);
+    names the layout does not know (``timestamp``, ``z``) are not judged."""
+    names = [field.strip("\"'").lower() for field in header]
+    for index, (name, column) in enumerate(zip(names, columns, strict=False)):
+        if name in KNOWN_COLUMNS and column in KNOWN_COLUMNS and name != column:
+            raise DataFormatError(
+                source,
+                f"the header names column {index + 1} {name!r}, but it is read as {column!r} "
+                f"(columns {','.join(columns)}){hint}",
+                number,
+            )
+
+
 def split_fields(source: Path, line: str, number: int) -> list[str]:
     """The fields of line ``number`` of ``source``, an empty string for each empty field; []
     for a blank line, a comment or a line of commas only. A line written with decimal commas

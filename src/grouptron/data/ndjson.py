@@ -44,6 +44,12 @@ def read_ndjson(path: Path) -> tuple[np.ndarray, np.ndarray, float]:
     same_ped = by_track[1:, 1] == by_track[:-1, 1]
     steps = np.diff(by_track[:, 0])[same_ped]
     step = float(np.median(steps[steps > 0])) if (steps > 0).any() else 1.0
+    if len(set(fps)) > 1:
+        # One median rate would fit none of them: every time would be off.
+        rates = ", ".join(f"{f:g}" for f in sorted(set(fps)))
+        raise DataFormatError(
+            path, f"its scenes have different fps ({rates}); split the file by rate"
+        )
     rows_per_second = float(np.median(fps)) if fps else ROWS_PER_SECOND
     return rows, line_of_row, 1.0 / (rows_per_second * step)
 
@@ -69,7 +75,10 @@ def _entries(path: Path) -> tuple[np.ndarray, np.ndarray, list[float]]:
                 if not (math.isfinite(fps[-1]) and fps[-1] > 0):
                     why = f"fps must be a positive number, not {fps[-1]:g}"
                     raise DataFormatError(path, why, number)
-        except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        except KeyError as exc:
+            why = f"a TrajNet++ track needs f, p, x and y; {exc} is missing"
+            raise DataFormatError(path, why, number) from None
+        except (ValueError, TypeError, AttributeError) as exc:
             raise DataFormatError(path, f"not a TrajNet++ scene or track ({exc})", number) from None
     if not rows:
         raise DataFormatError(path, "no track rows")

@@ -19,6 +19,7 @@ from grouptron.constants import FRAMES_PER_STEP
 from grouptron.data.fields import (
     empty_field_error,
     refuse_bad_numbers,
+    refuse_header_disagreement,
     split_fields,
 )
 from grouptron.errors import DataFormatError
@@ -74,11 +75,18 @@ def _data_lines(path: Path, text: str) -> tuple[list[int], list[list[str]]]:
         if not tokens:
             continue  # blank or a comment
         if not rows and _is_header(tokens):
+            hint = ": give the file's order with --columns"
+            refuse_header_disagreement(path, tokens, COLUMNS, number, hint)
             continue  # a header line such as "frame id x y" (names, no numbers)
         if len(tokens) != len(COLUMNS):
             raise DataFormatError(
                 path,
-                f"expected 4 columns (frame id x y), found {len(tokens)}: {line.strip()[:60]!r}",
+                f"expected 4 columns (frame id x y), found {len(tokens)}: {line.strip()[:60]!r}"
+                + (
+                    "; name them with --columns (extra ones are then ignored)"
+                    if len(tokens) > 4
+                    else ""
+                ),
                 number,
             )
         empty = empty_field_error(path, tokens, line, number)

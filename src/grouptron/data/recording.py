@@ -29,11 +29,12 @@ from grouptron.data.fields import (
     may_have_decimal_commas,
     may_have_empty_field,
     refuse_bad_numbers,
+    refuse_header_disagreement,
     split_fields,
 )
 from grouptron.data.ndjson import read_ndjson
 from grouptron.data.neighbours import ranges_to_indices
-from grouptron.data.reader import TrackTable, table_from_values
+from grouptron.data.reader import GapPolicy, TrackTable, read_tracks, table_from_values
 from grouptron.data.spelling import KEYWORDS, OptionSpelling
 from grouptron.errors import DataFormatError, GrouptronError
 
@@ -66,6 +67,9 @@ class RecordingFormat:
         max_gap_s: a track with no observation for longer than this is split in two; shorter
             gaps are bridged by interpolation.
         check_speed: refuse recordings whose median walking speed is implausible.
+        as_is: an ETH/UCY-style ``frame id x y`` file read as it is (no layout of its own was
+            given): frames on the step grid, a missed step splits its track (or is refused),
+            nothing is resampled; see :func:`read_table`.
         spelling: how messages name these options: as keywords (``max_gap_s``), or as the
             command line's flags (``--max-gap``) for a format the flags set.
     """
@@ -75,6 +79,7 @@ class RecordingFormat:
     units: str = "m"
     max_gap_s: float = 0.8
     check_speed: bool = True
+    as_is: bool = False
     spelling: OptionSpelling = field(default=KEYWORDS, compare=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -140,9 +145,14 @@ class Recording:
     seconds_per_frame: float | None = None
 
 
-def _numbers(path: Path, width: int) -> tuple[np.ndarray, np.ndarray]:
-    """(R, C) the numeric rows of a whitespace- or comma-separated file (a first line that is
-    not numbers is a header) and (R,) their line numbers."""
+def _numbers(
+    path: Path, columns: tuple[str, ...], spelling: OptionSpelling
+) -> tuple[np.ndarray, np.ndarray]:
+    """(R, C) the numeric rows of a whitespace- or comma-separated file laid out as
+    ``columns`` (a first line that is not numbers is a header, checked against them) and
+    (R,) their line numbers."""
+    width = len(columns)
+    hint = f": give the file's order with {spelling.name('columns')}"
     try:
         text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is no data
     except (OSError, UnicodeDecodeError) as exc:
@@ -153,21 +163,24 @@ def _numbers(path: Path, width: int) -> tuple[np.ndarray, np.ndarray]:
     # Slow path, only to name the line at fault (or to skip a header).
     rows: list[list[float]] = []
     lines: list[int] = []
+    header_seen = False
     for number, raw in enumerate(text.splitlines(), start=1):
         fields = split_fields(path, raw, number)
         if not fields:
             continue  # blank or a comment
+        if not rows and not header_seen and not any(_is_number(f) for f in fields):
+            refuse_header_disagreement(path, fields, columns, number, hint)
+            header_seen = True  # only the first line may be names
+            continue
         if len(fields) < width:
-            if not rows and not any(_is_number(f) for f in fields):
-                continue  # a header line: names only
             raise DataFormatError(
-                path, f"{len(fields)} columns, but {width} column names were given", number
+                path,
+                f"{len(fields)} columns, but {width} column names were given: {raw.strip()[:60]!r}",
+                number,
             )
         try:
             values = [float(f) for f in fields[:width]]  # columns past the named ones: ignored
         except ValueError:
-            if not rows and not any(_is_number(f) for f in fields):
-                continue  # a header line: names only
             why = empty_field_error(path, fields[:width], raw, number)
             bad = why or DataFormatError(path, f"not a number in {raw.strip()!r}", number)
             raise bad from None
@@ -217,7 +230,7 @@ def read_recording(path: Path, fmt: RecordingFormat) -> Recording:
             lines,
             seconds_per_frame,
         )
-    values, lines = _numbers(Path(path), len(fmt.columns))
+    values, lines = _numbers(Path(path), fmt.columns, fmt.spelling)
     column = {name: fmt.columns.index(name) for name in ("id", "x", "y", fmt.time_column)}
     used = {i: name for name, i in column.items()}  # ignored columns may hold anything
     refuse_bad_numbers(Path(path), values, lines, used, whole=(column["id"],))
@@ -259,14 +272,17 @@ def check_plausible(recording: Recording, fmt: RecordingFormat) -> None:
         )
 
 
-def resample(recording: Recording, fmt: RecordingFormat, dt_s: float = DT_S) -> TrackTable:
+def resample(
+    recording: Recording, fmt: RecordingFormat, dt_s: float = DT_S, on_gap: GapPolicy = "split"
+) -> TrackTable:
     """Every track on the grid ``t0 + k * dt_s`` (t0: the recording's first time), linearly
     interpolated between consecutive observations of the track that are at most
     ``fmt.max_gap_s`` apart; never extrapolated. Observations on the grid keep their values.
 
     Returns a table in the file's own frame numbers when a step is a whole number of its
     frames and the first frame is on it (ETH/UCY: 10, TrajNet: 12); else its "frames" are the
-    grid steps (``first_frame`` 0, ``frames_per_step`` 1).
+    grid steps (``first_frame`` 0, ``frames_per_step`` 1). ``on_gap="error"`` refuses a
+    track with a gap longer than ``fmt.max_gap_s`` instead of splitting it.
     """
     span_steps = (recording.time_s.max() - recording.time_s.min()) / dt_s
     if not span_steps < MAX_SPAN_STEPS:
@@ -284,6 +300,15 @@ def resample(recording: Recording, fmt: RecordingFormat, dt_s: float = DT_S) -> 
     steps = np.where(on_grid, snapped, steps)
     # Segments between consecutive observations of one track, bridged when short enough.
     joined = (ids[1:] == ids[:-1]) & (np.diff(time_s) <= fmt.max_gap_s + 1e-9)
+    split = np.flatnonzero((ids[1:] == ids[:-1]) & ~joined)
+    if on_gap == "error" and split.size:
+        at = int(split[0])
+        raise DataFormatError(
+            recording.path,
+            f"pedestrian {ids[at]} is not observed for {time_s[at + 1] - time_s[at]:.3g} s, "
+            f"longer than {fmt.option('max_gap_s')} {fmt.max_gap_s:g} s",
+            int(lines[at + 1]),
+        )
     first = np.ceil(steps[:-1]).astype(np.int64)
     last = np.where(joined, np.ceil(steps[1:]) - 1, np.floor(steps[:-1])).astype(np.int64)
     counts = np.where(joined, np.maximum(last - first + 1, 0), 0)
@@ -329,12 +354,36 @@ def _refuse_duplicates(path: Path, ids: np.ndarray, time_s: np.ndarray, lines: n
         )
 
 
-def read_resampled(path: Path, fmt: RecordingFormat, dt_s: float = DT_S) -> TrackTable:
+def read_table(
+    path: Path,
+    fmt: RecordingFormat,
+    frames_per_step: int = FRAMES_PER_STEP,
+    on_gap: GapPolicy = "split",
+    dt_s: float = DT_S,
+) -> TrackTable:
+    """A track file as a table: with ``fmt.as_is`` an ETH/UCY-style file as it is
+    (``frames_per_step`` frames per step, gaps split with a warning or refused per
+    ``on_gap``), else (and for TrajNet++ ``.ndjson``) resampled to ``dt_s`` steps."""
+    if not fmt.as_is or Path(path).suffix == ".ndjson":
+        return read_resampled(Path(path), fmt, dt_s, on_gap)
+    table = read_tracks(path, frames_per_step, on_gap)
+    if fmt.check_speed:
+        # Steps of an ETH/UCY-style file are dt_s apart, whatever its frames per step.
+        lines = np.zeros_like(table.step)  # not needed: the check names no line
+        check_plausible(
+            Recording(table.path, table.ped_id, table.step * dt_s, table.pos_m, lines), fmt
+        )
+    return table
+
+
+def read_resampled(
+    path: Path, fmt: RecordingFormat, dt_s: float = DT_S, on_gap: GapPolicy = "split"
+) -> TrackTable:
     """Read, check and resample a recording: the one entry point for files of any format."""
     recording = read_recording(path, fmt)
     if fmt.check_speed:
         check_plausible(recording, fmt)
-    return resample(recording, fmt, dt_s)
+    return resample(recording, fmt, dt_s, on_gap)
 
 
 def load_tracks(

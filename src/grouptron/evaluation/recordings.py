@@ -13,7 +13,7 @@ import torch
 from grouptron.config import DataConfig, ExperimentConfig
 from grouptron.constants import ALL_LOCATIONS
 from grouptron.data.download import file_sha256, shipped_checksums
-from grouptron.data.recording import RecordingFormat, read_resampled
+from grouptron.data.recording import RecordingFormat, read_table
 from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
 from grouptron.data.scene import build_scene
 from grouptron.data.subsets import density_masks, time_step_ids
@@ -34,7 +34,7 @@ def recording_samples(files: Sequence[Path], fmt: RecordingFormat, config: DataC
     one scene per file (``scene_index`` = the file's position in ``files``)."""
     parts = []
     for path in files:
-        table = read_resampled(Path(path), fmt, config.dt_s)
+        table = read_table(Path(path), fmt, config.frames_per_step, config.on_gap, config.dt_s)
         scene = build_scene(table, config, name=Path(path).name)
         parts.append(scene_samples(scene, config, config.history_steps))  # renumbered below
     samples = concatenate_samples(parts)

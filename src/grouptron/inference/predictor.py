@@ -245,6 +245,11 @@ class Predictor:
         check_track_rows(values, self.frames_per_step)
         self.check_plausible(values)
         frame = int(values[:, 0].max()) if t is None else frame_argument(t, "t")
+        first_frame, last_frame = int(values[:, 0].min()), int(values[:, 0].max())
+        if not first_frame <= frame <= last_frame:
+            raise GrouptronError(
+                f"t={frame} is outside the tracks' frames {first_frame}-{last_frame}"
+            )
         if (frame - values[:, 0].min()) % self.frames_per_step:
             raise GrouptronError(
                 f"t={frame} is not on the {self.frames_per_step}-frame grid of the tracks "

@@ -14,7 +14,8 @@ if TYPE_CHECKING:
     from grouptron.inference.predictor import Predictor
 
 STREAM_MIN_PAIRS = 30
-"""A stream's speeds are judged once it holds this many consecutive observations."""
+"""A stream's speeds are judged once it holds this many consecutive observations, and in any
+case before its first forecast leaves (with the pairs there are then, as ``predict`` does)."""
 
 
 class StreamSession:
@@ -59,6 +60,10 @@ class StreamSession:
         rows = rows[rows[:, 0] >= frame - self.window_frames]
         judged = self._judged or self.predictor.check_plausible(rows, min_pairs=STREAM_MIN_PAIRS)
         forecast = self.predictor._forecast(rows, frame, num_samples, seed)
+        if not judged and len(forecast):
+            # No forecast leaves unjudged: one or two people never fill the window with
+            # STREAM_MIN_PAIRS observations, and a centimetre stream would pass unseen.
+            judged = self.predictor.check_plausible(rows)
         # Kept only once the update is accepted: a refused one leaves the session as it was.
         self._rows, self._last_frame, self._judged = rows, frame, judged
         return forecast
