@@ -367,3 +367,15 @@ def test_trajnet_files_with_a_missing_field_or_mixed_rates_are_refused(
     fails([*detect, str(no_x)], capsys, "a TrajNet++ track needs f, p, x and y; 'x' is missing")
     mixed = ndjson(tmp_path / "b.ndjson", '{"scene": {"id": 1, "p": 2, "s": 0, "e": 9, "fps": 5}}')
     fails([*detect, str(mixed)], capsys, "its scenes have different fps (2.5, 5)")
+
+
+def test_a_plot_frame_past_the_file_and_a_mode_named_twice(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], tiny_checkpoints: Path
+) -> None:
+    tracks = walkers(tmp_path / "walk.txt")
+    model = tiny_checkpoints / "grouptron-eth-backward"
+    plot = ["plot", "--checkpoint", str(model), "--tracks", str(tracks), "--quiet"]
+    fails([*plot, "--frame", "1000", "--out", str(tmp_path / "a.png")], capsys, "(0-240)")
+    argv = ["evaluate", "--model", "constant-velocity", "--tracks", str(tracks), "--quiet"]
+    assert main([*argv, "--mode", "ml,ml", "--format", "json"]) == 0
+    assert len(json.loads(capsys.readouterr().out)["results"]) == 2  # the file and the pool

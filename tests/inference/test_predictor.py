@@ -373,3 +373,26 @@ def test_the_most_likely_of_the_top_latent_values(causal: Predictor, recording: 
     for bad in (0, Z + 1, 2.5):
         with pytest.raises(GrouptronError, match="latent_values"):
             Predictor(model, config, latent_values=bad)  # type: ignore[arg-type]
+
+
+def test_a_stream_track_that_jumps_restarts_with_a_warning(
+    tiny_checkpoints: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    ids = np.array([1, 2, 3])
+    for check_speed in (True, False):
+        session = Predictor.from_checkpoint(
+            tiny_checkpoints / "grouptron-eth-backward", check_speed=check_speed
+        ).stream()
+        caplog.clear()
+        for step in range(12):
+            xy = np.column_stack([0.5 * step + ids, 2.0 * ids])  # 1.25 m/s, 2 m apart
+            if step == 11:
+                xy[0] += 500.0  # person 1 swapped with someone far away
+            forecast = session.update(step * 10, ids, xy)
+        if check_speed:  # person 1 has one sighting again: nothing to forecast it from yet
+            assert "id 1 moved faster than 15 m/s" in caplog.text
+            assert forecast.ids.tolist() == [2, 3]
+        else:  # runners, vehicles: no speed is judged
+            assert "moved faster" not in caplog.text
+            assert forecast.ids.tolist() == [1, 2, 3]
+        assert (forecast.observed_points == 8).all()  # the others keep their history

@@ -169,7 +169,7 @@ def eval_modes(value: str) -> tuple[str, ...]:
         raise GrouptronError(
             f"unknown mode {', '.join(unknown) or value!r}; choose from {', '.join(MODES)} or all"
         )
-    return modes
+    return tuple(dict.fromkeys(modes))  # a mode named twice is scored once
 
 
 def show_progress(args: argparse.Namespace) -> bool:

@@ -131,6 +131,12 @@ def cmd_plot(args: argparse.Namespace) -> int:
             f"--frame {args.frame} is not on the {table.frames_per_step}-frame grid of "
             f"{args.tracks} (first frame {table.first_frame})"
         )
+    last_frame = int(table.frame.max())
+    if not table.first_frame <= args.frame <= last_frame:
+        raise GrouptronError(
+            f"--frame {args.frame} is outside the frames of {args.tracks} "
+            f"({table.first_frame}-{last_frame})"
+        )
     for predictor in predictors:  # forecast on the file's own frame grid
         data = dataclasses.replace(predictor.config.data, frames_per_step=table.frames_per_step)
         predictor.config = dataclasses.replace(predictor.config, data=data)

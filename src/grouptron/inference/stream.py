@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -12,6 +13,12 @@ from grouptron.inference.inputs import as_track_array, frame_argument, frame_arr
 
 if TYPE_CHECKING:
     from grouptron.inference.predictor import Predictor
+
+log = logging.getLogger(__name__)
+
+MAX_JUMP_SPEED_MPS = 15.0
+"""Faster than anyone runs: a track that jumps this fast between two sightings has changed
+hands (a tracker's id swap) and restarts instead of feeding the jump to the forecast."""
 
 STREAM_MIN_PAIRS = 30
 """A stream's speeds are judged once it holds this many consecutive observations, and in any
@@ -56,7 +63,10 @@ class StreamSession:
                 )
         new = np.column_stack([np.full(len(ids_arr), float(frame)), ids_arr, xy_arr])
         as_track_array(new)  # finite, shape
-        rows = np.concatenate([self._rows, new])
+        # Jumps are judged once the units are: a stream in centimetres is refused, not
+        # restarted at every step.
+        kept = self._restart_jumped(self._rows, new, frame) if self._judged else self._rows
+        rows = np.concatenate([kept, new])
         rows = rows[rows[:, 0] >= frame - self.window_frames]
         judged = self._judged or self.predictor.check_plausible(rows, min_pairs=STREAM_MIN_PAIRS)
         forecast = self.predictor._forecast(rows, frame, num_samples, seed)
@@ -67,3 +77,31 @@ class StreamSession:
         # Kept only once the update is accepted: a refused one leaves the session as it was.
         self._rows, self._last_frame, self._judged = rows, frame, judged
         return forecast
+
+    def _restart_jumped(self, rows: np.ndarray, new: np.ndarray, frame: int) -> np.ndarray:
+        """The (R, 4) window ``rows`` without the history of every person in ``new`` ((N, 4)
+        rows at ``frame``) whose last sighting is farther away than anyone moves in the time
+        between, with a warning; unchanged when the speed check is off (runners, vehicles)."""
+        if not self.predictor.check_speed or not len(rows) or not len(new):
+            return rows
+        order = np.lexsort((rows[:, 0], rows[:, 1]))
+        by_id = rows[order]
+        last = by_id[np.append(by_id[1:, 1] != by_id[:-1, 1], True)]  # (P, 4) last sighting
+        at = np.searchsorted(last[:, 1], new[:, 1])
+        seen = at < len(last)
+        seen[seen] = last[at[seen], 1] == new[seen, 1]
+        previous = last[at[seen]]
+        seconds_per_frame = self.predictor.config.data.dt_s / self.predictor.frames_per_step
+        seconds = (frame - previous[:, 0]) * seconds_per_frame
+        metres = np.linalg.norm(new[seen, 2:4] - previous[:, 2:4], axis=1)
+        jumped = new[seen][metres > MAX_JUMP_SPEED_MPS * seconds, 1]
+        if not jumped.size:
+            return rows
+        log.warning(
+            "frame %d: %s moved faster than %g m/s since last seen (an id swap?): their "
+            "tracks restart",
+            frame,
+            ", ".join(f"id {int(i)}" for i in jumped[:5]) + (" ..." if jumped.size > 5 else ""),
+            MAX_JUMP_SPEED_MPS,
+        )
+        return rows[~np.isin(rows[:, 1], jumped)]
