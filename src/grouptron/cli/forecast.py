@@ -126,17 +126,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     for predictor in predictors:
         warn_look_ahead(predictor.source, predictor.config.data.derivatives)
     table = read_track_table(args, predictors[0].config.data.frames_per_step)
-    if (args.frame - table.first_frame) % table.frames_per_step:
-        raise GrouptronError(
-            f"--frame {args.frame} is not on the {table.frames_per_step}-frame grid of "
-            f"{args.tracks} (first frame {table.first_frame})"
-        )
-    last_frame = int(table.frame.max())
-    if not table.first_frame <= args.frame <= last_frame:
-        raise GrouptronError(
-            f"--frame {args.frame} is outside the frames of {args.tracks} "
-            f"({table.first_frame}-{last_frame})"
-        )
+    _check_plot_frame(args, table)
     for predictor in predictors:  # forecast on the file's own frame grid
         data = dataclasses.replace(predictor.config.data, frames_per_step=table.frames_per_step)
         predictor.config = dataclasses.replace(predictor.config, data=data)
@@ -168,6 +158,21 @@ def cmd_plot(args: argparse.Namespace) -> int:
     animate_forecasts(drawn, out)
     print(f"wrote {out}: {len(drawn)} frames from {drawn[0][0]} to {drawn[-1][0]}")
     return 0
+
+
+def _check_plot_frame(args: argparse.Namespace, table: TrackTable) -> None:
+    """Refuse a ``--frame`` off the file's frame grid or outside its frames."""
+    if (args.frame - table.first_frame) % table.frames_per_step:
+        raise GrouptronError(
+            f"--frame {args.frame} is not on the {table.frames_per_step}-frame grid of "
+            f"{args.tracks} (first frame {table.first_frame})"
+        )
+    last_frame = int(table.frame.max())
+    if not table.first_frame <= args.frame <= last_frame:
+        raise GrouptronError(
+            f"--frame {args.frame} is outside the frames of {args.tracks} "
+            f"({table.first_frame}-{last_frame})"
+        )
 
 
 def _plot_panels(

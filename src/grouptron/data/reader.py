@@ -175,17 +175,25 @@ def read_tracks(
     return table_from_values(path, values, lines, frames_per_step, on_gap=on_gap)
 
 
+def far_position(xy_m: np.ndarray) -> tuple[int, str] | None:
+    """The first of (N, 2) finite positions beyond the range any scene has (wrong units, a
+    sentinel value) and why, or None; NaN and inf are refused by other checks."""
+    far = np.isfinite(xy_m) & (np.abs(xy_m) > MAX_ABS_COORDINATE_M)
+    too_far = np.flatnonzero(far.any(axis=1))
+    if not too_far.size:
+        return None
+    row = int(too_far[0])
+    axis = int(np.abs(xy_m[row]).argmax())
+    return row, (
+        f"{'xy'[axis]} = {xy_m[row, axis]:.3g} m is out of range "
+        f"(|x|, |y| <= {MAX_ABS_COORDINATE_M:.0e} m; positions are in metres)"
+    )
+
+
 def _check_range(path: Path, values: np.ndarray, lines: np.ndarray) -> None:
-    too_far = np.flatnonzero(np.abs(values[:, 2:4]).max(axis=1) > MAX_ABS_COORDINATE_M)
-    if too_far.size:
-        row = int(too_far[0])
-        column = 2 + int(np.abs(values[row, 2:4]).argmax())
-        raise DataFormatError(
-            path,
-            f"{COLUMNS[column]} = {values[row, column]:.3g} m is out of range "
-            f"(|x|, |y| <= {MAX_ABS_COORDINATE_M:.0e} m; positions are in metres)",
-            int(lines[row]),
-        )
+    found = far_position(values[:, 2:4])
+    if found is not None:
+        raise DataFormatError(path, found[1], int(lines[found[0]]))
 
 
 def _grid_steps(

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from grouptron.config import DataConfig
-from grouptron.data.reader import MAX_ABS_COORDINATE_M
+from grouptron.data.reader import far_position
 from grouptron.errors import GrouptronError
 
 TRACK_COLUMNS = ("frame", "id", "x", "y")
@@ -55,8 +55,8 @@ def check_track_rows(values: np.ndarray, frames_per_step: int) -> None:
             f"tracks row {int(off[0])}: frame {values[off[0], 0]:.0f} is not on the "
             f"{frames_per_step}-frame grid that starts at frame {first:.0f}"
         )
-    _, index, counts = np.unique(values[:, :2], axis=0, return_index=True, return_counts=True)
     _check_coordinates(values[:, 2:4], "tracks row")
+    _, index, counts = np.unique(values[:, :2], axis=0, return_index=True, return_counts=True)
     if (counts > 1).any():
         frame, ped = values[index[np.flatnonzero(counts > 1)[0]], :2]
         first, row = np.flatnonzero((values[:, 0] == frame) & (values[:, 1] == ped))[:2]
@@ -130,17 +130,11 @@ def frame_arrays(frame: int, ids: Any, xy: Any) -> tuple[np.ndarray, np.ndarray]
 
 
 def _check_coordinates(xy_m: np.ndarray, where: str) -> None:
-    """Refuse (N, 2) positions beyond the range any scene has (wrong units, a sentinel value),
-    naming the caller's row: far values overflow the geometry and leak into every forecast."""
-    far = np.isfinite(xy_m) & (np.abs(xy_m) > MAX_ABS_COORDINATE_M)  # NaN, inf: said elsewhere
-    too_far = np.flatnonzero(far.any(axis=1))
-    if too_far.size:
-        row = int(too_far[0])
-        axis = int(np.abs(xy_m[row]).argmax())
-        raise GrouptronError(
-            f"{where} {row}: {'xy'[axis]} = {xy_m[row, axis]:.3g} m is out of range "
-            f"(|x|, |y| <= {MAX_ABS_COORDINATE_M:.0e} m; positions are in metres)"
-        )
+    """Refuse (N, 2) far positions naming the caller's row: they overflow the geometry and
+    leak into every forecast."""
+    found = far_position(xy_m)
+    if found is not None:
+        raise GrouptronError(f"{where} {found[0]}: {found[1]}")
 
 
 def refuse_future_neighbours(data: DataConfig, source: str) -> None:

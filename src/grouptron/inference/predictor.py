@@ -250,10 +250,10 @@ class Predictor:
             raise GrouptronError(
                 f"t={frame} is outside the tracks' frames {first_frame}-{last_frame}"
             )
-        if (frame - values[:, 0].min()) % self.frames_per_step:
+        if (frame - first_frame) % self.frames_per_step:
             raise GrouptronError(
                 f"t={frame} is not on the {self.frames_per_step}-frame grid of the tracks "
-                f"(first frame {values[:, 0].min():.0f})"
+                f"(first frame {first_frame})"
             )
         # Only the rows a forecast at ``frame`` reads, so that a long recording is not turned
         # into a scene for every frame asked about (central derivatives read two steps ahead).
