@@ -124,6 +124,13 @@ labels (mean per-ego pair F1 0.774 against 0.612 for C(N); docs/groups.md). The 
 keeps C(N) (``GroupConfig()``)."""
 
 
+def describe_group_rule(groups: GroupConfig) -> str:
+    """A few words naming the rule, e.g. ``C(N) rule`` or ``single linkage, 1.5 m``."""
+    if groups.max_distance_m is None:
+        return "C(N) rule"
+    return f"{groups.linkage} linkage, {groups.max_distance_m:g} m"
+
+
 @dataclass(frozen=True)
 class ModelConfig:
     """Widths and switches of the CVAE. Defaults equal the Trajectron++ reference code."""

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from grouptron import Predictor
+from grouptron.config import DETECTION_GROUPS
 from tests.test_bad_input import _walk
 
 MODELS = [
@@ -55,7 +56,7 @@ def test_forecasts_are_finite_at_the_edges(predictor: Predictor, kind: str) -> N
     if kind == "coincident":  # identical people, identical forecasts
         np.testing.assert_allclose(forecast.most_likely, forecast.most_likely[:1].repeat(6, 0))
         # C(6) = 3 groups by the paper's rule; a distance threshold merges people 0 m apart.
-        by_threshold = predictor.config.groups.max_distance_m is not None
+        by_threshold = predictor.group_rule.max_distance_m is not None
         assert len(np.unique(forecast.group)) == (1 if by_threshold else 3)
 
 
@@ -71,3 +72,22 @@ def test_geo_referenced_coordinates_shift_the_forecast_exactly(
     np.testing.assert_allclose(far.most_likely - offset, near.most_likely, atol=1e-3)
     np.testing.assert_allclose(far.samples - offset, near.samples, atol=1e-3)
     np.testing.assert_array_equal(far.group, near.group)
+
+
+def test_groups_follow_the_model_or_the_detection_rule(predictor: Predictor) -> None:
+    """A model that reads groups is shown its own groups; any other, the rule chosen on human
+    labels (``grouptron groups detect``'s)."""
+    reads_groups = predictor.config.model_name.startswith("grouptron")
+    expected = predictor.config.groups if reads_groups else DETECTION_GROUPS
+    assert predictor.group_rule == expected
+    # Four people walking abreast 0.6 m apart and one alone 30 m away: a 1.5 m threshold finds
+    # the four and the one (2 groups), the paper's C(5) = 3 groups must split the four.
+    steps = np.arange(12)
+    rows = [
+        np.column_stack([steps * 10, np.full(12, i), steps * 0.5, np.full(12, y)])
+        for i, y in enumerate([0.0, 0.6, 1.2, 1.8, 30.0])
+    ]
+    forecast = predictor.predict(np.concatenate(rows))
+    found = len(np.unique(forecast.group))
+    by_threshold = predictor.group_rule.max_distance_m is not None
+    assert found == (2 if by_threshold else 3)

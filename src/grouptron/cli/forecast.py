@@ -23,6 +23,7 @@ from grouptron.cli.common import (
     show_progress,
     warn_look_ahead,
 )
+from grouptron.config import describe_group_rule
 from grouptron.data.ndjson import write_forecast_ndjson
 from grouptron.data.reader import TrackTable
 from grouptron.data.scene import build_scene
@@ -209,7 +210,8 @@ def _plot_panels(
             "ml-argmax": "argmax latent",
             "ml-top10": "most likely of top 10",
         }.get(args.forecast or default_point_forecast(predictor.config.model), "mean")
-        panels.append(Panel(name, forecast, history, truth, label))
+        rule = describe_group_rule(predictor.group_rule)
+        panels.append(Panel(name, forecast, history, truth, label, rule))
     return panels
 
 

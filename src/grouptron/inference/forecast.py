@@ -28,7 +28,9 @@ class Forecast:
         mixture_means: (N, Z, H, 2) position means of each latent value's Gaussians.
         mixture_covariances: (N, Z, H, 2, 2) their covariances (m^2).
         group: (N,) scene-wide group of every agent at ``frame`` (agglomerative clustering of
-            everyone present on their histories, C(N) groups; numbered from 0), or None.
+            everyone present on their histories by the predictor's ``group_rule``: the model's
+            own for a model that reads groups, else the distance threshold of ``grouptron
+            groups detect``; numbered from 0), or None.
         observed_points: (N,) observed positions in the history each forecast read (at most
             ``history_steps``; fewer for agents seen only recently), or None.
         filled_points: (N,) positions of that history filled in for missed detections (not

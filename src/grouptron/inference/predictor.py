@@ -22,7 +22,7 @@ from typing import Any, Literal
 import numpy as np
 import torch
 
-from grouptron.config import ExperimentConfig
+from grouptron.config import DETECTION_GROUPS, ExperimentConfig
 from grouptron.data.gaps import bridge_gaps
 from grouptron.data.reader import table_from_values
 from grouptron.data.recording import MAX_MEDIAN_SPEED_MPS, median_speed_mps
@@ -132,6 +132,9 @@ class Predictor:
         self.model = model.eval().to(self.device)
         self.config = config
         self.source = source
+        # A model that reads groups colours by what it reads; any other by the rule chosen on
+        # human labels (C(N) merges standing strangers).
+        self.group_rule = config.groups if uses_groups(config) else DETECTION_GROUPS
         Z = config.model.latent_modes
         if latent_values is not None:
             latent_values = integer_argument(latent_values, "latent_values", 1, Z)
@@ -323,7 +326,7 @@ class Predictor:
     ) -> Forecast:
         data, H, dt = self.config.data, self.config.data.horizon_steps, self.config.data.dt_s
         # The step's distances serve both the scene-wide groups and every sample's own.
-        found = groups_at_step(scene, self.config.groups, step, data.history_steps)
+        found = groups_at_step(scene, self.group_rule, step, data.history_steps)
         groups = None
         if uses_groups(self.config) and found is not None:
             groups = assign_groups_at_step(

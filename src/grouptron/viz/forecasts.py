@@ -31,6 +31,7 @@ class Panel:
             with ``forecast.ids``.
         truth: (N, H, 2) the recorded future (NaN where the file has none).
         point_forecast: what the dashed line is (``most likely``, ``argmax latent``, ``mean``).
+        group_rule: how the colours' groups were found (``config.describe_group_rule``).
     """
 
     title: str
@@ -38,6 +39,7 @@ class Panel:
     history: np.ndarray
     truth: np.ndarray
     point_forecast: str = "most likely"
+    group_rule: str = ""
 
 
 def tracks_around(
@@ -81,7 +83,8 @@ def _draw_panel(ax: plt.Axes, panel: Panel, frame: int) -> None:
         ax.plot(ml[:, 0], ml[:, 1], "--", color=colour, lw=1.8)
         ax.plot(*origin, "o", color=colour, ms=6, mec="black", mew=0.6)
     ax.set_aspect("equal", adjustable="box")
-    ax.set(xlabel="x (m)", ylabel="y (m)", title=f"{panel.title}\nframe {frame}")
+    rule = f", groups: {panel.group_rule}" if panel.group_rule else ""
+    ax.set(xlabel="x (m)", ylabel="y (m)", title=f"{panel.title}\nframe {frame}{rule}")
     ax.grid(alpha=0.3)
 
 
