@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from grouptron.data.gaps import bridge_gaps
+from grouptron.data.gaps import bridge_gaps, filled_in_histories
 
 
 def test_short_gaps_are_filled_on_the_line_between_their_ends() -> None:
@@ -36,3 +36,13 @@ def test_rows_in_any_order_and_off_grid_frames() -> None:
     rows = np.array([[20, 7, 2.0, 0.0], [0, 7, 0.0, 0.0], [25, 8, 0.0, 0.0], [0, 8, 0.0, 0.0]])
     out, filled = bridge_gaps(rows, frames_per_step=10, max_missed_steps=1)
     np.testing.assert_allclose(out[filled], [[10, 7, 1.0, 0.0]])  # id 8's 25 is not on the grid
+
+
+def test_filled_positions_are_counted_inside_each_history_only() -> None:
+    # Agent 1's history (frames 0..30, 4 points) holds the filled frame 10; agent 2's history
+    # (frames 20..30) starts after its filled frame 10; agent 3 has no filled rows.
+    filled = np.array([[10, 1], [10, 2], [40, 1]])  # (F, 2) frame, id; frame 40 is after
+    counts = filled_in_histories(
+        np.array([1, 2, 3]), 30, np.array([4, 2, 4]), filled, frames_per_step=10
+    )
+    np.testing.assert_array_equal(counts, [1, 0, 0])

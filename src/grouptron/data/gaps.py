@@ -48,3 +48,18 @@ def bridge_gaps(
     filled[:, 1] = before[gap, 1]
     is_filled = np.concatenate([np.zeros(len(rows), dtype=bool), np.ones(len(filled), dtype=bool)])
     return np.concatenate([rows, filled]), is_filled
+
+
+def filled_in_histories(
+    ids: np.ndarray, frame: int, points: np.ndarray, filled: np.ndarray, *, frames_per_step: int
+) -> np.ndarray:
+    """(N,) filled positions inside the histories of N forecasts at ``frame``: (N,) ids, (N,)
+    history lengths (the last ``points`` steps up to the frame); ``filled`` holds the (F, 2)
+    frame, id of the filled rows."""
+    if len(filled) == 0 or len(ids) == 0:
+        return np.zeros(len(ids), dtype=np.int64)
+    oldest = frame - (points - 1) * frames_per_step  # (N,)
+    filled_frame, filled_id = filled[None, :, 0], filled[None, :, 1]  # (1, F)
+    inside = (filled_id == ids[:, None]) & (filled_frame >= oldest[:, None])
+    inside &= filled_frame <= frame  # (N, F)
+    return inside.sum(axis=1)

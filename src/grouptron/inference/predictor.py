@@ -23,7 +23,7 @@ import numpy as np
 import torch
 
 from grouptron.config import DETECTION_GROUPS, ExperimentConfig
-from grouptron.data.gaps import bridge_gaps
+from grouptron.data.gaps import bridge_gaps, filled_in_histories
 from grouptron.data.reader import table_from_values
 from grouptron.data.recording import MAX_MEDIAN_SPEED_MPS, median_speed_mps
 from grouptron.data.samples import SampleSet, scene_samples
@@ -308,7 +308,7 @@ class Predictor:
         forecast = self._run(scene, samples, frame, step, num_samples=num_samples, seed=seed)
         points = forecast.observed_points  # filled ones included so far
         assert points is not None
-        filled = _filled_points(
+        filled = filled_in_histories(
             forecast.ids, frame, points, values[is_filled, :2], frames_per_step=self.frames_per_step
         )
         return dataclasses.replace(forecast, observed_points=points - filled, filled_points=filled)
@@ -435,18 +435,3 @@ class Predictor:
                 "data.",
                 stacklevel=3,
             )
-
-
-def _filled_points(
-    ids: np.ndarray, frame: int, points: np.ndarray, filled: np.ndarray, *, frames_per_step: int
-) -> np.ndarray:
-    """(N,) filled positions inside the histories of N forecasts at ``frame``: (N,) ids, (N,)
-    history lengths (the last ``points`` steps up to the frame); ``filled`` holds the (F, 2)
-    frame, id of the filled rows."""
-    if len(filled) == 0 or len(ids) == 0:
-        return np.zeros(len(ids), dtype=np.int64)
-    oldest = frame - (points - 1) * frames_per_step  # (N,)
-    filled_frame, filled_id = filled[None, :, 0], filled[None, :, 1]  # (1, F)
-    inside = (filled_id == ids[:, None]) & (filled_frame >= oldest[:, None])
-    inside &= filled_frame <= frame  # (N, F)
-    return inside.sum(axis=1)
