@@ -125,10 +125,14 @@ keeps C(N) (``GroupConfig()``)."""
 
 
 def describe_group_rule(groups: GroupConfig) -> str:
-    """A few words naming the rule, e.g. ``C(N) rule`` or ``single linkage, 1.5 m``."""
+    """A few words naming the rule, e.g. ``single linkage, 1.5 m, 2 s x velocity``."""
     if groups.max_distance_m is None:
-        return "C(N) rule"
-    return f"{groups.linkage} linkage, {groups.max_distance_m:g} m"
+        rule = "C(N) rule"
+    else:
+        rule = f"{groups.linkage} linkage, {groups.max_distance_m:g} m"
+    if groups.velocity_weight_s > 0:
+        rule += f", {groups.velocity_weight_s:g} s x velocity"
+    return rule
 
 
 @dataclass(frozen=True)

@@ -40,9 +40,10 @@ def test_rows_in_any_order_and_off_grid_frames() -> None:
 
 def test_filled_positions_are_counted_inside_each_history_only() -> None:
     # Agent 1's history (frames 0..30, 4 points) holds the filled frame 10; agent 2's history
-    # (frames 20..30) starts after its filled frame 10; agent 3 has no filled rows.
-    filled = np.array([[10, 1], [10, 2], [40, 1]])  # (F, 2) frame, id; frame 40 is after
+    # (frames 20..30) starts after its filled frame 10 and holds the one at its first frame 20;
+    # agent 3 has no filled rows.
+    filled = np.array([[10, 1], [10, 2], [20, 2], [40, 1]])  # (F, 2) frame, id; 40 is after
     counts = filled_in_histories(
         np.array([1, 2, 3]), 30, np.array([4, 2, 4]), filled, frames_per_step=10
     )
-    np.testing.assert_array_equal(counts, [1, 0, 0])
+    np.testing.assert_array_equal(counts, [1, 1, 0])

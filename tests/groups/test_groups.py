@@ -10,7 +10,7 @@ from scipy.cluster.hierarchy import cut_tree, linkage
 from scipy.spatial.distance import directed_hausdorff as scipy_directed
 from scipy.spatial.distance import squareform
 
-from grouptron.config import DataConfig, GroupConfig
+from grouptron.config import DETECTION_GROUPS, DataConfig, GroupConfig, describe_group_rule
 from grouptron.data.samples import scene_samples
 from grouptron.errors import DataFormatError
 from grouptron.groups.assign import assign_groups
@@ -302,3 +302,10 @@ def test_threshold_groups_of_samples_count_their_own_groups(tmp_path: Path) -> N
         GroupConfig(max_distance_m=0.0)
     with pytest.raises(Exception, match="velocity_weight_s"):
         GroupConfig(velocity_weight_s=-1.0)
+
+
+def test_group_rules_are_named_by_all_their_settings() -> None:
+    assert describe_group_rule(GroupConfig()) == "C(N) rule"
+    assert describe_group_rule(DETECTION_GROUPS) == "single linkage, 1.5 m, 2 s x velocity"
+    positions_only = GroupConfig(linkage="complete", max_distance_m=0.8)
+    assert describe_group_rule(positions_only) == "complete linkage, 0.8 m"

@@ -51,14 +51,28 @@ def bridge_gaps(
 
 
 def filled_in_histories(
-    ids: np.ndarray, frame: int, points: np.ndarray, filled: np.ndarray, *, frames_per_step: int
+    ids: np.ndarray,
+    frame: int,
+    history_points: np.ndarray,
+    filled: np.ndarray,
+    *,
+    frames_per_step: int,
 ) -> np.ndarray:
-    """(N,) filled positions inside the histories of N forecasts at ``frame``: (N,) ids, (N,)
-    history lengths (the last ``points`` steps up to the frame); ``filled`` holds the (F, 2)
-    frame, id of the filled rows."""
+    """How many filled positions each of N forecasts' histories holds.
+
+    Args:
+        ids: (N,) the forecast agents' ids.
+        frame: the forecast frame, the last of every history.
+        history_points: (N,) history lengths in steps (the last ones up to ``frame``).
+        filled: (F, 2) ``frame, id`` of the rows ``bridge_gaps`` filled.
+        frames_per_step: frames between steps.
+
+    Returns:
+        (N,) filled positions inside each history.
+    """
     if len(filled) == 0 or len(ids) == 0:
         return np.zeros(len(ids), dtype=np.int64)
-    oldest = frame - (points - 1) * frames_per_step  # (N,)
+    oldest = frame - (history_points - 1) * frames_per_step  # (N,)
     filled_frame, filled_id = filled[None, :, 0], filled[None, :, 1]  # (1, F)
     inside = (filled_id == ids[:, None]) & (filled_frame >= oldest[:, None])
     inside &= filled_frame <= frame  # (N, F)

@@ -28,7 +28,7 @@ class StepGroups:
     Attributes:
         step: the step.
         tracks: (N,) tracks present at the step.
-        labels: (N,) their groups (C(N) of them).
+        labels: (N,) their groups (C(N) of them under the paper's rule).
         distances: (N, N) Hausdorff distances of their histories.
         pos_now_m: (N, 2) positions at the step (scene frame).
     """

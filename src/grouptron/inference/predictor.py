@@ -102,6 +102,10 @@ class Predictor:
         max_missed_steps: missed detections of up to this many steps in a row are filled by
             linear interpolation between the positions around them (0: a missed detection
             restarts the agent's track).
+
+    Attributes:
+        group_rule: the rule behind ``Forecast.group``: the model's own for one that reads
+            groups, otherwise ``DETECTION_GROUPS`` (the rule chosen on human labels).
     """
 
     def __init__(
@@ -329,9 +333,7 @@ class Predictor:
         found = groups_at_step(scene, self.group_rule, step, data.history_steps)
         groups = None
         if uses_groups(self.config) and found is not None:
-            groups = assign_groups_at_step(
-                samples, found.tracks, found.distances, self.config.groups
-            )
+            groups = assign_groups_at_step(samples, found.tracks, found.distances, self.group_rule)
         ((_, batch),) = batches(samples, self.config, len(samples), groups)
         batch = batch.to(self.device)
         most_likely, log_weights, mean, cov = self._most_likely_and_mixture(batch)
