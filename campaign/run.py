@@ -25,9 +25,10 @@ strictly causal inputs.
 ``--variant [MODEL]`` queues a named group variant instead (default ``grouptron-robust``; also
 ``grouptron-robust-residual``), all from scratch with its preset: univ ``central`` seed 0,
 ``backward`` of the other four splits (the causal targets need all five), univ ``central``
-seeds 1-2, then ``central`` of the other four splits. Their univ ``backward`` seeds are the
-screening runs of ``screen.py --only robust`` (``robust-residual``), named for shipping with
-``ship.py``.
+seeds 1-2, ``central`` of the other four splits, then seeds 1-2 of zara1 ``backward`` with
+Trajectron++'s of the same seeds (seed spread on the second split). Their univ ``backward``
+seeds are the screening runs of ``screen.py --only robust`` (``robust-residual``), named for
+shipping with ``ship.py``.
 
 The paper models' queue needs nothing newer than the package code its runs started with (the
 variant's preset is imported only for ``--variant``), so ``PYTHONPATH=<checkout of that
@@ -104,7 +105,11 @@ def variant_queue(variant: str) -> list[Run]:
     runs = [Run(variant, "univ", "central")]
     runs += [Run(variant, split, "backward") for split in SPLITS[1:]]
     runs += [Run(variant, "univ", "central", seed) for seed in (1, 2)]
-    return runs + [Run(variant, split, "central") for split in SPLITS[1:]]
+    runs += [Run(variant, split, "central") for split in SPLITS[1:]]
+    # Seed spread on zara1, the second screening split: the variant against Trajectron++.
+    return runs + [
+        Run(model, "zara1", "backward", seed) for seed in (1, 2) for model in (variant, MODELS[0])
+    ]
 
 
 def queue(bf16_ab: bool = False) -> list[Run]:
@@ -229,11 +234,10 @@ def command(run: Run, folder: Path, precision: str, threads: int = 1) -> list[st
         return [*argv, "--resume"]
     if run.shipped_source is not None:  # dry run: prepare() has not copied it
         return [*argv, "--resume"]
-    if run.model in MODELS and run.protocol == "central" and run.seed and run.split == "univ":
-        # Same configuration as the seed-0 run it is compared with, another seed.
-        stored = load_checkpoint(
-            REPO / "checkpoints" / f"{run.model}-univ-central" / "last.safetensors"
-        )
+    if run.model in MODELS and run.seed:
+        # Same configuration as the shipped seed-0 run it is compared with, another seed.
+        shipped = REPO / "checkpoints" / f"{run.model}-{run.split}-{run.protocol}"
+        stored = load_checkpoint(shipped / "last.safetensors")
         config = dataclasses.replace(
             stored.config,
             train=dataclasses.replace(stored.config.train, seed=run.seed, epochs=EPOCHS),

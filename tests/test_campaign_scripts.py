@@ -192,7 +192,11 @@ def test_the_variant_queue_names_each_named_group_variants_runs() -> None:
         "grouptron-robust-residual-eth-backward",
         "grouptron-robust-residual-hotel-backward",
     ]
-    assert "grouptron-robust-residual-univ-central-s2" in names and len(names) == 11
+    assert "grouptron-robust-residual-univ-central-s2" in names and len(names) == 15
+    assert names[-2:] == [
+        "grouptron-robust-residual-zara1-backward-s2",
+        "trajectron++-zara1-backward-s2",
+    ]
 
 
 def test_workers_share_the_queue_one_run_each(
