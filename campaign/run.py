@@ -2,7 +2,7 @@
 
 Usage:
     python campaign/run.py [--only NAME_PART] [--dry-run | --status] [--out campaign/runs]
-                           [--variant [MODEL]]
+                           [--variant [MODEL]] [--threads N] [--device cpu|cuda]
 
 Every run trains with ``grouptron train`` into ``OUT/<name>`` for 100 epochs (the reference
 recipe) and is skipped once finished (its ``selection.json`` exists). A run that was stopped
@@ -10,8 +10,9 @@ resumes from its ``last.safetensors``, so the script can be killed at any time a
 again, later or on another machine.
 
 Precision: every invocation asks for what ``--precision auto`` chooses on this machine (bf16
-only where it is native and measured faster; ``grouptron.training.precision``); a run that
-changes machines records each epoch's precision. ``--bf16-ab`` adds the precision A/B: bf16
+only where it is native and measured faster; ``grouptron.training.precision``; on a GPU bf16
+where it supports it); a run that changes machines or devices records each epoch's precision
+and device. ``--bf16-ab`` adds the precision A/B: bf16
 copies (``-bf16``) of the three univ Trajectron++ ``backward`` seeds, for a machine where bf16
 pays (on the Intel Xeon the campaign started on it was 1.37x slower than fp32).
 
@@ -210,7 +211,9 @@ def status(runs: list[Run], out: Path) -> list[str]:
     return lines
 
 
-def command(run: Run, folder: Path, precision: str, threads: int = 1) -> list[str]:
+def command(
+    run: Run, folder: Path, precision: str, threads: int = 1, device: str = "cpu"
+) -> list[str]:
     argv = [
         sys.executable,
         "-m",
@@ -229,6 +232,7 @@ def command(run: Run, folder: Path, precision: str, threads: int = 1) -> list[st
         "--threads",
         str(threads),
         "--quiet",
+        *(["--device", device] if device != "cpu" else []),
     ]
     if (folder / "last.safetensors").exists():
         return [*argv, "--resume"]
@@ -278,6 +282,12 @@ def main() -> int:
         "two jobs of 2 threads each on 2 cores slow both several-fold)",
     )
     parser.add_argument(
+        "--device",
+        default="cpu",
+        help="torch device of the runs (default cpu); e.g. cuda: several workers may share one "
+        "GPU, and a run may move between devices (metrics.jsonl records each epoch's)",
+    )
+    parser.add_argument(
         "--variant",
         nargs="?",
         const="grouptron-robust",
@@ -292,7 +302,7 @@ def main() -> int:
     if args.status:
         print("\n".join(status(runs, args.out)))
         return 0
-    bf16 = resolve_precision("auto", torch.device("cpu"), threads=args.threads)
+    bf16 = resolve_precision("auto", torch.device(args.device), threads=args.threads)
     chosen = "bf16" if bf16 else "fp32"
     for run in runs:
         if args.only and args.only not in run.name:
@@ -303,7 +313,7 @@ def main() -> int:
             continue
         precision = "bf16" if run.bf16_only else chosen
         if args.dry_run:
-            print(" ".join(command(run, folder, precision, args.threads)), flush=True)
+            print(" ".join(command(run, folder, precision, args.threads, args.device)), flush=True)
             continue
         lock = claim(folder)
         if lock is None:
@@ -313,7 +323,7 @@ def main() -> int:
             if finished(folder):  # another worker finished it while this one waited
                 continue
             prepare(run, folder)
-            argv = command(run, folder, precision, args.threads)
+            argv = command(run, folder, precision, args.threads, args.device)
             print(" ".join(argv), flush=True)
             # The training process inherits the lock: it outlives this worker if killed.
             subprocess.run(argv, check=True, cwd=REPO, pass_fds=(lock,))

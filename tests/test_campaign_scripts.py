@@ -228,3 +228,14 @@ def test_workers_share_the_queue_one_run_each(
     assert script.main() == 0
     assert len(started) == 1 and started[0][started[0].index("--split") + 1] == "zara1"
     assert not script.held(folder)  # released when the training ends
+
+
+def test_a_run_on_another_device_names_it_and_resumes_there(tmp_path: Path) -> None:
+    script = _script("run")
+    run = next(r for r in script.variant_queue("grouptron-robust-residual") if r.seed == 2)
+    on_cpu = script.command(run, tmp_path / run.name, "fp32")
+    assert "--device" not in on_cpu  # the default leaves the training's own default
+    (tmp_path / run.name).mkdir()
+    (tmp_path / run.name / "last.safetensors").write_bytes(b"")
+    on_gpu = script.command(run, tmp_path / run.name, "bf16", threads=2, device="cuda")
+    assert on_gpu[on_gpu.index("--device") + 1] == "cuda" and on_gpu[-1] == "--resume"
