@@ -167,12 +167,14 @@ def held(folder: Path) -> bool:
 
 
 def progress(folder: Path) -> tuple[int, float | None]:
-    """(epochs done, median wall seconds per epoch) of a run from its ``metrics.jsonl``."""
+    """(epochs done, median wall seconds per epoch over the last 10) of a run from its
+    ``metrics.jsonl``: the recent epochs, since a run that moved between machines or devices
+    runs at the speed of the one it is on now."""
     path = folder / "metrics.jsonl"
     records = [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
     seconds = [r["epoch_seconds"] for r in records if "epoch_seconds" in r]
     epochs = max((int(r["epoch"]) for r in records), default=0)
-    return epochs, statistics.median(seconds) if seconds else None
+    return epochs, statistics.median(seconds[-10:]) if seconds else None
 
 
 def validation_summary(folder: Path) -> str:

@@ -239,3 +239,11 @@ def test_a_run_on_another_device_names_it_and_resumes_there(tmp_path: Path) -> N
     (tmp_path / run.name / "last.safetensors").write_bytes(b"")
     on_gpu = script.command(run, tmp_path / run.name, "bf16", threads=2, device="cuda")
     assert on_gpu[on_gpu.index("--device") + 1] == "cuda" and on_gpu[-1] == "--resume"
+
+
+def test_the_time_left_follows_the_device_a_run_is_on_now(tmp_path: Path) -> None:
+    script = _script("run")
+    # 50 epochs on a fast device, then 7 on a slow one: the recent epochs set the pace.
+    records = [{"epoch": e, "epoch_seconds": 10.0 if e <= 50 else 45.0} for e in range(1, 58)]
+    (tmp_path / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records))
+    assert script.progress(tmp_path) == (57, 45.0)
