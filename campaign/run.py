@@ -300,6 +300,15 @@ def main() -> int:
     args = parser.parse_args()
     if args.variant is not None and args.variant not in variant_models():
         parser.error(f"--variant: one of {', '.join(variant_models())}, not {args.variant!r}")
+    if args.device != "cpu":
+        # Imported here: the paper models' queue runs on package code older than this module.
+        from grouptron.devices import available_device
+        from grouptron.errors import GrouptronError
+
+        try:
+            available_device(args.device)
+        except GrouptronError as exc:
+            parser.error(f"--device: {exc}")
     runs = variant_queue(args.variant) if args.variant else queue(args.bf16_ab)
     if args.status:
         print("\n".join(status(runs, args.out)))

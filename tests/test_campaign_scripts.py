@@ -247,3 +247,14 @@ def test_the_time_left_follows_the_device_a_run_is_on_now(tmp_path: Path) -> Non
     records = [{"epoch": e, "epoch_seconds": 10.0 if e <= 50 else 45.0} for e in range(1, 58)]
     (tmp_path / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records))
     assert script.progress(tmp_path) == (57, 45.0)
+
+
+def test_a_device_this_machine_lacks_is_refused_before_any_run_starts(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    script = _script("run")
+    monkeypatch.setattr(sys, "argv", ["run.py", "--out", str(tmp_path), "--device", "gpu"])
+    with pytest.raises(SystemExit) as stopped:
+        script.main()
+    assert stopped.value.code == 2 and "--device: not a torch device" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())
