@@ -2,7 +2,7 @@
 
 Usage:
     python campaign/run.py [--only NAME_PART] [--dry-run | --status] [--out campaign/runs]
-                           [--variant [MODEL]] [--threads N] [--device cpu|cuda]
+                           [--variant [MODEL] | --look-ahead] [--threads N] [--device cpu|cuda]
 
 Every run trains with ``grouptron train`` into ``OUT/<name>`` for 100 epochs (the reference
 recipe) and is skipped once finished (its ``selection.json`` exists). A run that was stopped
@@ -30,6 +30,10 @@ seeds 1-2, ``central`` of the other four splits, then seeds 1-2 of zara1 ``backw
 Trajectron++'s of the same seeds (seed spread on the second split). Their univ ``backward``
 seeds are the screening runs of ``screen.py --only robust`` (``robust-residual``), named for
 shipping with ``ship.py``.
+
+``--look-ahead`` queues the diagnostic of where the paper's gain comes from: both paper models on
+univ in the papers' protocol, seeds 0-2, each its shipped run's configuration plus the reference
+implementation's neighbour window (``LOOK_AHEAD_WINDOW``). Live forecasting refuses them.
 
 The paper models' queue needs nothing newer than the package code its runs started with (the
 variant's preset is imported only for ``--variant``), so ``PYTHONPATH=<checkout of that
@@ -60,11 +64,15 @@ from pathlib import Path
 
 import torch
 
-from grouptron.config import save_config
-from grouptron.model.checkpoint import load_checkpoint
+from grouptron.config import experiment_from_stored, save_config
 from grouptron.training.precision import resolve_precision
 
 REPO = Path(__file__).resolve().parents[1]
+PAUSED = REPO / "campaign" / "paused"
+"""Unfinished runs' resumable state, committed once when their training pauses (README,
+"Training state"); the commit that ships or abandons a run deletes its folder here."""
+NOT_PAUSED = ("curves.png",)
+"""Run files a paused run does not need: redrawn when it finishes."""
 EPOCHS = 100
 SPLITS = ("univ", "eth", "hotel", "zara1", "zara2")
 MODELS = ("trajectron++", "grouptron")
@@ -77,18 +85,28 @@ class Run:
     protocol: str
     seed: int = 0
     bf16_only: bool = False
+    look_ahead: bool = False
+    """Neighbours chosen over the reference implementation's window (LOOK_AHEAD_WINDOW): a
+    diagnostic of where the paper's gain comes from, never a forecaster."""
 
     @property
     def name(self) -> str:
         name = f"{self.model}-{self.split}-{self.protocol}"
         name += f"-s{self.seed}" if self.seed else ""
+        name += "-look-ahead" if self.look_ahead else ""
         return name + ("-bf16" if self.bf16_only else "")
+
+    @property
+    def shipped_run(self) -> Path:
+        """The shipped checkpoint of the same model, split, protocol and seed."""
+        suffix = f"-seed{self.seed}" if self.seed else ""
+        return REPO / "checkpoints" / f"{self.model}-{self.split}-{self.protocol}{suffix}"
 
     @property
     def shipped_source(self) -> Path | None:
         """The shipped run this one continues (seed-0 central runs)."""
         continued = self.model in MODELS and self.protocol == "central" and self.seed == 0
-        if continued and not self.bf16_only:
+        if continued and not self.bf16_only and not self.look_ahead:
             return REPO / "checkpoints" / f"{self.model}-{self.split}-central"
         return None
 
@@ -110,6 +128,23 @@ def variant_queue(variant: str) -> list[Run]:
     # Seed spread on zara1, the second screening split: the variant against Trajectron++.
     return runs + [
         Run(model, "zara1", "backward", seed) for seed in (1, 2) for model in (variant, MODELS[0])
+    ]
+
+
+LOOK_AHEAD_WINDOW = (-2, 4)
+"""Steps before and after t over which the reference implementation's scene graph chooses
+neighbours (``data.neighbour_window_steps``): it reads 1.6 s of the future."""
+
+
+def look_ahead_queue() -> list[Run]:
+    """The paper's two models on univ in the papers' protocol with the reference's neighbour
+    window, three seeds, each its shipped run's configuration plus the window. The reference
+    builds one scene graph for both models, so Trajectron++ (the control) gets it too. Paired
+    by seed so that each finished pair can be compared at once."""
+    return [
+        Run(model, "univ", "central", seed, look_ahead=True)
+        for seed in (0, 1, 2)
+        for model in ("grouptron", "trajectron++")
     ]
 
 
@@ -240,18 +275,60 @@ def command(
         return [*argv, "--resume"]
     if run.shipped_source is not None:  # dry run: prepare() has not copied it
         return [*argv, "--resume"]
+    if run.look_ahead:
+        # The shipped run of the same seed, from scratch, with the reference's window.
+        stored = experiment_from_stored(json.loads((run.shipped_run / "config.json").read_text()))
+        config = dataclasses.replace(
+            stored,
+            data=dataclasses.replace(stored.data, neighbour_window_steps=LOOK_AHEAD_WINDOW),
+            train=dataclasses.replace(stored.train, seed=run.seed, epochs=EPOCHS),
+        )
+        folder.mkdir(parents=True, exist_ok=True)
+        save_config(config, folder / "campaign-config.json")
+        return [*argv, "--config", str(folder / "campaign-config.json")]
     if run.model in MODELS and run.seed:
         # Same configuration as the shipped seed-0 run it is compared with, another seed.
         shipped = REPO / "checkpoints" / f"{run.model}-{run.split}-{run.protocol}"
-        stored = load_checkpoint(shipped / "last.safetensors")
+        stored = experiment_from_stored(json.loads((shipped / "config.json").read_text()))
         config = dataclasses.replace(
-            stored.config,
-            train=dataclasses.replace(stored.config.train, seed=run.seed, epochs=EPOCHS),
+            stored, train=dataclasses.replace(stored.train, seed=run.seed, epochs=EPOCHS)
         )
         folder.mkdir(parents=True, exist_ok=True)
         save_config(config, folder / "campaign-config.json")
         return [*argv, "--config", str(folder / "campaign-config.json")]
     return [*argv, "--derivatives", run.protocol, "--seed", str(run.seed)]
+
+
+def snapshot(runs: list[Run], out: Path, paused: Path = PAUSED) -> tuple[list[str], int]:
+    """Copy each started, unfinished run's resumable state to ``paused/<run>`` (replacing an
+    older copy) and refuse finished runs: a finished run is shipped or dropped, never kept as
+    training state. Returns one line per run and the number of runs copied."""
+    lines, copied = [], 0
+    for run in runs:
+        folder = out / run.name
+        if finished(folder):
+            lines.append(f"{run.name}: refused, finished (ship it with ship.py or drop it)")
+        elif not (folder / "last.safetensors").exists():
+            lines.append(f"{run.name}: not started, nothing to keep")
+        else:
+            target = paused / run.name
+            shutil.rmtree(target, ignore_errors=True)
+            ignored = shutil.ignore_patterns(*NOT_PAUSED)
+            shutil.copytree(folder, target, ignore=ignored)
+            epochs, _ = progress(folder)
+            lines.append(f"{run.name}: paused at epoch {epochs} of {EPOCHS} -> {target}")
+            copied += 1
+    return lines, copied
+
+
+def restore(run: Run, folder: Path, paused: Path = PAUSED) -> bool:
+    """Start a run from its paused state (made on another machine) when this machine has no
+    state of its own for it; True when it did."""
+    source = paused / run.name
+    if (folder / "last.safetensors").exists() or not (source / "last.safetensors").exists():
+        return False
+    shutil.copytree(source, folder, dirs_exist_ok=True)
+    return True
 
 
 def prepare(run: Run, folder: Path) -> None:
@@ -277,6 +354,13 @@ def main() -> int:
         "--bf16-ab", action="store_true", help="add the bf16 copies of the precision A/B"
     )
     parser.add_argument(
+        "--snapshot",
+        action="store_true",
+        help="copy the resumable state of every started, unfinished queued run to "
+        "campaign/paused/ (to commit once when training pauses) and stop; finished runs are "
+        "refused",
+    )
+    parser.add_argument(
         "--threads",
         type=int,
         default=1,
@@ -297,7 +381,15 @@ def main() -> int:
         help="queue the runs of a named group variant instead (grouptron-robust when no MODEL "
         "is given, or grouptron-robust-residual)",
     )
+    parser.add_argument(
+        "--look-ahead",
+        action="store_true",
+        help="queue the diagnostic runs with the reference's neighbour window instead: the "
+        "paper's two models, univ, papers' protocol, seeds 0-2 (never shipped as forecasters)",
+    )
     args = parser.parse_args()
+    if args.look_ahead and (args.variant or args.bf16_ab):
+        parser.error("--look-ahead is a queue of its own: not with --variant or --bf16-ab")
     if args.variant is not None and args.variant not in variant_models():
         parser.error(f"--variant: one of {', '.join(variant_models())}, not {args.variant!r}")
     if args.device != "cpu":
@@ -309,15 +401,22 @@ def main() -> int:
             available_device(args.device)
         except GrouptronError as exc:
             parser.error(f"--device: {exc}")
-    runs = variant_queue(args.variant) if args.variant else queue(args.bf16_ab)
+    if args.look_ahead:
+        runs = look_ahead_queue()
+    else:
+        runs = variant_queue(args.variant) if args.variant else queue(args.bf16_ab)
+    if args.only:
+        runs = [run for run in runs if args.only in run.name]
     if args.status:
         print("\n".join(status(runs, args.out)))
         return 0
+    if args.snapshot:
+        lines, copied = snapshot(runs, args.out)
+        print("\n".join(lines))
+        return 0 if copied else 2
     bf16 = resolve_precision("auto", torch.device(args.device), threads=args.threads)
     chosen = "bf16" if bf16 else "fp32"
     for run in runs:
-        if args.only and args.only not in run.name:
-            continue
         folder = args.out / run.name
         if finished(folder):
             print(f"{run.name}: finished", flush=True)
@@ -333,6 +432,8 @@ def main() -> int:
         try:
             if finished(folder):  # another worker finished it while this one waited
                 continue
+            if restore(run, folder):
+                print(f"{run.name}: resumed from {PAUSED / run.name}", flush=True)
             prepare(run, folder)
             argv = command(run, folder, precision, args.threads, args.device)
             print(" ".join(argv), flush=True)

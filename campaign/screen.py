@@ -17,6 +17,8 @@ the seeds both have, and constant velocity's FDE on the same samples; ``--ood [F
 FDE over constant velocity's on the out-of-domain development set, overall and with 25+
 neighbours (univ's validation data is sparse, so it cannot show how a variant copes with a
 crowd). Only validation and the development set are looked at: test waits for the winner.
+Finished runs' records are read wherever they are kept (``records.py``), so the table needs no
+run folder.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from records import record
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -89,14 +92,14 @@ def run_folder(variant: str, split: str, seed: int, args: argparse.Namespace) ->
     if not switches:
         name = f"{model}-{split}-backward" + (f"-s{seed}" if seed else "")
         reference = Path(args.references) / name
-        if (reference / "selection.json").exists():
+        if record(reference, "selection.json").exists():
             return reference
     return Path(args.out) / f"{variant}-{split}-s{seed}"
 
 
 def validation_fde(run: Path) -> float | None:
     """The finished run's whole-validation ML FDE, or None while it runs."""
-    selection = run / "selection.json"
+    selection = record(run, "selection.json")
     if not selection.exists():
         return None
     return float(json.loads(selection.read_text())["full_val_ml_fde"])
@@ -107,9 +110,9 @@ def ood_ratios(run: Path, args: argparse.Namespace) -> dict[str, float] | None:
     overall and by density bin (``benchmarks/out_of_domain.py``, scored once into
     ``ood-<mode>.json``, the point forecast ``--ood`` names); None while the run trains or
     without ``--ood``."""
-    if not args.ood or not (run / "selection.json").exists():
+    if not args.ood or not record(run, "selection.json").exists():
         return None
-    cached = run / f"ood-{args.ood}.json"
+    cached = record(run, f"ood-{args.ood}.json")
     if not cached.exists():
         script = REPO / "benchmarks" / "out_of_domain.py"
         command = [sys.executable, str(script), "--checkpoints", str(run)]
@@ -156,10 +159,11 @@ def table(args: argparse.Namespace) -> None:
                 row += _ood_cells([ood_ratios(run_folder(variant, split, s, args), args)
                                    for s in seeds])  # fmt: skip
             print(row)
+        selections = [
+            record(run_folder(v, split, s, args), "selection.json") for v in VARIANTS for s in seeds
+        ]
         cv = [
-            json.loads((run / "selection.json").read_text())["full_val_cv_fde"]
-            for run in (run_folder(v, split, s, args) for v in VARIANTS for s in seeds)
-            if (run / "selection.json").exists()
+            json.loads(path.read_text())["full_val_cv_fde"] for path in selections if path.exists()
         ]
         if cv:  # the same validation samples for every run of a split
             print(f"| {split} | constant velocity | " + " | ".join(["-"] * len(seeds))

@@ -4,9 +4,11 @@ Usage:
     python campaign/ship.py RUN_FOLDER NAME [--replicate] [--variant | --as MODEL]
 
 Copies the card, ``best.safetensors``, ``config.json``, ``curves.png``, the metrics files and
-``selection.json`` of ``RUN_FOLDER`` into ``checkpoints/NAME/``, and
-``last.safetensors`` (the full training state, to resume) unless ``--replicate`` (a seed
-replicate of a shipped run: its training state stays in the campaign). ``--as MODEL`` gives a
+``selection.json`` of ``RUN_FOLDER`` into ``checkpoints/NAME/``. Training state
+(``last.safetensors``, ``candidates/``) is never shipped, and the run's paused state
+(``campaign/paused/<run>``, README "Training state") is deleted, so the commit that ships a
+run also removes its state. ``--replicate`` marks the card of a seed replicate of a shipped
+run. ``--as MODEL`` gives a
 run trained with a named model's switches that model's name in the copy (``name_variant.py``;
 ``--variant`` is ``--as grouptron-robust``). A run that has not made its final choice (no
 ``selection.json``) is refused, and so is a NAME that exists already.
@@ -30,6 +32,8 @@ from grouptron.presets import NAMED_MODEL_BASES, VARIANT_MODEL
 from grouptron.training.selection import SELECTION
 
 REPO = Path(__file__).resolve().parents[1]
+PAUSED = REPO / "campaign" / "paused"
+"""Unfinished runs' resumable state, committed once when their training pauses."""
 SHIPPED = REPO / "checkpoints"
 """What the package ships (``src/grouptron/checkpoints`` links here)."""
 FILES = (
@@ -44,30 +48,41 @@ FILES = (
 
 
 RESUME_LINE = "`last.safetensors` holds the full training state"
+SHIPPED_LINE = (
+    "Shipped without its training state (`last.safetensors` stays with the training "
+    "campaign), so it cannot be resumed from here; `--init-from` fine-tunes from its weights."
+)
 REPLICATE_LINE = (
-    "A seed replicate: shipped without its training state (`last.safetensors` stays with the "
-    "training campaign), so it cannot be resumed from here."
+    "A seed replicate of the shipped run of the same name without the seed. " + SHIPPED_LINE
 )
 
 
-def mark_replicate(card: Path) -> None:
-    """Replace the card's resume instructions (written at training time) by a replicate note."""
+def mark_shipped(card: Path, replicate: bool) -> None:
+    """Replace the card's resume instructions (written at training time) by a shipped note, or
+    add the note where the card has none."""
+    note = REPLICATE_LINE if replicate else SHIPPED_LINE
     lines = card.read_text().splitlines()
-    kept = [REPLICATE_LINE if line.startswith(RESUME_LINE) else line for line in lines]
-    card.write_text("\n".join(kept) + "\n")
+    kept = [note if line.startswith(RESUME_LINE) else line for line in lines]
+    card.write_text("\n".join(kept if note in kept else [*kept, "", note]) + "\n")
 
 
 def ship(
-    run: Path, name: str, *, replicate: bool, named: str | None, shipped: Path = SHIPPED
+    run: Path,
+    name: str,
+    *,
+    replicate: bool,
+    named: str | None,
+    shipped: Path = SHIPPED,
+    paused: Path = PAUSED,
 ) -> Path:
     """The shipped folder made from ``run`` (``shipped/name``), its model renamed to the named
-    model ``named`` when given."""
+    model ``named`` when given; the run's paused training state is deleted."""
     if not (run / SELECTION).exists():
         raise GrouptronError(f"{run}: not finished (no {SELECTION}); nothing shipped")
     target = shipped / name
     if target.exists():
         raise GrouptronError(f"{target} exists; remove it first to replace it")
-    files = [*FILES] if replicate else [*FILES, "last.safetensors"]
+    files = [*FILES]
     missing = [f for f in files if not (run / f).exists()]
     if missing:
         raise GrouptronError(f"{run}: missing {', '.join(missing)}")
@@ -78,8 +93,8 @@ def ship(
         shutil.copy2(run / file, target / file)
     if named:
         rename_run(target, named)  # rewrites the card, so the replicate note comes after it
-    if replicate:
-        mark_replicate(target / "README.md")
+    mark_shipped(target / "README.md", replicate)
+    shutil.rmtree(paused / run.name, ignore_errors=True)
     return target
 
 
@@ -88,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("run", type=Path, help="a finished run folder")
     parser.add_argument("name", help="the shipped name, e.g. grouptron-robust-univ-backward")
     parser.add_argument(
-        "--replicate", action="store_true", help="a seed replicate: leave last.safetensors"
+        "--replicate", action="store_true", help="a seed replicate: say so on its card"
     )
     names = parser.add_mutually_exclusive_group()
     names.add_argument(

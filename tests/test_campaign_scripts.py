@@ -135,19 +135,33 @@ def test_naming_refuses_a_run_with_other_settings(
     assert load_checkpoint(tmp_path / "paper" / "best.safetensors").config == paper
 
 
-def test_shipping_copies_a_finished_run_and_names_the_variant(tmp_path: Path) -> None:
+def test_shipping_copies_a_finished_run_without_its_training_state(tmp_path: Path) -> None:
     script = _script("ship")
-    shipped = tmp_path / "checkpoints"
+    shipped, paused = tmp_path / "checkpoints", tmp_path / "paused"
     _run(tmp_path / "run", SCREENED)
+    (paused / "run").mkdir(parents=True)
+    (paused / "run" / "last.safetensors").write_bytes(b"state")
     target = script.ship(
-        tmp_path / "run", "v", replicate=False, named="grouptron-robust", shipped=shipped
+        tmp_path / "run",
+        "v",
+        replicate=False,
+        named="grouptron-robust",
+        shipped=shipped,
+        paused=paused,
     )
-    assert sorted(p.name for p in target.iterdir()) == sorted([*script.FILES, "last.safetensors"])
+    assert sorted(p.name for p in target.iterdir()) == sorted(script.FILES)
+    assert not (paused / "run").exists()  # shipping deletes the paused state
     assert load_checkpoint(target / "best.safetensors").config.model_name == "grouptron-robust"
     assert load_checkpoint(tmp_path / "run" / "best.safetensors").config == SCREENED  # untouched
-    assert script.RESUME_LINE in (target / "README.md").read_text()
+    card = (target / "README.md").read_text()
+    assert script.SHIPPED_LINE in card and script.RESUME_LINE not in card
     replicate = script.ship(
-        tmp_path / "run", "v-seed1", replicate=True, named="grouptron-robust", shipped=shipped
+        tmp_path / "run",
+        "v-seed1",
+        replicate=True,
+        named="grouptron-robust",
+        shipped=shipped,
+        paused=paused,
     )
     assert not (replicate / "last.safetensors").exists()
     card = (replicate / "README.md").read_text()
@@ -258,3 +272,46 @@ def test_a_device_this_machine_lacks_is_refused_before_any_run_starts(
         script.main()
     assert stopped.value.code == 2 and "--device: not a torch device" in capsys.readouterr().err
     assert not any(tmp_path.iterdir())
+
+
+def test_a_snapshot_keeps_unfinished_runs_once_and_refuses_finished_ones(tmp_path: Path) -> None:
+    script = _script("run")
+    out, paused = tmp_path / "runs", tmp_path / "paused"
+    done, running, waiting = script.look_ahead_queue()[:3]
+    out.mkdir()
+    _run(out / done.name, SCREENED)
+    _run(out / running.name, SCREENED, finished=False)
+    (out / running.name / "curves.png").write_text("picture")
+    lines, copied = script.snapshot([done, running, waiting], out, paused)
+    assert copied == 1 and "refused, finished" in lines[0] and "not started" in lines[2]
+    assert sorted(p.name for p in paused.iterdir()) == [running.name]
+    kept = {p.name for p in (paused / running.name).iterdir()}
+    assert "last.safetensors" in kept and "curves.png" not in kept
+    # Another machine: no run folder yet, so the run starts from its paused state...
+    elsewhere = tmp_path / "elsewhere"
+    assert script.restore(running, elsewhere / running.name, paused)
+    assert (elsewhere / running.name / "last.safetensors").read_bytes() == (
+        out / running.name / "last.safetensors"
+    ).read_bytes()
+    assert script.command(running, elsewhere / running.name, "fp32")[-1] == "--resume"
+    # ...but never over the state a machine has of its own.
+    assert not script.restore(running, out / running.name, paused)
+
+
+def test_the_look_ahead_runs_are_their_shipped_runs_plus_the_window(tmp_path: Path) -> None:
+    script = _script("run")
+    runs = script.look_ahead_queue()
+    assert [(r.model, r.seed) for r in runs] == [
+        (model, seed) for seed in (0, 1, 2) for model in ("grouptron", "trajectron++")
+    ]
+    run = runs[3]  # trajectron++, seed 1
+    argv = script.command(run, tmp_path / run.name, "fp32")
+    stored = json.loads((tmp_path / run.name / "campaign-config.json").read_text())
+    shipped = json.loads((run.shipped_run / "config.json").read_text())
+    assert argv[argv.index("--config") + 1] == str(tmp_path / run.name / "campaign-config.json")
+    assert stored["data"]["neighbour_window_steps"] == [-2, 4]
+    assert stored["train"]["seed"] == 1 and stored["data"]["derivatives"] == "central"
+    assert stored["model_name"] == "trajectron++"
+    for section in ("data", "model", "loss"):  # the shipped settings (newer keys at defaults)
+        kept = {k: v for k, v in stored[section].items() if k in shipped[section]}
+        assert kept == shipped[section]

@@ -200,37 +200,42 @@ def test_shipped_names_resolve_from_any_working_directory(
 
 
 @pytest.mark.slow
-def test_an_installed_package_carries_the_shipped_weights(tmp_path: Path) -> None:
-    """A wheel of the project holds every shipped checkpoint's weights and config (not its
-    resuming state), and a plain install of it resolves shipped names from anywhere."""
+def test_an_installed_package_is_lean_and_names_where_the_rest_is(tmp_path: Path) -> None:
+    """A wheel of the project holds the weights of the installed models only (no training
+    state), every card and config, at most 10 MB; a plain install resolves an installed name
+    from anywhere and refuses a shipped name it lacks in one line that says where it is."""
     import shutil
     import subprocess
     import sys
     import zipfile
 
+    from grouptron.inference.checkpoints import INSTALLED_CHECKPOINTS
     from tests.conftest import REPO
 
     source = tmp_path / "source"  # a copy: building writes into the source tree
     shutil.copytree(REPO / "src", source / "src", symlinks=True)
-    keep = shutil.ignore_patterns("last.safetensors", "candidates", "*.png", "metrics.*")
+    keep = shutil.ignore_patterns("candidates", "*.png", "metrics.*")
     shutil.copytree(REPO / "checkpoints", source / "checkpoints", ignore=keep)
     for name in ("pyproject.toml", "README.md"):
         shutil.copy(REPO / name, source / name)
     build = [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q"]
     subprocess.run([*build, str(source), "-w", str(tmp_path / "wheel")], check=True)
     (wheel,) = (tmp_path / "wheel").glob("grouptron-*.whl")
+    assert wheel.stat().st_size <= 10_000_000
     names = zipfile.ZipFile(wheel).namelist()
+    weights = sorted(n.split("/")[2] for n in names if n.endswith(".safetensors"))
+    assert weights == sorted(INSTALLED_CHECKPOINTS)  # best.safetensors only, nothing else
     shipped = sorted(p.parent.name for p in (REPO / "checkpoints").glob("*/best.safetensors"))
     for name in shipped:
-        assert f"grouptron/checkpoints/{name}/best.safetensors" in names
         assert f"grouptron/checkpoints/{name}/config.json" in names
-    assert not any(n.endswith("last.safetensors") for n in names)
     target = tmp_path / "installed"
     install = [sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target"]
     subprocess.run([*install, str(target), str(wheel)], check=True)
     code = (
-        "from grouptron.inference.predictor import Predictor; "
-        "p = Predictor.from_checkpoint('grouptron-univ-backward'); print(p.source)"
+        "import sys; from grouptron.inference.predictor import Predictor\n"
+        "p = Predictor.from_checkpoint(); print(p.source)\n"
+        "try:\n    Predictor.from_checkpoint('grouptron-univ-central')\n"
+        "except Exception as exc:\n    print(exc)"
     )
     run = subprocess.run(
         [sys.executable, "-c", code],
@@ -240,7 +245,10 @@ def test_an_installed_package_carries_the_shipped_weights(tmp_path: Path) -> Non
         text=True,
         check=True,
     )
-    assert run.stdout.strip().startswith(str(target)), run.stdout
+    source_line, refusal = run.stdout.strip().splitlines()
+    assert source_line.startswith(str(target)), run.stdout
+    assert "grouptron-univ-central is shipped in the repository's checkpoints/" in refusal
+    assert "GROUPTRON_CHECKPOINTS" in refusal
 
 
 def test_centimetres_given_as_metres_are_refused_by_the_api(tiny_checkpoints: Path) -> None:

@@ -22,6 +22,20 @@ from elsewhere, for each of its three seeds and on the confirmation recordings
 (benchmarks/RESULTS.md). The same model trained on all five locations did worse there, as did
 the all-locations variant."""
 
+INSTALLED_CHECKPOINTS = (
+    DEFAULT_CHECKPOINT,
+    "grouptron-robust-residual-univ-backward",
+    "grouptron-robust-univ-backward",
+    "trajectron++-univ-backward",
+    "grouptron-univ-backward",
+    "trajectron++-residual-all-locations-backward",
+    "grouptron-robust-all-locations-backward",
+)
+"""The causal models whose weights an install carries (pyproject's package-data names the same
+ones): what a user picks by name to forecast live tracks. Every other shipped checkpoint (the
+paper's tables, seed replicates, the papers' protocol) installs its card and config only and
+is loaded from the repository's checkpoints/ folder."""
+
 
 def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | None = None) -> Path:
     """A checkpoint file from a path or a shipped name such as ``"grouptron-univ-backward"``.
@@ -51,6 +65,12 @@ def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | N
         candidate = folder / str(name_or_path) / BEST_WEIGHTS_FILE
         if candidate.is_file():
             return candidate
+    if (PACKAGE_CHECKPOINTS / str(name_or_path) / "config.json").is_file():
+        raise GrouptronError(
+            f"checkpoint {name_or_path!s} is shipped in the repository's checkpoints/ folder but "
+            f"not with this install: clone the repository and run from it, or set "
+            f"${CHECKPOINTS_ENV} to that folder"
+        )
     known = sorted(
         {p.parent.name for f in folders if f.is_dir() for p in f.glob(f"*/{BEST_WEIGHTS_FILE}")}
     )
