@@ -64,7 +64,10 @@ def test_bad_track_file_is_one_line_and_exit_2(
     [
         (["evaluate", "--model", "constant-velocity", "--split", "mars"], "unknown split"),
         (["evaluate", "--model", "oracle"], "invalid choice"),
-        (["evaluate"], "give either --checkpoint PATH or --model constant-velocity"),
+        (
+            ["evaluate", "--checkpoint", "x", "--model", "constant-velocity"],
+            "give either --checkpoint PATH or --model constant-velocity",
+        ),
         (["evaluate", "--checkpoint", "nowhere.safetensors"], "checkpoint not found"),
         (["train", "--split", "eth", "--epochs", "0"], "epochs"),
         (
@@ -104,8 +107,11 @@ TINY_MODEL = {"history_hidden": 8, "edge_hidden": 8, "future_hidden": 8, "latent
 
 
 def json_rows(argv: list[str], capsys: pytest.CaptureFixture[str]) -> list[dict]:
+    """The model's rows of an evaluation (constant velocity, scored beside it, left out)."""
     assert main([*argv, "--format", "json"]) == 0
-    return json.loads(capsys.readouterr().out)["results"]
+    rows = json.loads(capsys.readouterr().out)["results"]
+    assert rows[-1]["model"] == "constant-velocity"
+    return [r for r in rows if r["model"] != "constant-velocity"] or rows
 
 
 def test_train_then_evaluate_a_checkpoint(
@@ -117,7 +123,8 @@ def test_train_then_evaluate_a_checkpoint(
     common = ["--data-dir", str(synthetic_data_dir), "--quiet"]
     argv = ["train", "--split", "eth", "--epochs", "1", "--config", str(config), "--out", str(out)]
     assert main([*argv, *common]) == 0
-    assert "done: 1 epochs" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "done: 1 epochs" in printed and "(backward derivatives)" in printed  # causal default
     # Resuming keeps the stored configuration (no --config needed) and may extend the run.
     resume = ["train", "--split", "eth", "--epochs", "2", "--out", str(out), "--resume"]
     assert main([*resume, *common]) == 0
@@ -131,8 +138,8 @@ def test_train_then_evaluate_a_checkpoint(
     assert rows[3]["ade"] <= rows[0]["ade"]  # the best of 20 beats a single guess
     (nll,) = json_rows([*evaluate, "--mode", "nll"], capsys)
     assert nll["ade"] is None and math.isfinite(nll["nll"]) and nll["nll"] < 20.0
-    message = run_error([*evaluate, "--derivatives", "backward"], capsys)
-    assert "trained with central derivatives" in message
+    message = run_error([*evaluate, "--derivatives", "central"], capsys)
+    assert "trained with backward derivatives" in message
 
 
 def test_missing_data_points_to_fetch(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -76,15 +77,27 @@ def test_bad_descriptions_are_refused_in_one_line(tmp_path: Path, text: str, mes
 
 @pytest.mark.slow
 def test_fine_tuning_a_checkpoint_on_a_dataset_of_ones_own_runs_end_to_end(
-    tiny_checkpoints: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    tiny_checkpoints: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     description = write_dataset(tmp_path)
-    source = tiny_checkpoints / "grouptron-eth-backward"
+    monkeypatch.setenv("GROUPTRON_CHECKPOINTS", str(tiny_checkpoints))
     out = tmp_path / "tuned"
-    argv = ["train", "--dataset", str(description), "--config", str(source / "config.json")]
-    argv += ["--init-from", str(source / "best.safetensors"), "--epochs", "1", "--lr", "0.0003"]
+    # As the docs write it: the shipped name alone brings model, architecture and derivatives.
+    argv = ["train", "--dataset", str(description), "--init-from", "grouptron-eth-backward"]
+    argv += ["--epochs", "1", "--lr", "0.0003"]
     argv += ["--out", str(out), "--quiet", "--precision", "fp32", "--set", "train.batch_size=32"]
     assert main(argv) == 0
+    assert "training grouptron on walkers (backward derivatives)" in capsys.readouterr().out
+    card = (out / "README.md").read_text()
+    # The card's resume line works as written.
+    resume = re.search(r"`(grouptron train --out <this folder> --resume --epochs N)`", card)
+    assert resume is not None
+    line = resume.group(1).replace("<this folder>", str(out)).replace("N", "2").split()[1:]
+    assert main([*line, "--quiet"]) == 0
+    assert "done: 2 epochs" in capsys.readouterr().out
     card = (out / "README.md").read_text()
     assert '`split = "walkers"`' in card and f"`dataset = {json.dumps(str(description))}`" in card
     assert "`train.learning_rate = 0.0003`" in card and "weights (fresh optimiser" in card
@@ -96,8 +109,9 @@ def test_fine_tuning_a_checkpoint_on_a_dataset_of_ones_own_runs_end_to_end(
         main(["evaluate", "--dataset", str(description), "--checkpoint", tuned, "--format", "json"])
         == 0
     )
-    (row,) = json.loads(capsys.readouterr().out)["results"]
+    row, baseline = json.loads(capsys.readouterr().out)["results"]
     assert row["split"] == "walkers" and row["samples"] > 20 and row["fde"] > 0
+    assert baseline["model"] == "constant-velocity" and baseline["samples"] == row["samples"]
     assert main(["evaluate", "--dataset", str(description), "--model", "constant-velocity"]) == 0
     capsys.readouterr()
     report = ["report", "--dataset", str(description), "--checkpoints", str(tmp_path), "--quiet"]

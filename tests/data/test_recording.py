@@ -332,7 +332,9 @@ def test_density_bins_and_ablations_reach_recordings_and_datasets(
     for ablate in ([], ["--ablate", "edges,scene"]):
         argv = [*common, "--tracks", str(path), "--by-density", *ablate]
         assert main(argv) == 0
-        rows[bool(ablate)] = json.loads(capsys.readouterr().out)["results"]
+        scored = json.loads(capsys.readouterr().out)["results"]
+        assert {r["samples"] for r in scored if r["model"] == "constant-velocity"}  # beside it
+        rows[bool(ablate)] = [r for r in scored if r["model"] != "constant-velocity"]
     bins = [r for r in rows[False] if r["subset"]]
     pooled = next(r for r in rows[False] if r["split"] == "all files" and not r["subset"])
     assert bins and all(r["subset"].startswith("neighbours ") for r in bins)
@@ -346,4 +348,5 @@ def test_density_bins_and_ablations_reach_recordings_and_datasets(
     assert main([*argv, "--ablate", "scene"]) == 0
     got = json.loads(capsys.readouterr().out)["results"]
     assert got[0]["subset"] is None and got[0]["samples"] == pooled["samples"]
-    assert {r["model"] for r in got} == {"grouptron without scene"} and len(got) > 1
+    assert {r["model"] for r in got} == {"grouptron without scene", "constant-velocity"}
+    assert len(got) > 2

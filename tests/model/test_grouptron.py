@@ -159,5 +159,7 @@ def test_train_and_evaluate_grouptron_end_to_end(
     capsys.readouterr()
     argv = ["evaluate", "--checkpoint", str(out / "best.safetensors"), "--format", "json"]
     assert main([*argv, *common]) == 0
-    (row,) = json.loads(capsys.readouterr().out)["results"]
-    assert row["model"] == "grouptron" and row["mode"] == "ml" and row["ade"] > 0
+    row, baseline = json.loads(capsys.readouterr().out)["results"]
+    # The model's own point forecast (ml-argmax for a decoder without the velocity residual).
+    assert row["model"] == "grouptron" and row["mode"] == "ml-argmax" and row["ade"] > 0
+    assert baseline["model"] == "constant-velocity" and baseline["samples"] == row["samples"]

@@ -252,5 +252,6 @@ def test_the_named_variant_trains_and_evaluates_from_the_cli(
     assert "temporal_layers" in card and "max_distance_m" in card
     evaluate = ["evaluate", "--checkpoint", str(out / "best.safetensors"), *common]
     assert main([*evaluate, "--format", "json"]) == 0
-    (row,) = json.loads(capsys.readouterr().out)["results"]
+    row, baseline = json.loads(capsys.readouterr().out)["results"]
     assert row["model"] == "grouptron-robust" and math.isfinite(row["fde"])
+    assert baseline["model"] == "constant-velocity"  # beside it, on the same samples

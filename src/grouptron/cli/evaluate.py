@@ -35,6 +35,7 @@ from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import (
     MODES,
     ModeScores,
+    SampleScores,
     constant_velocity_scores,
     score_samples,
 )
@@ -47,11 +48,11 @@ from grouptron.evaluation.results import (
 )
 from grouptron.evaluation.test_sets import load_test_set
 from grouptron.groups.assign import assign_groups
-from grouptron.inference.checkpoints import resolve_checkpoint
+from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import uses_groups
-from grouptron.model.predict import ABLATIONS
+from grouptron.model.predict import ABLATIONS, default_point_forecast
 
 
 def _row(template: EvaluationResult, scores: ModeScores) -> EvaluationResult:
@@ -91,14 +92,14 @@ def cmd_evaluate_tracks(args: argparse.Namespace) -> int:
                 experiment.split,
             )
         warn_look_ahead(args.checkpoint, data.derivatives)
-    if "nll" in eval_modes(args.mode) and args.mode != "all":
+    if "nll" in _modes(args, experiment) and args.mode != "all":
         raise GrouptronError("--mode nll is scored on benchmark test sets, not on --tracks")
-    modes = tuple(m for m in eval_modes(args.mode) if m != "nll")
+    modes = tuple(m for m in _modes(args, experiment) if m != "nll")
     ablate = _ablations(args, experiment is not None and uses_groups(experiment))
     results = evaluate_recordings(
         files, fmt, model=model, experiment=experiment, data=data, modes=modes,
         seed=args.seed, progress=show_progress(args), device=args.device,
-        by_density=args.by_density, ablate=ablate,
+        by_density=args.by_density, ablate=ablate, baseline=model is not None,
     )  # fmt: skip
     print(results_json(results) if args.format == "json" else results_table(results))
     return 0
@@ -124,14 +125,18 @@ def cmd_evaluate_dataset(args: argparse.Namespace) -> int:
     masks: dict[str | None, np.ndarray | None] = {None: None}
     masks.update(density_masks(part.samples) if args.by_density else {})
     ablate = _ablations(args, experiment is not None and uses_groups(experiment))
-    if model is None or experiment is None:
-        per_sample = [constant_velocity_scores(part.samples, data.horizon_steps)]
-    else:
+    baseline = [constant_velocity_scores(part.samples, data.horizon_steps)]
+    cv_rows = [
+        dataclasses.replace(_row(template, baseline[0].summary(keep)), subset=subset, mode=None)
+        for subset, keep in masks.items()
+    ]
+    results = []
+    if model is not None and experiment is not None:
         groups = None
         if uses_groups(experiment):
             groups = assign_groups(part.samples, experiment.groups, data.position_scale_m)
         per_sample = score_samples(
-            model.to(args.device), experiment, part.samples, eval_modes(args.mode),
+            model.to(args.device), experiment, part.samples, _modes(args, experiment),
             seed=args.seed, progress=show_progress(args), groups=groups, device=args.device,
             ablate=ablate,
         )  # fmt: skip
@@ -139,15 +144,22 @@ def cmd_evaluate_dataset(args: argparse.Namespace) -> int:
         template = dataclasses.replace(
             template, model=experiment.model_name + suffix, checkpoint=str(args.checkpoint)
         )
-    results = [
-        dataclasses.replace(_row(template, scores.summary(keep)), subset=subset)
-        for scores in per_sample
-        for subset, keep in masks.items()
-    ]
-    if model is None:
-        results = [dataclasses.replace(r, mode=None) for r in results]
+        results = [
+            dataclasses.replace(_row(template, scores.summary(keep)), subset=subset)
+            for scores in per_sample
+            for subset, keep in masks.items()
+        ]
+    results += cv_rows  # constant velocity beside the model, on the same samples
     print(results_json(results) if args.format == "json" else results_table(results))
     return 0
+
+
+def _modes(args: argparse.Namespace, experiment: ExperimentConfig | None) -> tuple[str, ...]:
+    """The modes asked for; by default the checkpoint's own point forecast (what predict
+    writes), or ``ml`` for constant velocity (one forecast)."""
+    if args.mode is not None:
+        return eval_modes(args.mode)
+    return (default_point_forecast(experiment.model),) if experiment is not None else ("ml",)
 
 
 def _ablations(args: argparse.Namespace, has_scene: bool) -> tuple[str, ...]:
@@ -184,11 +196,13 @@ def _model_and_data(
 
 def _check_options(args: argparse.Namespace) -> None:
     """Refuse option combinations that have no meaning, before anything is read."""
-    if (args.model is None) == (args.checkpoint is None):
+    if args.model is not None and args.checkpoint is not None:
         raise GrouptronError("give either --checkpoint PATH or --model constant-velocity")
+    if args.model is None and args.checkpoint is None:
+        args.checkpoint = DEFAULT_CHECKPOINT
     if args.tracks and args.dataset:
         raise GrouptronError("give either --tracks or --dataset, not both")
-    sampled = [m for m in eval_modes(args.mode) if m in ("best-of-20", "nll")]
+    sampled = [m for m in eval_modes(args.mode or "ml") if m in ("best-of-20", "nll")]
     if args.model is not None and sampled and args.mode != "all":
         raise GrouptronError(
             f"constant velocity makes one forecast: --mode {','.join(sampled)} needs a --checkpoint"
@@ -215,7 +229,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     subset = parse_univ_n(args.subset) if args.subset is not None else None
     if subset is not None and splits != ["univ"]:
         raise GrouptronError("--subset univ-N needs --split univ")
-    modes = eval_modes(args.mode)
+    modes = _modes(args, experiment)
     grouped = experiment is not None and uses_groups(experiment)
     ablate = _ablations(args, grouped)
     results: list[EvaluationResult] = []
@@ -225,24 +239,28 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             data_dir, split, config, subset, group_config=group_config, use_cache=not args.no_cache
         )
         masks = {args.subset: None, **(density_masks(samples) if args.by_density else {})}
-        if model is None or experiment is None:
-            per_sample = [constant_velocity_scores(samples, config.horizon_steps)]
-            name, checkpoint = "constant-velocity", None
-        else:
-            per_sample = score_samples(
-                model.to(args.device), experiment, samples, modes, seed=args.seed,
-                progress=show_progress(args), groups=groups, ablate=ablate, device=args.device,
-            )  # fmt: skip
+        scored: list[tuple[str, str | None, SampleScores]] = []
+        if model is not None and experiment is not None:
             suffix = f" without {' and '.join(ablate)}" if ablate else ""
-            name, checkpoint = experiment.model_name + suffix, str(args.checkpoint)
-        template = EvaluationResult(split, name, None, 0, 0.0, 0.0)
-        template = dataclasses.replace(
-            template, checkpoint=checkpoint, derivatives=config.derivatives
-        )
-        for scores in per_sample:
+            scored += [
+                (experiment.model_name + suffix, str(args.checkpoint), scores)
+                for scores in score_samples(
+                    model.to(args.device), experiment, samples, modes, seed=args.seed,
+                    progress=show_progress(args), groups=groups, ablate=ablate,
+                    device=args.device,
+                )
+            ]  # fmt: skip
+        # Constant velocity beside the model, on the same samples.
+        baseline = constant_velocity_scores(samples, config.horizon_steps)
+        scored.append(("constant-velocity", None, baseline))
+        for name, checkpoint, scores in scored:
+            template = EvaluationResult(split, name, None, 0, 0.0, 0.0)
+            template = dataclasses.replace(
+                template, checkpoint=checkpoint, derivatives=config.derivatives
+            )
             for subset_name, keep in masks.items():
                 row = dataclasses.replace(_row(template, scores.summary(keep)), subset=subset_name)
-                results.append(row if model is not None else dataclasses.replace(row, mode=None))
+                results.append(row if checkpoint else dataclasses.replace(row, mode=None))
     results = [r for r in results if r.samples or r.subset is None]
     if len(splits) == len(SPLITS) and not args.by_density:
         for mode in dict.fromkeys(r.mode for r in results):
@@ -266,8 +284,9 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "With --split all the unweighted mean over the five splits is added.",
         formatter_class=Formatter,
         epilog="examples:\n"
+        "  grouptron evaluate --tracks corridor.txt --columns id,frame,x,y,z --fps 16 --units cm\n"
         "  grouptron evaluate --model constant-velocity --split all\n"
-        "  grouptron evaluate --checkpoint runs/trajectron++-eth-central/best.safetensors\n"
+        "  grouptron evaluate --checkpoint grouptron-eth-central --mode ml\n"
         "  grouptron evaluate --checkpoint CKPT --split univ --subset univ-45 --mode all "
         "--format json\n"
         "  grouptron evaluate --model constant-velocity --tracks corridor.txt "
@@ -276,7 +295,8 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     evaluate.add_argument(
         "--checkpoint",
         help="a .safetensors checkpoint, a training run's folder or a shipped name "
-        "(checkpoints/README.md)",
+        "(checkpoints/README.md; default: the model predict uses). Constant velocity is "
+        "scored beside it on the same samples",
     )
     evaluate.add_argument(
         "--model", choices=("constant-velocity",), help="score a baseline instead of a checkpoint"
@@ -291,7 +311,9 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "paper's Table II); univ-N-present: at time steps with >= N pedestrians present",
     )
     evaluate.add_argument(
-        "--mode", default="ml", help=f"comma-separated of {', '.join(MODES)}, or all"
+        "--mode",
+        help=f"comma-separated of {', '.join(MODES)}, or all (default: the checkpoint's own "
+        "point forecast, the one predict writes)",
     )
     evaluate.add_argument("--seed", type=int, default=0, help="seed of the sampling modes")
     evaluate.add_argument(

@@ -9,7 +9,7 @@ import numpy as np
 import torch
 
 from grouptron.cli.common import Formatter, add_threads_option
-from grouptron.inference.checkpoints import resolve_checkpoint
+from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.inference.export import (
     EXPORT_FORMATS,
     ForecastNetwork,
@@ -28,10 +28,12 @@ def cmd_export(args: argparse.Namespace) -> int:
     torch.set_num_threads(args.threads)
     path = resolve_checkpoint(args.checkpoint)
     model, config = load_trained_model(path)
+    print(f"exporting {config.model_name} from {path} to ONNX (about half a minute)", flush=True)
     names = export_onnx(model, config, out)
     print(f"wrote {out}: {config.model_name} from {path}, inputs {', '.join(names)}")
     if args.no_check:
         return 0
+    print("checking the file with onnxruntime against PyTorch", flush=True)
     network = ForecastNetwork(model, config)
     inputs = batch_inputs(example_batch(config), config)
     with torch.inference_mode():
@@ -55,13 +57,14 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "the file's metadata. Then runs the file with onnxruntime against PyTorch.",
         formatter_class=Formatter,
         epilog="examples:\n"
+        "  grouptron export --out model.onnx   # the default model\n"
         "  grouptron export --checkpoint grouptron-univ-backward --out grouptron.onnx\n"
         "  pip install 'grouptron[export]'   # onnx, onnxscript and onnxruntime",
     )
     export.add_argument(
         "--checkpoint",
-        required=True,
-        help="a .safetensors checkpoint or a shipped name (grouptron-univ-backward)",
+        default=DEFAULT_CHECKPOINT,
+        help="a .safetensors checkpoint or a shipped name (default: the model predict uses)",
     )
     export.add_argument("--format", choices=EXPORT_FORMATS, default="onnx", help="file format")
     export.add_argument("--out", required=True, help="the file to write (model.onnx)")

@@ -22,6 +22,7 @@ from grouptron.config import (
     ExperimentConfig,
     TrainConfig,
     config_from_dict,
+    config_to_dict,
     merge_settings,
 )
 from grouptron.constants import ALL_LOCATIONS, SPLITS
@@ -120,15 +121,40 @@ def _parts(
     return parts[0], parts[1], found[0], found[1]
 
 
+INHERITED_DATA = ("frames_per_step", "on_gap", "min_history_train")
+"""Data settings a fine-tuned run takes from its own data, not from the checkpoint it starts
+from (the checkpoint's scales, horizons and derivatives define what its weights read)."""
+DEFAULT_DERIVATIVES = "backward"
+"""Causal: a model trained so forecasts live tracks as it was trained (README). The papers'
+protocol is ``--derivatives central``."""
+
+
+def _starting_point(init_from: str | None) -> tuple[dict[str, Any], str]:
+    """The settings a run started from a checkpoint takes from it (its architecture, groups
+    and input scales, derivatives included) and its model name; nothing without one."""
+    if not init_from:
+        return {}, ""
+    stored = load_checkpoint(resolve_checkpoint(init_from)).config
+    values = config_to_dict(stored)
+    data = {k: v for k, v in values["data"].items() if k not in INHERITED_DATA}
+    kept = {"data": data, **{k: values[k] for k in ("model", "group_encoder", "groups")}}
+    return kept, stored.model_name
+
+
 def experiment_from_args(args: argparse.Namespace) -> ExperimentConfig:
-    """The run's configuration: the model's preset on the split, then the --config file, then
-    each --set, then the explicit flags (a later source wins)."""
+    """The run's configuration: the model's preset on the split, then what ``--init-from``'s
+    checkpoint defines (architecture, groups, input scales, derivatives), then the --config
+    file, then each --set, then the explicit flags (a later source wins). Derivatives default
+    to causal (``DEFAULT_DERIVATIVES``) where none of these names them."""
     file_values = _settings_file(args.config) if args.config else {}
-    model = args.model or file_values.get("model_name") or "trajectron++"
+    started, started_model = _starting_point(args.init_from)
+    model = args.model or file_values.get("model_name") or started_model or "trajectron++"
     split, dataset = _split_or_dataset(args)
-    values = merge_settings(preset_values(split, model, dataset), file_values)
-    for text in args.set or []:
-        values = merge_settings(values, parse_setting(text))
+    values = merge_settings(preset_values(split, model, dataset), started)
+    values = merge_settings(values, file_values)
+    sets = [parse_setting(text) for text in args.set or []]
+    for setting in sets:
+        values = merge_settings(values, setting)
     values = merge_settings(values, {"split": split, "model_name": model, "dataset": dataset})
     flags = {
         "epochs": args.epochs,
@@ -139,9 +165,13 @@ def experiment_from_args(args: argparse.Namespace) -> ExperimentConfig:
         "init_from": str(resolve_checkpoint(args.init_from)) if args.init_from else None,
     }
     train_values = {k: v for k, v in flags.items() if v is not None}
+    named = [started, file_values, *sets]
+    derivatives = args.derivatives or (
+        None if any("derivatives" in v.get("data", {}) for v in named) else DEFAULT_DERIVATIVES
+    )
     data_values: dict[str, Any] = {"on_gap": args.on_gap}
-    if args.derivatives:
-        data_values["derivatives"] = args.derivatives
+    if derivatives:
+        data_values["derivatives"] = derivatives
     values = merge_settings(values, {"train": train_values, "data": data_values})
     if args.precision is not None or "bf16" not in values["train"]:
         threads = args.threads or TrainConfig().threads
@@ -175,14 +205,33 @@ def _resumed(args: argparse.Namespace, out: Path, asked: ExperimentConfig) -> Ex
     return dataclasses.replace(stored, train=dataclasses.replace(stored.train, **length))
 
 
-def cmd_train(args: argparse.Namespace) -> int:
+def _experiment_and_folder(args: argparse.Namespace) -> tuple[ExperimentConfig, Path]:
+    """The run's configuration and output folder; ``--resume --out FOLDER`` alone continues
+    the run there with its stored configuration (split or dataset, model and all)."""
+    if args.resume and args.out and args.split is None and getattr(args, "dataset", None) is None:
+        out = Path(args.out)
+        if not (out / LAST).exists():
+            raise GrouptronError(f"{out}: no {LAST} to resume; give --split or --dataset to start")
+        stored = load_checkpoint(out / LAST).config
+        bf16 = stored.train.bf16
+        if args.precision is not None:
+            threads = args.threads or stored.train.threads
+            bf16 = resolve_precision(args.precision, args.device, threads=threads)
+        epochs, threads = args.epochs or stored.train.epochs, args.threads or stored.train.threads
+        length: dict[str, Any] = {"epochs": epochs, "threads": threads, "bf16": bf16}
+        asked = dataclasses.replace(stored, train=dataclasses.replace(stored.train, **length))
+        return _resumed(args, out, asked), out
     experiment = experiment_from_args(args)
-    data = experiment.data
-    name = f"{experiment.model_name}-{experiment.split}-{data.derivatives}"
+    name = f"{experiment.model_name}-{experiment.split}-{experiment.data.derivatives}"
     out = Path(args.out or f"runs/{name}")
     if args.resume and (out / LAST).exists():
         experiment = _resumed(args, out, experiment)
-        data = experiment.data
+    return experiment, out
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    experiment, out = _experiment_and_folder(args)
+    data = experiment.data
     train_part, val_part, train_groups, val_groups = _parts(args, experiment)
     cluster = distributed.start(torch.device(args.device))
     if cluster.is_main:
@@ -235,10 +284,10 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         formatter_class=Formatter,
         epilog="examples:\n"
         "  grouptron train --split eth --model trajectron++ --epochs 10\n"
-        "  grouptron train --split univ --derivatives backward --out runs/univ-causal\n"
-        "  grouptron train --split eth --resume\n"
-        "  grouptron train --split eth --derivatives backward --epochs 3 \\\n"
-        "      --init-from runs/trajectron++-eth-central/last.safetensors",
+        "  grouptron train --split univ --derivatives central    # the papers' protocol\n"
+        "  grouptron train --out runs/trajectron++-eth-backward --resume --epochs 20\n"
+        "  grouptron train --dataset mylab.toml --init-from trajectron++-residual-univ-backward "
+        "--epochs 5",
     )
     train_cmd.add_argument(
         "--split",
@@ -266,14 +315,16 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     train_cmd.add_argument(
         "--resume",
         action="store_true",
-        help="continue the run in --out with its stored configuration (--epochs may extend it)",
+        help="continue the run in --out with its stored configuration; --out alone is enough "
+        "(--epochs may extend it)",
     )
     train_cmd.add_argument(
         "--init-from",
-        help="start from another checkpoint of the same architecture: a weights-only file "
-        "(best.safetensors or a shipped name) fine-tunes with a fresh optimiser at --lr; a "
-        "last.safetensors continues its optimiser and step count (e.g. to move a central run "
-        "to backward derivatives), at --lr when given",
+        metavar="CHECKPOINT",
+        help="start from a checkpoint (a shipped name or a file): the run takes its model, "
+        "architecture, groups, input scales and derivatives (unless given here). A weights-only "
+        "file (best.safetensors, a shipped name) fine-tunes with a fresh optimiser at --lr; a "
+        "last.safetensors continues its optimiser and step count, at --lr when given",
     )
     _add_settings_options(train_cmd)
     add_data_options(train_cmd)

@@ -15,13 +15,14 @@ from typing import Literal
 
 import numpy as np
 
-from grouptron.constants import FRAMES_PER_STEP
+from grouptron.constants import DT_S, FRAMES_PER_STEP
 from grouptron.data.fields import (
     empty_field_error,
     refuse_bad_numbers,
     refuse_header_disagreement,
     split_fields,
 )
+from grouptron.data.glitches import repair_observations
 from grouptron.errors import DataFormatError
 
 log = logging.getLogger(__name__)
@@ -31,6 +32,10 @@ MAX_ABS_COORDINATE_M = 1e8
 """Larger coordinates are refused: projected (e.g. UTM) coordinates stay below 2e7 m, and far
 larger ones overflow squared distances or lose every centimetre to float rounding."""
 GapPolicy = Literal["split", "error"]
+
+
+class OffGridError(DataFormatError):
+    """A frame off the step grid: a file with a row every video frame, or other columns."""
 
 
 @dataclass(frozen=True)
@@ -154,6 +159,8 @@ def read_tracks(
     path: str | Path,
     frames_per_step: int = FRAMES_PER_STEP,
     on_gap: GapPolicy = "split",
+    *,
+    check_jumps: bool = False,
 ) -> TrackTable:
     """Read and validate a ``frame id x y`` file (tabs, spaces or commas; ``#`` comments).
 
@@ -162,6 +169,8 @@ def read_tracks(
         frames_per_step: frames between consecutive annotated steps (10 in ETH/UCY).
         on_gap: what to do with a track that misses steps in the middle: ``"split"`` it into
             separate tracks (with a warning) or raise an ``"error"``.
+        check_jumps: repair impossible jumps (``grouptron.data.glitches``) with a warning that
+            names each line; off for the benchmark's own files, which have none.
 
     Raises:
         DataFormatError: naming the file and line, for wrong column counts, non-numeric or
@@ -172,7 +181,9 @@ def read_tracks(
     if frames_per_step < 1:
         raise DataFormatError(path, f"frames per step must be >= 1, not {frames_per_step}")
     values, lines = _parse(path)
-    return table_from_values(path, values, lines, frames_per_step, on_gap=on_gap)
+    return table_from_values(
+        path, values, lines, frames_per_step, on_gap=on_gap, check_jumps=check_jumps
+    )
 
 
 def far_position(xy_m: np.ndarray) -> tuple[int, str] | None:
@@ -204,7 +215,7 @@ def _grid_steps(
     off_grid = np.flatnonzero((frame - first_frame) % frames_per_step)
     if off_grid.size:
         row = int(off_grid[0])
-        raise DataFormatError(
+        raise OffGridError(
             path,
             f"frame {frame[row]} is not on the {frames_per_step}-frame grid that starts at frame "
             f"{first_frame} (every frame must be first_frame + a multiple of {frames_per_step})",
@@ -213,6 +224,8 @@ def _grid_steps(
     return (frame - first_frame) // frames_per_step
 
 
+# One vectorised pass over every row, kept whole: each step reads the sorted arrays the
+# step before it made, and cutting it up would pass a dozen arrays between the pieces.
 def table_from_values(
     source: Path,
     values: np.ndarray,
@@ -221,10 +234,12 @@ def table_from_values(
     *,
     on_gap: GapPolicy = "split",
     warn_on_gap: bool = True,
+    check_jumps: bool = False,
 ) -> TrackTable:
     """Validate finite (R, 4) ``frame id x y`` values into a table; errors name ``source`` and
     the entry of ``lines`` (file line or row number) at fault. See :func:`read_tracks`.
-    ``warn_on_gap=False`` splits gapped tracks silently (missed detections in live data)."""
+    ``warn_on_gap=False`` splits gapped tracks and repairs jumps silently (missed detections
+    in live data, rows already repaired by the caller)."""
     if frames_per_step < 1 or len(values) == 0:
         why = "no 'frame id x y' rows" if len(values) == 0 else "frames per step must be >= 1"
         raise DataFormatError(source, f"{why}, not {frames_per_step}" if len(values) else why)
@@ -263,6 +278,15 @@ def table_from_values(
                 "%s: %d track gap(s); split into tracks (first: %s)", path, gap.sum(), message
             )
     new_track = np.concatenate([[True], ~same_ped | gap])
+    if check_jumps:  # steps are DT_S apart whatever the frame rate (the benchmark's convention)
+        keep, pos_m, split = repair_observations(path, ped_id, step * DT_S, pos_m, lines)
+        new_track |= split
+        # A dropped first row hands its track's start to the row after it.
+        started = np.flatnonzero(~keep & new_track) + 1
+        new_track[started[started < len(new_track)]] = True
+        ped_id, step, lines, pos_m, new_track = (
+            a[keep] for a in (ped_id, step, lines, pos_m, new_track)
+        )
     track = np.cumsum(new_track) - 1
     return TrackTable(
         path=path,

@@ -13,6 +13,7 @@ walks, with a hint about units and frame rate.
 from __future__ import annotations
 
 import io
+import logging
 import math
 import re
 import warnings
@@ -32,18 +33,25 @@ from grouptron.data.fields import (
     refuse_header_disagreement,
     split_fields,
 )
+from grouptron.data.glitches import MAX_MEDIAN_SPEED_MPS, median_speed_mps, repair_observations
 from grouptron.data.ndjson import read_ndjson
 from grouptron.data.neighbours import ranges_to_indices
-from grouptron.data.reader import GapPolicy, TrackTable, read_tracks, table_from_values
+from grouptron.data.reader import (
+    GapPolicy,
+    OffGridError,
+    TrackTable,
+    read_tracks,
+    table_from_values,
+)
 from grouptron.data.spelling import KEYWORDS, OptionSpelling
 from grouptron.errors import DataFormatError, GrouptronError
+
+log = logging.getLogger(__name__)
 
 UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 DEFAULT_COLUMNS = ("frame", "id", "x", "y")
 ETH_UCY_FPS = FRAMES_PER_STEP / DT_S
 """The ETH/UCY convention: frame numbers on a 10-frame grid per 0.4 s step (25 per second)."""
-MAX_MEDIAN_SPEED_MPS = 3.0
-"""A median walking speed above this is not pedestrians in metres: wrong units or frame rate."""
 ON_GRID_TOLERANCE = 1e-6
 """Observation times within this many steps of a grid point count as on the grid."""
 IGNORED = {"-", "_", "skip", "z"}
@@ -243,18 +251,6 @@ def read_recording(path: Path, fmt: RecordingFormat) -> Recording:
     return Recording(Path(path), ped_id.astype(np.int64), time_s, pos_m, lines, per_frame)
 
 
-def median_speed_mps(ped_id: np.ndarray, time_s: np.ndarray, pos_m: np.ndarray) -> float:
-    """The median speed between consecutive observations of the same person (NaN when no
-    person is seen twice): (R,) ids, (R,) seconds, (R, 2) metres."""
-    order = np.lexsort((time_s, ped_id))
-    ids, t, pos = ped_id[order], time_s[order], pos_m[order]
-    same = (ids[1:] == ids[:-1]) & (t[1:] > t[:-1])
-    if not same.any():
-        return float("nan")
-    speed = np.linalg.norm(np.diff(pos, axis=0), axis=1)[same] / np.diff(t)[same]
-    return float(np.median(speed))
-
-
 def check_plausible(recording: Recording, fmt: RecordingFormat) -> None:
     """Refuse a recording whose median walking speed is above 3 m/s: a unit or frame-rate
     mistake (a file in centimetres read as metres walks at 100 m/s)."""
@@ -272,6 +268,8 @@ def check_plausible(recording: Recording, fmt: RecordingFormat) -> None:
         )
 
 
+# One vectorised pass over every row, kept whole: each step reads the sorted arrays the
+# step before it made, and cutting it up would pass a dozen arrays between the pieces.
 def resample(
     recording: Recording, fmt: RecordingFormat, dt_s: float = DT_S, on_gap: GapPolicy = "split"
 ) -> TrackTable:
@@ -294,6 +292,11 @@ def resample(
     ids, time_s = recording.ped_id[order], recording.time_s[order]
     pos, lines = recording.pos_m[order], recording.line[order]
     _refuse_duplicates(recording.path, ids, time_s, lines)
+    split_before = np.zeros(len(ids), dtype=bool)
+    if fmt.check_speed:  # impossible jumps repaired before they are interpolated onto the grid
+        keep, pos, split_before = repair_observations(recording.path, ids, time_s, pos, lines)
+        ids, time_s, pos, lines = ids[keep], time_s[keep], pos[keep], lines[keep]
+        split_before = split_before[keep]
     steps = (time_s - time_s.min()) / dt_s  # (R,) time in grid steps
     snapped = np.round(steps)
     on_grid = np.abs(steps - snapped) < ON_GRID_TOLERANCE
@@ -301,6 +304,9 @@ def resample(
     # Segments between consecutive observations of one track, bridged when short enough.
     joined = (ids[1:] == ids[:-1]) & (np.diff(time_s) <= fmt.max_gap_s + 1e-9)
     split = np.flatnonzero((ids[1:] == ids[:-1]) & ~joined)
+    if split.size and on_gap != "error":  # as the reader of ETH/UCY-style files says it
+        _warn_gaps(recording.path, fmt, ids[split], time_s[split + 1] - time_s[split], lines[split])
+    joined &= ~split_before[1:]
     if on_gap == "error" and split.size:
         at = int(split[0])
         raise DataFormatError(
@@ -331,6 +337,17 @@ def resample(
     frame = first_frame + all_step[keep] * per_step
     values = np.column_stack([frame, all_id[keep], all_pos[keep]])
     return table_from_values(recording.path, values, all_line[keep], per_step, warn_on_gap=False)
+
+
+def _warn_gaps(
+    path: Path, fmt: RecordingFormat, ids: np.ndarray, seconds: np.ndarray, lines: np.ndarray
+) -> None:
+    """One warning for the (G,) gaps longer than ``fmt.max_gap_s`` that split tracks."""
+    log.warning(
+        "%s: %d track gap(s) longer than %s %g s; split into tracks (first: pedestrian %s is "
+        "not observed for %.3g s after line %d)",
+        path, len(ids), fmt.option("max_gap_s"), fmt.max_gap_s, ids[0], seconds[0], lines[0],
+    )  # fmt: skip
 
 
 def _frame_base(recording: Recording, dt_s: float) -> tuple[int, int]:
@@ -366,7 +383,17 @@ def read_table(
     ``on_gap``), else (and for TrajNet++ ``.ndjson``) resampled to ``dt_s`` steps."""
     if not fmt.as_is or Path(path).suffix == ".ndjson":
         return read_resampled(Path(path), fmt, dt_s, on_gap)
-    table = read_tracks(path, frames_per_step, on_gap)
+    try:
+        table = read_tracks(path, frames_per_step, on_gap, check_jumps=fmt.check_speed)
+    except OffGridError as exc:
+        # The usual cause: a row every video frame (25 fps, 16 fps), or the time not first.
+        spelling = fmt.spelling
+        hint = (
+            f"; if the file has a row for every video frame, give its frame rate "
+            f"({spelling.setting('fps', 25)}, say); if its columns are not frame, id, x, y, "
+            f"give their order ({spelling.setting('columns', 'id,frame,x,y')})"
+        )
+        raise DataFormatError(exc.path, exc.message + hint, exc.line) from None
     if fmt.check_speed:
         # Steps of an ETH/UCY-style file are dt_s apart, whatever its frames per step.
         lines = np.zeros_like(table.step)  # not needed: the check names no line

@@ -134,11 +134,13 @@ def evaluate_recordings(
     device: torch.device | str = "cpu",
     by_density: bool = False,
     ablate: Ablation = (),
+    baseline: bool = False,
 ) -> list[EvaluationResult]:
     """Constant velocity (``model`` None) or a checkpoint on the files: rows per file and mode,
-    then the pooled row (and its density bins with ``by_density``). ``data`` is the
-    checkpoint's data settings (or the baseline's); the network runs on ``device`` with the
-    ``ablate`` inputs taken away."""
+    then the pooled row (and its density bins with ``by_density``); ``baseline`` adds constant
+    velocity's rows on the same samples after the model's. ``data`` is the checkpoint's data
+    settings (or the baseline's); the network runs on ``device`` with the ``ablate`` inputs
+    taken away."""
     samples = recording_samples(files, fmt, data)
     template = EvaluationResult("", CONSTANT_VELOCITY, None, 0, 0.0, 0.0)
     template = dataclasses.replace(template, derivatives=data.derivatives)
@@ -155,4 +157,7 @@ def evaluate_recordings(
     for scores in per_mode:
         mode_template = dataclasses.replace(template, model=name, mode=scores.mode)
         rows += _rows(files, samples, scores, mode_template, by_density)
+    if baseline:
+        scores = constant_velocity_scores(samples, data.horizon_steps)
+        rows += _rows(files, samples, scores, template, by_density)
     return rows

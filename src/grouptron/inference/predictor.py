@@ -23,9 +23,9 @@ import numpy as np
 import torch
 
 from grouptron.config import DETECTION_GROUPS, ExperimentConfig
+from grouptron.data import glitches
 from grouptron.data.gaps import bridge_gaps, filled_in_histories
 from grouptron.data.reader import table_from_values
-from grouptron.data.recording import MAX_MEDIAN_SPEED_MPS, median_speed_mps
 from grouptron.data.samples import SampleSet, scene_samples
 from grouptron.data.scene import Scene, build_scene
 from grouptron.devices import available_device
@@ -70,8 +70,7 @@ MOST_LIKELY_CHOICES = tuple(POINT_FORECASTS)
 OLDER_NAMES = {"mixture-mode": "ml", "argmax-latent": "ml-argmax"}
 """Names these choices had before the vocabulary was unified (still accepted)."""
 MAX_SAMPLES = 10_000
-"""Sampled futures per agent at most: more only fill memory (10,000 x 12 steps is 1.9 MB an
-agent)."""
+"""Sampled futures per agent at most: more only fill memory (1.9 MB an agent)."""
 
 
 class Predictor:
@@ -81,22 +80,18 @@ class Predictor:
         most_likely: None (the default): the model's own choice, ``"ml-top10"`` for a
             velocity-residual decoder and ``"ml-argmax"`` otherwise (``default_point_forecast``;
             the forecasts closest to the truth on recordings from elsewhere), or ``"ml"`` when
-            ``latent_values`` is given.
-            ``"ml-argmax"``: the means of the most probable latent
-            value only (the evaluator's "ML-argmax" row), the fast choice for a control loop;
-            ``"ml"``: per step the mode of the p(z|x)-weighted mixture of the latent values'
-            Gaussians, integrated (with all Z of them, the benchmark's most likely
-            trajectory). On validation data ``ml-argmax`` is about 5% worse in FDE than
-            ``ml`` (benchmarks/RESULTS.md). ``"mean"``: the p(z|x)-weighted mean of every
-            latent value's trajectory (the mean of the decoded mixture; it never switches
-            latent value between steps). ``"ml-top10"``: ``"ml"`` with ``latent_values=10``.
+            ``latent_values`` is given. ``"ml-argmax"``: the means of the most probable latent
+            value only, the fast choice for a control loop; ``"ml"``: per step the mode of the
+            p(z|x)-weighted mixture of the latent values' Gaussians, integrated (with all Z,
+            the benchmark's most likely trajectory; ``ml-argmax`` is about 5% worse in FDE on
+            validation). ``"mean"``: the p(z|x)-weighted mean of every latent value's
+            trajectory. ``"ml-top10"``: ``"ml"`` with ``latent_values=10``.
         latent_values: for ``"ml"``, the mixture of only this many of the most probable
-            latent values (None: all Z); 5 comes within 1% of all 25 on validation FDE.
-            Only these are decoded unless ``mixture`` is asked for.
+            latent values (None: all Z); only these are decoded unless ``mixture`` is asked for.
         mixture: also return the mixture parameters (decodes all Z latent values; slower).
-        check_speed: refuse tracks whose median speed no pedestrian walks (wrong units).
-        device: where the network runs (``cpu``, ``cuda``, ``cuda:1``, ``mps``); results are
-            NumPy arrays either way. One clear error when the device is not available.
+        check_speed: refuse tracks whose median speed no pedestrian walks (wrong units), and
+            repair jumps faster than anyone runs (``grouptron.data.glitches``).
+        device: where the network runs (``cpu``, ``cuda``, ``mps``); NumPy results either way.
         min_points: the fewest positions in a row (the last one at the forecast frame) an agent
             needs for a forecast, 2 to ``history_steps``; more history, better forecasts.
         max_missed_steps: missed detections of up to this many steps in a row are filled by
@@ -233,10 +228,10 @@ class Predictor:
         live: bool = True,
     ) -> Forecast:
         """Forecast every agent observed at frame ``t`` (default: the last frame) with
-        ``min_points`` consecutive steps up to it (missed steps filled); rows after ``t`` are
-        ignored unless
-        ``live`` is False (a recording: then the derivatives use the rows the checkpoint's
-        protocol reads, as the evaluator does; ``central`` reads two steps ahead).
+        ``min_points`` consecutive steps up to it (missed steps filled; impossible jumps
+        repaired with a warning, ``grouptron.data.glitches``); rows after ``t`` are ignored
+        unless ``live`` is False (a recording: then the derivatives use the rows the
+        checkpoint's protocol reads, as the evaluator does; ``central`` reads two steps ahead).
 
         Args:
             tracks: (R, 4) rows ``frame, id, x, y`` (an array, a list of rows, or a table with
@@ -266,7 +261,22 @@ class Predictor:
         # into a scene for every frame asked about (central derivatives read two steps ahead).
         ahead = 0 if live else 2 * self.frames_per_step
         near = (values[:, 0] >= frame - self.window_frames) & (values[:, 0] <= frame + ahead)
-        return self._forecast(values[near], frame, num_samples, seed, warn_if_central=live)
+        rows = self._without_jumps(values[near], frame, np.flatnonzero(near))
+        return self._forecast(rows, frame, num_samples, seed, warn_if_central=live)
+
+    def _without_jumps(self, values: np.ndarray, frame: int, numbers: np.ndarray) -> np.ndarray:
+        """``values`` with impossible jumps up to ``frame`` repaired and named by their row
+        ``numbers`` in a warning (``data.glitches.repair_rows``); later rows are left alone."""
+        past = values[:, 0] <= frame
+        if not self.check_speed:
+            return values
+        seconds_per_frame = self.config.data.dt_s / self.frames_per_step
+        repaired, found = glitches.repair_rows(values[past], seconds_per_frame)
+        if len(found):
+            rows, names = values[past], [f"row {n}" for n in numbers[past]]
+            text = glitches.describe_glitches(found, rows[:, 1], rows[:, 2:4], names.__getitem__)
+            log.warning("tracks: %s", text)
+        return np.concatenate([repaired, values[~past]])
 
     def stream(self) -> StreamSession:
         """A session that is fed one frame at a time and keeps the history it needs."""
@@ -401,8 +411,8 @@ class Predictor:
         pairs = len(values) - len(np.unique(values[:, 1]))
         if pairs < min_pairs:
             return False
-        median = median_speed_mps(values[:, 1], time_s, values[:, 2:4])
-        if median > MAX_MEDIAN_SPEED_MPS:
+        median = glitches.median_speed_mps(values[:, 1], time_s, values[:, 2:4])
+        if median > glitches.MAX_MEDIAN_SPEED_MPS:
             raise GrouptronError(
                 f"the tracks' median walking speed is {median:.3g} m/s with frames "
                 f"{self.frames_per_step} apart per {self.config.data.dt_s} s step: positions "

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from grouptron.data.glitches import MAX_JUMP_SPEED_MPS
 from grouptron.errors import GrouptronError
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.inputs import as_track_array, frame_argument, frame_arrays
@@ -15,10 +16,6 @@ if TYPE_CHECKING:
     from grouptron.inference.predictor import Predictor
 
 log = logging.getLogger(__name__)
-
-MAX_JUMP_SPEED_MPS = 15.0
-"""Faster than anyone runs: a track that jumps this fast between two sightings has changed
-hands (a tracker's id swap) and restarts instead of feeding the jump to the forecast."""
 
 STREAM_MIN_PAIRS = 30
 """A stream's speeds are judged once it holds this many consecutive observations, and in any
@@ -31,7 +28,10 @@ class StreamSession:
     Keeps the last ``Predictor.window_frames`` of rows (the history, the two steps before it
     and room for a missed detection at its start); agents appear and vanish freely, and up to
     ``Predictor.max_missed_steps`` missed detections in a row are filled once the agent is
-    seen again (a longer gap restarts its track).
+    seen again (a longer gap restarts its track). A sighting farther from the person's last
+    than anyone moves (``MAX_JUMP_SPEED_MPS``: a glitch or an id swap; a stream cannot wait to
+    see which) restarts the person's track from it, with a warning, so that the jump never
+    reaches a forecast.
     """
 
     def __init__(self, predictor: Predictor) -> None:

@@ -201,8 +201,8 @@ def render_model_card(
     lines += [
         "",
         "`last.safetensors` holds the full training state: continue with "
-        f"`grouptron train --split {config.split} --model {config.model_name} --out <this folder> "
-        "--resume --epochs N`. Per-epoch metrics: `metrics.csv`, `metrics.jsonl`.",
+        "`grouptron train --out <this folder> --resume --epochs N`. Per-epoch metrics: "
+        "`metrics.csv`, `metrics.jsonl`.",
     ]
     return "\n".join(lines) + "\n"
 

@@ -1,0 +1,131 @@
+"""One plausibility rule for every input path: an impossible jump is repaired, named in a
+warning, and never changes anyone else's forecast."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grouptron.cli import main
+from grouptron.data.glitches import MAX_JUMP_SPEED_MPS, find_glitches, repair_rows
+from grouptron.data.recording import RecordingFormat, parse_columns, read_resampled
+from grouptron.inference.predictor import Predictor
+from tests.conftest import write_tracks
+
+STEPS = 16
+GLITCH = (8, 1)
+"""(step, person) of the row that a tracker put at x = 5000 m."""
+
+
+def crowd_rows() -> np.ndarray:
+    """(R, 4) ``frame id x y``: four people walking straight side by side, 0.8 m apart, so
+    that each is the others' neighbour (positions exact on a line: interpolation restores
+    a lost one exactly)."""
+    return np.asarray(
+        [(10 * k, p, 0.5 * k, 0.8 * p) for k in range(STEPS) for p in range(4)], dtype=float
+    )
+
+
+def with_glitch(rows: np.ndarray) -> np.ndarray:
+    glitched = rows.copy()
+    step, person = GLITCH
+    glitched[(rows[:, 0] == 10 * step) & (rows[:, 1] == person), 2] = 5000.0
+    return glitched
+
+
+def test_a_spike_is_interpolated_a_bad_end_dropped_and_a_lasting_jump_split() -> None:
+    time_s = np.arange(10) * 0.4
+    ids = np.zeros(10)
+    walk = np.column_stack([1.2 * time_s, np.zeros(10)])
+    spike, first, last, lasting = (walk.copy() for _ in range(4))
+    spike[4, 0] = first[0, 0] = last[9, 0] = 5000.0
+    lasting[5:, 0] += 100.0
+    found = find_glitches(ids, time_s, spike)
+    assert found.spikes.tolist() == [4] and np.allclose(found.pos_m, walk)
+    assert find_glitches(ids, time_s, first).dropped.tolist() == [0]
+    assert find_glitches(ids, time_s, last).dropped.tolist() == [9]
+    found = find_glitches(ids, time_s, lasting)
+    assert found.splits.tolist() == [5] and not len(found.spikes) and not len(found.dropped)
+    # Fast but possible (a sprint at 14 m/s) is no glitch; rows in any order.
+    sprint = np.column_stack([14.0 * time_s, np.zeros(10)])
+    assert not len(find_glitches(ids, time_s, sprint))
+    order = np.random.default_rng(0).permutation(10)
+    assert find_glitches(ids[order], time_s[order], spike[order]).spikes.tolist() == [
+        int(np.flatnonzero(order == 4)[0])
+    ]
+
+
+def test_a_lasting_jump_keeps_the_callers_id_on_the_track_the_person_is_on_now() -> None:
+    rows = crowd_rows()
+    rows[(rows[:, 1] == 2) & (rows[:, 0] >= 100), 2] += 50.0  # id 2 swapped at step 10
+    repaired, found = repair_rows(rows, 0.04)
+    assert len(found.splits) == 1
+    now = repaired[repaired[:, 0] >= 100]
+    assert sorted(set(now[:, 1].tolist())) == [0, 1, 2, 3]
+    before = repaired[(repaired[:, 0] < 100) & ~np.isin(repaired[:, 1], [0, 1, 3])]
+    assert set(before[:, 1].tolist()) == {4.0}  # a fresh id above every id
+    assert MAX_JUMP_SPEED_MPS == 15.0
+
+
+def test_the_api_repairs_the_5000_m_row_names_it_and_leaves_everyone_else_alone(
+    tiny_checkpoints: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    predictor = Predictor.from_checkpoint(tiny_checkpoints / "grouptron-eth-backward")
+    clean = crowd_rows()
+    for t in (80, 100, 150):  # the glitch at the forecast frame, shortly before, long before
+        glitched = with_glitch(clean[clean[:, 0] <= t])
+        row = int(np.flatnonzero(glitched[:, 2] == 5000.0)[0])
+        if t == 80:  # the last sighting: dropped, exactly as a missed detection
+            expected = predictor.predict(np.delete(clean[clean[:, 0] <= t], row, axis=0))
+        else:  # a spike before the forecast frame: restored exactly (a straight walk)
+            expected = predictor.predict(clean[clean[:, 0] <= t])
+        with caplog.at_level(logging.WARNING):
+            caplog.clear()
+            got = predictor.predict(glitched)
+        assert f"row {row} (id 1, x=5000" in caplog.text
+        assert ("dropped" if t == 80 else "interpolation") in caplog.text
+        assert np.array_equal(got.ids, expected.ids)
+        assert np.allclose(got.most_likely, expected.most_likely, atol=1e-9)
+
+
+def test_the_cli_repairs_the_5000_m_row_and_its_csv_equals_the_clean_files(
+    tiny_checkpoints: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    rows = [tuple(r) for r in crowd_rows().tolist()]
+    clean = write_tracks(tmp_path / "clean.txt", rows)
+    glitched = write_tracks(
+        tmp_path / "glitched.txt", [tuple(r) for r in with_glitch(crowd_rows())]
+    )
+    checkpoint = str(tiny_checkpoints / "grouptron-eth-backward")
+    outputs = []
+    for tracks in (clean, glitched):
+        out = tmp_path / f"{tracks.stem}.csv"
+        with caplog.at_level(logging.WARNING):
+            caplog.clear()
+            argv = ["predict", "--checkpoint", checkpoint, "--tracks", str(tracks)]
+            assert main([*argv, "--out", str(out), "--quiet"]) == 0
+        outputs.append(out.read_text())
+    line = 1 + int(np.flatnonzero(with_glitch(crowd_rows())[:, 2] == 5000.0)[0])
+    assert "glitched.txt: 1 impossible jump(s)" in caplog.text
+    assert f"line {line} (id 1, x=5000" in caplog.text and "interpolation" in caplog.text
+    assert outputs[0] == outputs[1]
+
+
+def test_a_recording_in_its_own_layout_is_repaired_before_it_is_resampled(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """16 fps, centimetres, id first: the glitch must not smear over the 0.4 s grid."""
+    lines = [
+        f"{p} {f} {100 * 1.2 * f / 16:.4f} {100 * 0.8 * p:.4f}" for f in range(64) for p in (1, 2)
+    ]
+    lines[40] = lines[40].split()[0] + " 20 500000 80"  # person 1 at frame 20, 5000 m
+    path = tmp_path / "corridor.txt"
+    path.write_text("\n".join(lines) + "\n")
+    fmt = RecordingFormat(columns=parse_columns("id,frame,x,y"), fps=16, units="cm")
+    with caplog.at_level(logging.WARNING):
+        table = read_resampled(path, fmt)
+    assert "line 41 (id 1, x=5000" in caplog.text
+    assert np.abs(table.pos_m[:, 0]).max() < 10  # nothing near 5000 m after resampling
