@@ -30,6 +30,9 @@ import sys
 from pathlib import Path
 
 import numpy as np
+
+# records.py is a script beside this one, not part of the package.
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 from records import record
 
 REPO = Path(__file__).resolve().parents[1]
