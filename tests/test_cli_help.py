@@ -52,3 +52,20 @@ COMPUTING = ("evaluate", "predict", "plot", "report", "train", "export")
 def test_every_command_that_computes_takes_threads(name: str) -> None:
     options = {o for a in PARSERS[f"grouptron {name}"]._actions for o in a.option_strings}
     assert "--threads" in options
+
+
+@pytest.mark.parametrize(
+    "command", [[], ["predict"], ["plot"], ["evaluate"], ["train"], ["report"], ["export"]]
+)
+def test_help_never_imports_torch(command: list[str]) -> None:
+    """``--help`` is instant: only the parsers load; each handler imports what it needs."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\nfrom grouptron.cli.app import main\n"
+        f"try:\n    main({[*command, '--help']!r})\nexcept SystemExit:\n    pass\n"
+        "print(sorted(m for m in ('torch', 'scipy', 'matplotlib') if m in sys.modules))"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert run.stdout.strip().splitlines()[-1] == "[]", run.stdout[-300:]

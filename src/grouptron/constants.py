@@ -42,3 +42,38 @@ EXPECTED_TEST_SAMPLES: Final = {
 
 UNIV_N_PAPER: Final = (40, 45, 50)
 """The dense UNIV subsets of the Grouptron paper (at least N pedestrians in the scene at t)."""
+
+# The command line's vocabulary, here so that `grouptron --help` never imports PyTorch: the
+# modules that implement each name take their lists from these.
+
+POINT_FORECAST_NAMES: Final = ("ml", "ml-argmax", "mean", "ml-top10")
+"""The point forecasts (``grouptron.model.predict.POINT_FORECASTS`` implements each)."""
+
+EVALUATION_MODES: Final = (*POINT_FORECAST_NAMES, "best-of-20", "nll")
+"""What ``evaluate`` scores: each point forecast, the best of 20 samples, the KDE NLL."""
+
+FORECAST_MODES: Final = (*POINT_FORECAST_NAMES, "samples")
+"""What ``predict`` writes: a point forecast, or sampled futures."""
+
+PRECISIONS: Final = ("auto", "fp32", "bf16")
+"""Arithmetic of training (``grouptron.training.precision``)."""
+
+ABLATIONS: Final = ("edges", "scene")
+"""Inputs an evaluation can take away (``grouptron.model.predict``)."""
+
+EXPORT_FORMATS: Final = ("onnx",)
+
+LINKAGES: Final = ("single", "average", "complete")
+"""Agglomerative linkages of group detection (``grouptron.groups.clustering``)."""
+
+DISTANCE_KINDS: Final = ("hausdorff", "modified")
+"""Trajectory distances of group detection (``grouptron.groups.distances``)."""
+
+DEFAULT_CHECKPOINT: Final = "trajectron++-residual-univ-backward"
+"""The model used where none is named (``grouptron.inference.checkpoints``, which says why)."""
+
+UNITS_M: Final = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+"""Metres per unit of the units a recording's x and y may be in."""
+
+REPORT_NLL_MAX_SAMPLES: Final = 300
+"""``report`` scores the KDE NLL on at most this many seeded test samples per split."""

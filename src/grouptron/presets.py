@@ -14,6 +14,8 @@ RESIDUAL_MODEL = "trajectron++-residual"
 """Trajectron++ whose decoder predicts velocities relative to the current one (below)."""
 GROUP_RESIDUAL_MODEL = "grouptron-robust-residual"
 """``grouptron-robust`` with the velocity-residual decoder of ``trajectron++-residual``."""
+MODEL_NAMES = ("trajectron++", "grouptron", VARIANT_MODEL, RESIDUAL_MODEL, GROUP_RESIDUAL_MODEL)
+"""Every model ``train --model`` builds: the paper's two and the named variants."""
 
 _ROBUST_SWITCHES: dict[str, dict[str, Any]] = {
     "groups": {"linkage": "single", "max_distance_m": 1.5, "velocity_weight_s": 2.0},

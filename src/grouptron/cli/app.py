@@ -5,18 +5,15 @@ Errors caused by input are printed on one line and end the program with exit cod
 from __future__ import annotations
 
 import argparse
+import importlib
 import logging
 import os
 import sys
 from collections.abc import Callable, Sequence
 
 from grouptron import __version__
-from grouptron.cli import config, data, evaluate, export, forecast, groups, report, train
-from grouptron.cli.common import (
-    EXIT_USAGE,
-    Formatter,
-    Parser,
-)
+from grouptron.cli.options import EXIT_USAGE, Formatter, Parser
+from grouptron.cli.parsers import config, data, evaluate, export, forecast, groups, report, train
 from grouptron.errors import GrouptronError
 
 
@@ -31,7 +28,7 @@ def build_parser() -> argparse.ArgumentParser:
         "  grouptron data stats --split all\n"
         "  grouptron evaluate --model constant-velocity --split all\n"
         "  grouptron train --split eth --epochs 10\n"
-        "  grouptron evaluate --checkpoint runs/trajectron++-eth-central/best.safetensors\n\n"
+        "  grouptron evaluate --checkpoint grouptron-eth-central\n\n"
         "Run 'grouptron COMMAND --help' for the options of a command.",
     )
     parser.add_argument("--version", action="version", version=f"grouptron {__version__}")
@@ -59,6 +56,16 @@ def _accept_global_options_everywhere(parser: argparse.ArgumentParser) -> None:
                 _accept_global_options_everywhere(child)
 
 
+def _handler(named: str) -> Callable[[argparse.Namespace], int]:
+    """The function ``"module:function"`` names, imported now: a command's handler and what it
+    needs (PyTorch, SciPy, matplotlib) load only when that command runs, never for --help."""
+    module, _, function = named.partition(":")
+    handler: Callable[[argparse.Namespace], int] = getattr(
+        importlib.import_module(module), function
+    )
+    return handler
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``grouptron`` console script; returns the exit code."""
     logging.basicConfig(format="grouptron: %(levelname)s: %(message)s", level=logging.WARNING)
@@ -67,15 +74,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
         if args.verbose:
             logging.getLogger().setLevel(logging.INFO)
-        handler: Callable[[argparse.Namespace], int] | None = getattr(args, "handler", None)
-        if handler is None:
+        named: str | None = getattr(args, "handler", None)
+        if named is None:
             # A command group without an action: show its help.
             target = args.command if args.command in ("data", "groups", "config") else None
             if target:
                 parser.parse_args([target, "--help"])
             parser.print_help()
             return EXIT_USAGE
-        return handler(args)
+        return _handler(named)(args)
     except GrouptronError as exc:
         print(f"grouptron: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

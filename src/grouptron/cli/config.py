@@ -7,12 +7,8 @@ import json
 
 import torch
 
-from grouptron.cli.common import Formatter, Parser
 from grouptron.cli.train import experiment_from_args
 from grouptron.config import config_to_dict, non_default_settings
-from grouptron.constants import SPLITS
-from grouptron.geometry import DERIVATIVE_SCHEMES
-from grouptron.model.factory import MODEL_NAMES
 
 
 def cmd_config_show(args: argparse.Namespace) -> int:
@@ -21,48 +17,11 @@ def cmd_config_show(args: argparse.Namespace) -> int:
     if full.split is None and full.dataset is None:
         full.split = "eth"
     full.device = torch.device("cpu")
-    experiment = experiment_from_args(full)
+    # No bf16 timing here: training chooses its precision when it starts (--precision auto).
+    experiment = experiment_from_args(full, choose_precision=False)
     if args.changes:
         for key, value in non_default_settings(experiment).items():
             print(f"{key} = {json.dumps(value)}")
         return 0
     print(json.dumps(config_to_dict(experiment), indent=2))
     return 0
-
-
-def add_parser(commands: argparse._SubParsersAction) -> None:
-    """Add the command and its options to the ``grouptron`` parser."""
-    config = commands.add_parser(
-        "config",
-        help="show the effective settings of a training run",
-        description="Settings of a run as `grouptron train` would build them: the model's preset "
-        "on the split, then --config, then each --set.",
-        formatter_class=Formatter,
-        epilog="examples:\n"
-        "  grouptron config show --model grouptron --split eth\n"
-        "  grouptron config show --set train.seed=3 --set group_encoder.group_dim=32 --changes",
-    )
-    actions = config.add_subparsers(dest="config_command", metavar="ACTION", parser_class=Parser)
-    show = actions.add_parser(
-        "show",
-        help="print the effective configuration as JSON",
-        description="Print the configuration `grouptron train` would use (JSON), or with "
-        "--changes only the settings that differ from the defaults.",
-        formatter_class=Formatter,
-    )
-    show.add_argument("--split", choices=SPLITS, help="the ETH/UCY split (default: eth)")
-    show.add_argument("--dataset", metavar="FILE", help="a dataset of your own instead")
-    show.add_argument(
-        "--model", choices=MODEL_NAMES, help="the model (default: --config's, else trajectron++)"
-    )
-    show.add_argument("--config", help="JSON file of settings laid over the preset")
-    show.add_argument(
-        "--set", action="append", metavar="SECTION.KEY=VALUE", help="one setting (repeatable)"
-    )
-    show.add_argument(
-        "--derivatives", choices=DERIVATIVE_SCHEMES, help="central or backward derivatives"
-    )
-    show.add_argument(
-        "--changes", action="store_true", help="only the settings that differ from the defaults"
-    )
-    show.set_defaults(handler=cmd_config_show)

@@ -9,20 +9,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.cli.common import (
-    Formatter,
-    add_data_options,
-    add_device_option,
-    add_recording_options,
-    add_threads_option,
-    eval_modes,
-    log,
-    own_layout,
-    parse_splits,
-    recording_format,
-    show_progress,
-    warn_look_ahead,
-)
+from grouptron.cli.common import log, own_layout, recording_format, show_progress, warn_look_ahead
+from grouptron.cli.options import eval_modes, parse_splits
 from grouptron.config import (
     DataConfig,
     ExperimentConfig,
@@ -33,7 +21,6 @@ from grouptron.data.locate import resolve_data_dir
 from grouptron.data.subsets import density_masks, parse_univ_n
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import (
-    MODES,
     ModeScores,
     SampleScores,
     constant_velocity_scores,
@@ -267,91 +254,3 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             results.append(mean_over_splits([r for r in results if r.mode == mode]))
     print(results_json(results) if args.format == "json" else results_table(results))
     return 0
-
-
-def add_parser(commands: argparse._SubParsersAction) -> None:
-    """Add the command and its options to the ``grouptron`` parser."""
-    evaluate = commands.add_parser(
-        "evaluate",
-        help="score a model on the test sets (ADE/FDE in metres)",
-        description="Score a trained checkpoint or the constant-velocity baseline on the test "
-        "samples of one or all splits (exactly 8 observed and 12 future steps). Modes: 'ml' "
-        "(the mode of the latent mixture at every step, the papers' 'most likely'), "
-        "'ml-argmax' (the most probable latent value's mean), 'mean' (the p(z|x)-weighted "
-        "mean of every latent value's trajectory), 'ml-top10' ('ml' of the 10 most probable "
-        "latent values only), 'best-of-20' (min ADE and min "
-        "FDE over 20 samples, taken independently) and 'nll' (KDE NLL of 2000 samples). "
-        "With --split all the unweighted mean over the five splits is added.",
-        formatter_class=Formatter,
-        epilog="examples:\n"
-        "  grouptron evaluate --tracks corridor.txt --columns id,frame,x,y,z --fps 16 --units cm\n"
-        "  grouptron evaluate --model constant-velocity --split all\n"
-        "  grouptron evaluate --checkpoint grouptron-eth-central --mode ml\n"
-        "  grouptron evaluate --checkpoint CKPT --split univ --subset univ-45 --mode all "
-        "--format json\n"
-        "  grouptron evaluate --model constant-velocity --tracks corridor.txt "
-        "--columns id,frame,x,y,z --fps 16 --units cm",
-    )
-    evaluate.add_argument(
-        "--checkpoint",
-        help="a .safetensors checkpoint, a training run's folder or a shipped name "
-        "(checkpoints/README.md; default: the model predict uses). Constant velocity is "
-        "scored beside it on the same samples",
-    )
-    evaluate.add_argument(
-        "--model", choices=("constant-velocity",), help="score a baseline instead of a checkpoint"
-    )
-    evaluate.add_argument(
-        "--split",
-        help=f"one of {', '.join(SPLITS)} or all (default: the checkpoint's split, or all)",
-    )
-    evaluate.add_argument(
-        "--subset",
-        help="univ-N: only univ test samples at time steps with >= N predicted agents (the "
-        "paper's Table II); univ-N-present: at time steps with >= N pedestrians present",
-    )
-    evaluate.add_argument(
-        "--mode",
-        help=f"comma-separated of {', '.join(MODES)}, or all (default: the checkpoint's own "
-        "point forecast, the one predict writes)",
-    )
-    evaluate.add_argument("--seed", type=int, default=0, help="seed of the sampling modes")
-    evaluate.add_argument(
-        "--format", choices=("table", "json"), default="table", help="output format"
-    )
-    evaluate.add_argument("--quiet", action="store_true", help="no progress bars")
-    add_threads_option(evaluate)
-    add_device_option(evaluate)
-    _add_other_data_options(evaluate)
-    add_recording_options(evaluate)
-    add_data_options(evaluate)
-    evaluate.set_defaults(handler=cmd_evaluate)
-
-
-def _add_other_data_options(evaluate: argparse.ArgumentParser) -> None:
-    """Data other than the benchmark's test sets, and the diagnostics."""
-    evaluate.add_argument(
-        "--tracks",
-        nargs="+",
-        metavar="FILE",
-        help="score recordings of your own instead of the benchmark: every (person, step) with "
-        "8 observed and 12 future points after resampling to 0.4 s (layout: --columns, --fps, "
-        "--units)",
-    )
-    evaluate.add_argument(
-        "--by-density",
-        action="store_true",
-        help="also score by density: neighbours within 3 m at the forecast step (0, 1-2, 3-5, "
-        "6-9, 10-24, 25+)",
-    )
-    evaluate.add_argument(
-        "--ablate",
-        metavar="INPUTS",
-        help="take inputs away to see what a model uses: 'edges' zeroes the edge encoder's "
-        "neighbour input, 'scene' zeroes Grouptron's E_scene (comma-separated)",
-    )
-    evaluate.add_argument(
-        "--dataset",
-        metavar="FILE",
-        help="score the test part of a dataset of your own (its description file)",
-    )

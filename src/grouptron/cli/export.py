@@ -8,10 +8,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.cli.common import Formatter, add_threads_option
-from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
+from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.inference.export import (
-    EXPORT_FORMATS,
     ForecastNetwork,
     batch_inputs,
     example_batch,
@@ -42,34 +40,3 @@ def cmd_export(args: argparse.Namespace) -> int:
     worst = max(float(np.abs(a - b).max()) for a, b in zip(expected, got, strict=True))
     print(f"onnxruntime agrees with PyTorch on an example batch: largest difference {worst:.1e}")
     return 0
-
-
-def add_parser(commands: argparse._SubParsersAction) -> None:
-    """Add the command and its options to the ``grouptron`` parser."""
-    export = commands.add_parser(
-        "export",
-        help="write a checkpoint's network as ONNX (for C++, a robot, another runtime)",
-        description="Write the network of a checkpoint, from standardised inputs to the "
-        "forecast distribution (log p(z|x), each latent value's mean positions and "
-        "covariances), as an ONNX file with dynamic sample, node and group counts. What the "
-        "caller computes before (standardised histories, neighbour sums, groups) and after "
-        "(most likely forecast, samples) is in docs/export.md; the constants it needs are in "
-        "the file's metadata. Then runs the file with onnxruntime against PyTorch.",
-        formatter_class=Formatter,
-        epilog="examples:\n"
-        "  grouptron export --out model.onnx   # the default model\n"
-        "  grouptron export --checkpoint grouptron-univ-backward --out grouptron.onnx\n"
-        "  pip install 'grouptron[export]'   # onnx, onnxscript and onnxruntime",
-    )
-    export.add_argument(
-        "--checkpoint",
-        default=DEFAULT_CHECKPOINT,
-        help="a .safetensors checkpoint or a shipped name (default: the model predict uses)",
-    )
-    export.add_argument("--format", choices=EXPORT_FORMATS, default="onnx", help="file format")
-    export.add_argument("--out", required=True, help="the file to write (model.onnx)")
-    export.add_argument(
-        "--no-check", action="store_true", help="skip running the file with onnxruntime"
-    )
-    add_threads_option(export)
-    export.set_defaults(handler=cmd_export)

@@ -13,9 +13,6 @@ import torch
 
 from grouptron.cli.common import (
     CURVES,
-    Formatter,
-    add_data_options,
-    device_type,
     show_progress,
 )
 from grouptron.config import (
@@ -25,7 +22,7 @@ from grouptron.config import (
     config_to_dict,
     merge_settings,
 )
-from grouptron.constants import ALL_LOCATIONS, SPLITS
+from grouptron.constants import ALL_LOCATIONS
 from grouptron.data.custom import load_dataset_part, read_dataset
 from grouptron.data.dataset import PartData, load_part
 from grouptron.data.locate import resolve_data_dir
@@ -34,11 +31,11 @@ from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.groups.cache import load_groups
 from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.model.checkpoint import load_checkpoint
-from grouptron.model.factory import MODEL_NAMES, uses_groups
+from grouptron.model.factory import uses_groups
 from grouptron.presets import preset_values
 from grouptron.training import distributed
 from grouptron.training.metrics_log import MetricsWriter
-from grouptron.training.precision import PRECISIONS, precision_name, resolve_precision
+from grouptron.training.precision import native_bf16, precision_name, resolve_precision
 from grouptron.training.trainer import LAST, train
 from grouptron.viz.training import plot_training_curves
 
@@ -141,7 +138,9 @@ def _starting_point(init_from: str | None) -> tuple[dict[str, Any], str]:
     return kept, stored.model_name
 
 
-def experiment_from_args(args: argparse.Namespace) -> ExperimentConfig:
+def experiment_from_args(
+    args: argparse.Namespace, *, choose_precision: bool = True
+) -> ExperimentConfig:
     """The run's configuration: the model's preset on the split, then what ``--init-from``'s
     checkpoint defines (architecture, groups, input scales, derivatives), then the --config
     file, then each --set, then the explicit flags (a later source wins). Derivatives default
@@ -173,9 +172,16 @@ def experiment_from_args(args: argparse.Namespace) -> ExperimentConfig:
     if derivatives:
         data_values["derivatives"] = derivatives
     values = merge_settings(values, {"train": train_values, "data": data_values})
-    if args.precision is not None or "bf16" not in values["train"]:
+    if args.precision is not None or ("bf16" not in values["train"] and choose_precision):
         threads = args.threads or TrainConfig().threads
-        bf16 = resolve_precision(args.precision or "auto", args.device, threads=threads)
+        requested = args.precision or "auto"
+        if requested == "auto" and native_bf16(args.device):
+            print(
+                "choosing the precision: timing bf16 autocast against fp32 on this CPU (about "
+                "10 s; --precision fp32 or bf16 skips this)",
+                flush=True,
+            )
+        bf16 = resolve_precision(requested, args.device, threads=threads)
         values = merge_settings(values, {"train": {"bf16": bf16}})
     return config_from_dict(ExperimentConfig, values)
 
@@ -270,98 +276,3 @@ def cmd_train(args: argparse.Namespace) -> int:
             f"done: {state.epoch} epochs, {state.iteration} steps; {chosen}; checkpoints in {out}"
         )
     return 0
-
-
-def add_parser(commands: argparse._SubParsersAction) -> None:
-    """Add the command and its options to the ``grouptron`` parser."""
-    train_cmd = commands.add_parser(
-        "train",
-        help="train a model on one split",
-        description="Train a model on the training part of a split, validating on its "
-        "validation part after every epoch. The output folder gets last.safetensors (full "
-        "state; --resume continues from it exactly), best.safetensors (weights with the best "
-        "validation ML FDE) and metrics.jsonl/metrics.csv.",
-        formatter_class=Formatter,
-        epilog="examples:\n"
-        "  grouptron train --split eth --model trajectron++ --epochs 10\n"
-        "  grouptron train --split univ --derivatives central    # the papers' protocol\n"
-        "  grouptron train --out runs/trajectron++-eth-backward --resume --epochs 20\n"
-        "  grouptron train --dataset mylab.toml --init-from trajectron++-residual-univ-backward "
-        "--epochs 5",
-    )
-    train_cmd.add_argument(
-        "--split",
-        choices=(*SPLITS, ALL_LOCATIONS),
-        help=f"the ETH/UCY split (its location is held out); {ALL_LOCATIONS}: the train and "
-        "val parts of all five locations, nothing held out and no validation (the last epoch "
-        "is kept): a model for use, never for benchmark tables",
-    )
-    train_cmd.add_argument(
-        "--dataset",
-        metavar="FILE",
-        help="train on a dataset of your own instead: a TOML or JSON description of its train, "
-        "val and test files and their format (docs/recordings.md); no ETH/UCY presets apply",
-    )
-    train_cmd.add_argument(
-        "--model",
-        choices=MODEL_NAMES,
-        help="trajectron++ or grouptron (the paper's), grouptron-robust (Grouptron with "
-        "every density switch on; README, 'Grouptron'), trajectron++-residual (velocities "
-        "relative to the current one) or grouptron-robust-residual (both) (default: a "
-        "--config file's model_name, else trajectron++)",
-    )
-    train_cmd.add_argument("--epochs", type=int, help="epochs (default 100, as the reference)")
-    train_cmd.add_argument("--out", help="output folder (default runs/MODEL-SPLIT-DERIVATIVES)")
-    train_cmd.add_argument(
-        "--resume",
-        action="store_true",
-        help="continue the run in --out with its stored configuration; --out alone is enough "
-        "(--epochs may extend it)",
-    )
-    train_cmd.add_argument(
-        "--init-from",
-        metavar="CHECKPOINT",
-        help="start from a checkpoint (a shipped name or a file): the run takes its model, "
-        "architecture, groups, input scales and derivatives (unless given here). A weights-only "
-        "file (best.safetensors, a shipped name) fine-tunes with a fresh optimiser at --lr; a "
-        "last.safetensors continues its optimiser and step count, at --lr when given",
-    )
-    _add_settings_options(train_cmd)
-    add_data_options(train_cmd)
-    train_cmd.set_defaults(handler=cmd_train)
-
-
-def _add_settings_options(train_cmd: argparse.ArgumentParser) -> None:
-    """Where the run's settings come from, and the common ones as flags."""
-    train_cmd.add_argument(
-        "--config",
-        help="JSON file of settings laid over the model's preset (any subset of "
-        "ExperimentConfig; its model_name is used unless --model is given)",
-    )
-    train_cmd.add_argument(
-        "--set",
-        action="append",
-        metavar="SECTION.KEY=VALUE",
-        help="one setting, e.g. --set group_encoder.group_dim=32 --set train.lr_decay_per_iter=1 "
-        "(repeatable; applied after --config, before the other flags)",
-    )
-    train_cmd.add_argument(
-        "--seed", type=int, help="seed of initialisation, order and noise (default 0)"
-    )
-    train_cmd.add_argument(
-        "--batch-size", type=int, help="samples per optimiser step (default 256)"
-    )
-    train_cmd.add_argument("--lr", type=float, help="initial learning rate")
-    train_cmd.add_argument("--threads", type=int, help="CPU threads (default 2)")
-    train_cmd.add_argument(
-        "--precision",
-        choices=PRECISIONS,
-        help="arithmetic of the decoder: bf16 autocast or fp32; auto (the default) picks bf16 "
-        "where the hardware has it natively (CUDA, or a CPU with AVX-512 BF16 or AMX) and fp32 "
-        "elsewhere, where bf16 is emulated and slow. Without this option a --config file's "
-        "train.bf16 holds, and --resume keeps the run's precision",
-    )
-    train_cmd.add_argument("--quiet", action="store_true", help="no progress bars")
-    train_cmd.add_argument(
-        "--device", type=device_type, default="cpu", help="torch device, e.g. cpu or cuda"
-    )

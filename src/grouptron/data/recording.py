@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from grouptron.constants import DT_S, FRAMES_PER_STEP
+from grouptron.constants import DT_S, FRAMES_PER_STEP, UNITS_M
 from grouptron.data.fields import (
     empty_field_error,
     may_have_decimal_commas,
@@ -48,7 +48,6 @@ from grouptron.errors import DataFormatError, GrouptronError
 
 log = logging.getLogger(__name__)
 
-UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 DEFAULT_COLUMNS = ("frame", "id", "x", "y")
 ETH_UCY_FPS = FRAMES_PER_STEP / DT_S
 """The ETH/UCY convention: frame numbers on a 10-frame grid per 0.4 s step (25 per second)."""

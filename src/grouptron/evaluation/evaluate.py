@@ -9,6 +9,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from grouptron import constants
 from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import ExperimentConfig
 from grouptron.data.samples import SampleSet
@@ -25,7 +26,7 @@ from grouptron.model.predict import (
     predict_samples,
 )
 
-MODES = (*POINT_FORECASTS, "best-of-20", "nll")
+MODES = constants.EVALUATION_MODES
 BEST_OF = 20
 NLL_SAMPLES = 2000
 

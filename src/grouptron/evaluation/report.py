@@ -21,7 +21,7 @@ import numpy as np
 import torch
 
 from grouptron.config import DataConfig, ExperimentConfig
-from grouptron.constants import SPLITS, UNIV_N_PAPER
+from grouptron.constants import REPORT_NLL_MAX_SAMPLES, SPLITS, UNIV_N_PAPER
 from grouptron.data.samples import SampleSet
 from grouptron.data.subsets import (
     UNIV_N_DEFINITIONS,
@@ -53,7 +53,7 @@ log = logging.getLogger(__name__)
 class ReportSettings:
     modes: tuple[str, ...] = ("ml", "best-of-20", "nll")
     seed: int = 0
-    nll_max_samples: int = 300
+    nll_max_samples: int = REPORT_NLL_MAX_SAMPLES
     """KDE NLL on at most this many seeded random test samples per split (0: all of them);
     2000 decoded futures per sample make the full NLL the slow part on a CPU (hours for all
     test samples of all checkpoints, minutes for 300 per split)."""

@@ -8,8 +8,10 @@ import numpy as np
 from scipy.cluster.hierarchy import linkage
 from scipy.spatial.distance import squareform
 
+from grouptron import constants
+
 Linkage = Literal["single", "average", "complete"]
-LINKAGES: tuple[Linkage, ...] = ("single", "average", "complete")
+LINKAGES: tuple[Linkage, ...] = constants.LINKAGES
 SCIPY_FROM_NODES = 24
 """A single set this large, without tied distances, is clustered by SciPy's linkage (same
 partition, a test checks): one NumPy pass per merge costs more there (a whole crowd)."""

@@ -11,8 +11,10 @@ from typing import Literal
 import numpy as np
 from scipy.spatial.distance import cdist
 
+from grouptron import constants
+
 DistanceKind = Literal["hausdorff", "modified"]
-DISTANCE_KINDS: tuple[DistanceKind, ...] = ("hausdorff", "modified")
+DISTANCE_KINDS: tuple[DistanceKind, ...] = constants.DISTANCE_KINDS
 
 
 def _nearest_distances(traj: np.ndarray, mask: np.ndarray) -> np.ndarray:

@@ -6,6 +6,7 @@ import difflib
 import os
 from pathlib import Path
 
+from grouptron import constants
 from grouptron.errors import GrouptronError
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE
 
@@ -14,7 +15,7 @@ PACKAGE_CHECKPOINTS = Path(__file__).resolve().parents[1] / "checkpoints"
 """The shipped checkpoints installed with the package (weights and configs only; in a source
 checkout a link to the repository's checkpoints/)."""
 
-DEFAULT_CHECKPOINT = "trajectron++-residual-univ-backward"
+DEFAULT_CHECKPOINT = constants.DEFAULT_CHECKPOINT
 """The model used where none is named (``Predictor.from_checkpoint()``, ``grouptron predict``
 and ``plot``): strictly causal inputs, so it forecasts live tracks as it was trained, and with
 its own point forecast (``ml-top10``) at or below constant velocity's FDE on every recording

@@ -16,6 +16,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from grouptron import constants
 from grouptron.config import ExperimentConfig
 from grouptron.data.reader import table_from_values
 from grouptron.data.samples import scene_samples
@@ -32,7 +33,7 @@ from grouptron.model.gaussians import (
 )
 from grouptron.model.predict import decode_every_latent
 
-EXPORT_FORMATS = ("onnx",)
+EXPORT_FORMATS = constants.EXPORT_FORMATS
 BASE_INPUTS = ("hist_st", "hist_mask", "nbr_sum_st", "edge_scale")
 COUNT_INPUTS = ("nbr_count",)
 GROUP_INPUTS = ("node_st", "node_mask", "node_group", "group_sample", "ego_group")

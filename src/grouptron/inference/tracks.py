@@ -10,6 +10,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from grouptron import constants
 from grouptron.config import ExperimentConfig
 from grouptron.data.samples import SampleSet, scene_samples
 from grouptron.data.scene import Scene
@@ -20,7 +21,7 @@ from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model
 from grouptron.model.predict import POINT_FORECASTS, predict_most_likely, predict_samples
 
-FORECAST_MODES = (*POINT_FORECASTS, "samples")
+FORECAST_MODES = constants.FORECAST_MODES
 
 
 def _samples_to_forecast(

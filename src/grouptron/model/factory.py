@@ -10,9 +10,9 @@ from grouptron.errors import GrouptronError
 from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.grouptron import GrouptronCVAE
-from grouptron.presets import GROUP_RESIDUAL_MODEL, RESIDUAL_MODEL, VARIANT_MODEL
+from grouptron.presets import GROUP_RESIDUAL_MODEL, MODEL_NAMES, RESIDUAL_MODEL, VARIANT_MODEL
 
-MODEL_NAMES = ("trajectron++", "grouptron", VARIANT_MODEL, RESIDUAL_MODEL, GROUP_RESIDUAL_MODEL)
+__all__ = ["MODEL_NAMES"]
 PAPER_MODELS = ("trajectron++", "grouptron")
 """The models of the paper's tables (the rest are this project's variants)."""
 GROUP_MODELS = ("grouptron", VARIANT_MODEL, GROUP_RESIDUAL_MODEL)

@@ -9,6 +9,7 @@ from typing import Literal
 
 import torch
 
+from grouptron import constants
 from grouptron.config import ModelConfig
 from grouptron.errors import GrouptronError
 from grouptron.model.batch import Batch
@@ -16,7 +17,7 @@ from grouptron.model.cvae import Encoding, TrajectronCVAE, VelocityGaussians
 from grouptron.model.gaussians import positions_from_velocities
 from grouptron.model.mixture_mode import mixture_mode
 
-ABLATIONS = ("edges", "scene")
+ABLATIONS = constants.ABLATIONS
 """Inputs an evaluation can take away to see what a model uses: ``edges`` zeroes the
 neighbour input of the edge encoder, ``scene`` zeroes Grouptron's scene encoding E_scene."""
 Ablation = tuple[str, ...]
@@ -195,6 +196,7 @@ POINT_FORECASTS: dict[str, PointForecast] = {
 the most probable latent value's means, the p(z|x)-weighted mean trajectory, and the mixture
 mode of only the 10 most probable latent values (as close to ``ml`` on ETH/UCY validation data,
 cheaper, and steadier on recordings from elsewhere: benchmarks/RESULTS.md)."""
+assert tuple(POINT_FORECASTS) == constants.POINT_FORECAST_NAMES  # the command line's names
 
 
 def default_point_forecast(model: ModelConfig) -> Literal["ml-top10", "ml-argmax"]:

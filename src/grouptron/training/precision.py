@@ -18,12 +18,13 @@ from typing import Literal
 
 import torch
 
+from grouptron import constants
 from grouptron.errors import GrouptronError
 
 log = logging.getLogger(__name__)
 
 Precision = Literal["auto", "fp32", "bf16"]
-PRECISIONS: tuple[Precision, ...] = ("auto", "fp32", "bf16")
+PRECISIONS: tuple[Precision, ...] = constants.PRECISIONS
 NATIVE_BF16_CPU_FLAGS = frozenset({"avx512_bf16", "amx_bf16"})
 
 

@@ -1,0 +1,150 @@
+"""The parsers of ``grouptron predict`` and ``plot`` (handlers: ``grouptron.cli.forecast``)."""
+
+from __future__ import annotations
+
+import argparse
+
+from grouptron.cli.options import (
+    Formatter,
+    add_device_option,
+    add_gap_option,
+    add_recording_options,
+    add_threads_option,
+    non_negative_int,
+    positive_int,
+)
+from grouptron.constants import DEFAULT_CHECKPOINT, FORECAST_MODES, POINT_FORECAST_NAMES
+
+
+# A flat list of options, each with its help: long, but one thing to read.
+def add_parser(commands: argparse._SubParsersAction) -> None:
+    """Add the command and its options to the ``grouptron`` parser."""
+    predict = commands.add_parser(
+        "predict",
+        help="forecast every pedestrian of a track file with a trained checkpoint",
+        description="For every pedestrian and frame with 8 observed steps (the last at that "
+        "frame; --min-points 2 forecasts from as few as 2), write the 12 predicted positions "
+        "as CSV rows 'frame,id,step,x,y': frame is "
+        "the last observed frame, step k (1..12) the position k steps (k * frames-per-step "
+        "frames) later, x/y in metres in the file's frame of reference (converted from "
+        "--units). A recording resampled to 0.4 s steps that are no whole number of its "
+        "frames (e.g. 16 fps) is numbered in steps from its first time instead of frames. "
+        "--mode samples adds a 'sample' column "
+        "and writes --samples futures per pedestrian and frame. The most likely (ml) output "
+        "equals what `grouptron evaluate --mode ml` scores.",
+        formatter_class=Formatter,
+        epilog="examples:\n"
+        "  grouptron predict --checkpoint checkpoints/grouptron-eth-central/best.safetensors \\\n"
+        "      --tracks biwi_eth.txt --out forecast.csv\n"
+        "  grouptron predict --checkpoint CKPT --tracks tracks.txt --out s.csv --mode samples",
+    )
+    predict.add_argument(
+        "--checkpoint",
+        default=DEFAULT_CHECKPOINT,
+        help="a .safetensors checkpoint or a shipped name (the default is the causal model "
+        "used where none is named)",
+    )
+    predict.add_argument(
+        "--tracks",
+        required=True,
+        help="a 'frame id x y' track file, another layout (--columns, --fps, --units; resampled "
+        "to 0.4 s steps) or a TrajNet++ .ndjson file",
+    )
+    predict.add_argument(
+        "--out",
+        required=True,
+        help="CSV file to write ('-': standard output), or a .ndjson file of TrajNet++ "
+        "predictions (its tools score it)",
+    )
+    predict.add_argument(
+        "--mode",
+        choices=FORECAST_MODES,
+        help="ml: the most likely future per pedestrian (the evaluator's); ml-argmax: the most "
+        "probable latent value's; mean: the p(z|x)-weighted mean "
+        "future; ml-top10: ml of the 10 most probable latent values only; samples: --samples "
+        "sampled futures. Default: the model's own, as in the Python API: "
+        "ml-top10 for a velocity-residual model, ml-argmax otherwise (on recordings from "
+        "elsewhere the forecasts closest to the truth; benchmarks/RESULTS.md)",
+    )
+    predict.add_argument(
+        "--samples", type=positive_int, default=20, help="futures per pedestrian (samples)"
+    )
+    predict.add_argument("--seed", type=int, default=0, help="seed of --mode samples")
+    predict.add_argument(
+        "--min-points",
+        type=positive_int,
+        help="forecast pedestrians with at least this many observed steps in a row, 2 to 8 "
+        "(default 8: the samples the evaluator scores; the Python API forecasts from 2)",
+    )
+    predict.add_argument(
+        "--frames-per-step",
+        type=positive_int,
+        help="frames between steps 0.4 s apart (default: the checkpoint's, 10 for ETH/UCY)",
+    )
+    add_gap_option(predict)
+    add_recording_options(predict)
+    add_threads_option(predict)
+    add_device_option(predict)
+    predict.add_argument("--quiet", action="store_true", help="no progress bar")
+    predict.set_defaults(handler="grouptron.cli.forecast:cmd_predict")
+    _add_plot(commands)
+
+
+def _add_plot(commands: argparse._SubParsersAction) -> None:
+    plot = commands.add_parser(
+        "plot",
+        help="draw a checkpoint's forecasts at one frame of a track file",
+        description="Draw, at one frame, every pedestrian with 2 or more observed steps (the "
+        "Python API's rule; short gaps filled): the observed "
+        "path, the recorded future (dotted), the most likely forecast (dashed) and sampled "
+        "futures (thin), coloured by detected group; axes in metres. --compare adds a second "
+        "model's panel beside the first.",
+        formatter_class=Formatter,
+        epilog="examples:\n"
+        "  grouptron plot --checkpoint checkpoints/grouptron-univ-central/best.safetensors \\\n"
+        "      --tracks students003.txt --frame 3000 --out forecast.png\n"
+        "  grouptron plot --checkpoint A --compare B --tracks FILE --frame F --out ab.png\n"
+        "  grouptron plot --checkpoint A --tracks FILE --frame 3000 --until 3400 --out a.gif",
+    )
+    plot.add_argument(
+        "--checkpoint",
+        default=DEFAULT_CHECKPOINT,
+        help="a .safetensors checkpoint or a shipped name (the default is the causal model "
+        "used where none is named)",
+    )
+    plot.add_argument("--compare", help="a second checkpoint drawn beside the first")
+    plot.add_argument(
+        "--tracks",
+        required=True,
+        help="a track file: 'frame id x y' (ETH/UCY), another layout (--columns, --fps, "
+        "--units; resampled to 0.4 s steps, --frame then in the file's frames where a step is a "
+        "whole number of them, else in steps) or TrajNet++ .ndjson",
+    )
+    plot.add_argument(
+        "--frame",
+        type=int,
+        help="the frame to forecast from, in the frame numbers predict writes (default: the "
+        "frame with the most people, the middle one of several)",
+    )
+    plot.add_argument(
+        "--until",
+        type=int,
+        help="animate every step from --frame to this frame (the --out file is then a .gif, "
+        "or a .mp4 when ffmpeg is installed; 2.5 pictures per second = real time)",
+    )
+    plot.add_argument("--out", required=True, help="PNG file to write (.gif/.mp4 with --until)")
+    plot.add_argument(
+        "--forecast",
+        choices=tuple(POINT_FORECAST_NAMES),
+        help="the dashed point forecast: ml (most likely, the evaluator's), ml-argmax (the "
+        "most probable latent value's), mean (the p(z|x)-weighted mean) or ml-top10 (ml of "
+        "the 10 most probable latent values) (default: the model's own, as for predict)",
+    )
+    plot.add_argument("--samples", type=non_negative_int, default=20, help="sampled futures")
+    plot.add_argument("--seed", type=int, default=0, help="seed of the samples")
+    plot.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_threads_option(plot)
+    add_device_option(plot)
+    add_gap_option(plot)
+    add_recording_options(plot)
+    plot.set_defaults(handler="grouptron.cli.forecast:cmd_plot")
