@@ -128,7 +128,9 @@ def test_train_then_evaluate_a_checkpoint(
     # Resuming keeps the stored configuration (no --config needed) and may extend the run.
     resume = ["train", "--split", "eth", "--epochs", "2", "--out", str(out), "--resume"]
     assert main([*resume, *common]) == 0
-    assert "done: 2 epochs" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "done: 2 epochs" in printed and "(on the per-epoch subset)" in printed
+    assert "chosen on the whole validation part" in printed
     assert len((out / "metrics.jsonl").read_text().splitlines()) == 2
 
     evaluate = ["evaluate", "--checkpoint", str(out / "best.safetensors"), *common]

@@ -36,6 +36,7 @@ from grouptron.presets import preset_values
 from grouptron.training import distributed
 from grouptron.training.metrics_log import MetricsWriter
 from grouptron.training.precision import native_bf16, precision_name, resolve_precision
+from grouptron.training.selection import SELECTION
 from grouptron.training.trainer import LAST, train
 from grouptron.viz.training import plot_training_curves
 
@@ -235,6 +236,20 @@ def _experiment_and_folder(args: argparse.Namespace) -> tuple[ExperimentConfig, 
     return experiment, out
 
 
+def _chosen(out: Path, best_subset_fde: float) -> str:
+    """How best.safetensors was chosen, each score labelled by the samples it is on."""
+    line = f"best per-epoch validation ML FDE {best_subset_fde:.3f} m (on the per-epoch subset)"
+    selection = out / SELECTION
+    if not selection.exists():  # the run stopped before its end-of-schedule choice
+        return line
+    chosen = json.loads(selection.read_text())
+    return (
+        f"{line}; best.safetensors is epoch {chosen['selected_epoch']}, chosen on the whole "
+        f"validation part ({chosen['validation_samples']} samples): ML FDE "
+        f"{chosen['full_val_ml_fde']:.3f} m, constant velocity {chosen['full_val_cv_fde']:.3f} m"
+    )
+
+
 def cmd_train(args: argparse.Namespace) -> int:
     experiment, out = _experiment_and_folder(args)
     data = experiment.data
@@ -268,9 +283,9 @@ def cmd_train(args: argparse.Namespace) -> int:
         if records:
             plot_training_curves(records, out.name, out / CURVES)
         chosen = (
-            f"best validation ML FDE {state.best_val_fde:.3f} m"
+            _chosen(out, state.best_val_fde)
             if len(val_part.samples)
-            else "no validation data: the last epoch is best.safetensors"
+            else ("no validation data: the last epoch is best.safetensors")
         )
         print(
             f"done: {state.epoch} epochs, {state.iteration} steps; {chosen}; checkpoints in {out}"

@@ -261,8 +261,18 @@ def _wrapped(model: TrajectronCVAE, cluster: Cluster, device: torch.device) -> t
     return DistributedDataParallel(model, device_ids=device_ids)
 
 
-def _shown(record: dict[str, Any]) -> dict[str, float]:
-    return {k: round(v, 4) for k, v in record.items() if isinstance(v, float)}
+def epoch_line(record: dict[str, Any], epochs: int) -> str:
+    """One readable line per epoch: ``epoch 3/100: loss 12.84; validation ML FDE 1.031 m
+    (constant velocity 1.030 m) on a 1024-sample subset; 22.7 s``."""
+    line = f"epoch {record['epoch']}/{epochs}: loss {record['train_loss']:.4g}"
+    if "val_ml_fde" in record:
+        line += (
+            f"; validation ML FDE {record['val_ml_fde']:.3f} m (constant velocity "
+            f"{record['val_cv_fde']:.3f} m) on a {record['val_samples']}-sample subset"
+        )
+    if record.get("nonfinite_steps"):
+        line += f"; {record['nonfinite_steps']} non-finite steps skipped"
+    return line + f"; {record.get('epoch_seconds', record.get('train_seconds', 0.0)):.1f} s"
 
 
 def _check_inputs(
@@ -340,6 +350,6 @@ def train(
             state, config, out_dir, record, validation=validation, device=dev, writer=writer
         )
         if progress:
-            tqdm.write(f"epoch {state.epoch}: {_shown(record)}")  # main process only
+            tqdm.write(epoch_line(record, config.train.epochs))  # main process only
         cluster.barrier()
     return state
