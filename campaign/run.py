@@ -73,6 +73,10 @@ PAUSED = REPO / "campaign" / "paused"
 "Training state"); the commit that ships or abandons a run deletes its folder here."""
 NOT_PAUSED = ("curves.png",)
 """Run files a paused run does not need: redrawn when it finishes."""
+WAITING = ("best.safetensors", "config.json", "campaign-config.json", "README.md",
+           "metrics.csv", "metrics.jsonl", "selection.json")  # fmt: skip
+"""What a finished diagnostic run keeps while its study waits to be scored: its result, never
+its training state (``last.safetensors``, ``candidates/``)."""
 EPOCHS = 100
 SPLITS = ("univ", "eth", "hotel", "zara1", "zara2")
 MODELS = ("trajectron++", "grouptron")
@@ -95,6 +99,12 @@ class Run:
         name += f"-s{self.seed}" if self.seed else ""
         name += "-look-ahead" if self.look_ahead else ""
         return name + ("-bf16" if self.bf16_only else "")
+
+    @property
+    def diagnostic(self) -> bool:
+        """Never shipped: its finished result waits in ``campaign/paused/`` (weights only)
+        until its whole study is scored, then that commit deletes it."""
+        return self.look_ahead
 
     @property
     def shipped_run(self) -> Path:
@@ -302,11 +312,21 @@ def command(
 def snapshot(runs: list[Run], out: Path, paused: Path = PAUSED) -> tuple[list[str], int]:
     """Copy each started, unfinished run's resumable state to ``paused/<run>`` (replacing an
     older copy) and refuse finished runs: a finished run is shipped or dropped, never kept as
-    training state. Returns one line per run and the number of runs copied."""
+    training state. A finished diagnostic run (never shipped) keeps its result alone there
+    until its study is scored. Returns one line per run and the number of runs copied."""
     lines, copied = [], 0
     for run in runs:
         folder = out / run.name
-        if finished(folder):
+        if finished(folder) and run.diagnostic:
+            target = paused / run.name
+            shutil.rmtree(target, ignore_errors=True)
+            target.mkdir(parents=True)
+            for name in WAITING:
+                if (folder / name).exists():
+                    shutil.copy2(folder / name, target / name)
+            lines.append(f"{run.name}: finished, its result (no training state) -> {target}")
+            copied += 1
+        elif finished(folder):
             lines.append(f"{run.name}: refused, finished (ship it with ship.py or drop it)")
         elif not (folder / "last.safetensors").exists():
             lines.append(f"{run.name}: not started, nothing to keep")
@@ -325,7 +345,8 @@ def restore(run: Run, folder: Path, paused: Path = PAUSED) -> bool:
     """Start a run from its paused state (made on another machine) when this machine has no
     state of its own for it; True when it did."""
     source = paused / run.name
-    if (folder / "last.safetensors").exists() or not (source / "last.safetensors").exists():
+    state = (source / "last.safetensors").exists() or (source / "selection.json").exists()
+    if (folder / "last.safetensors").exists() or finished(folder) or not state:
         return False
     shutil.copytree(source, folder, dirs_exist_ok=True)
     return True
@@ -433,7 +454,9 @@ def main() -> int:
             if finished(folder):  # another worker finished it while this one waited
                 continue
             if restore(run, folder):
-                print(f"{run.name}: resumed from {PAUSED / run.name}", flush=True)
+                print(f"{run.name}: restored from {PAUSED / run.name}", flush=True)
+            if finished(folder):  # a finished diagnostic's result, restored for its study
+                continue
             prepare(run, folder)
             argv = command(run, folder, precision, args.threads, args.device)
             print(" ".join(argv), flush=True)

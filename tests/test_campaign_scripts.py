@@ -283,8 +283,18 @@ def test_a_snapshot_keeps_unfinished_runs_once_and_refuses_finished_ones(tmp_pat
     _run(out / running.name, SCREENED, finished=False)
     (out / running.name / "curves.png").write_text("picture")
     lines, copied = script.snapshot([done, running, waiting], out, paused)
-    assert copied == 1 and "refused, finished" in lines[0] and "not started" in lines[2]
-    assert sorted(p.name for p in paused.iterdir()) == [running.name]
+    # The finished run is a diagnostic: its result waits (weights only) until it is scored.
+    assert copied == 2 and "its result (no training state)" in lines[0]
+    assert "not started" in lines[2]
+    assert sorted(p.name for p in paused.iterdir()) == sorted([done.name, running.name])
+    assert not (paused / done.name / "last.safetensors").exists()
+    assert (paused / done.name / "best.safetensors").exists()
+    # A finished run that is shipped, not a diagnostic, is refused.
+    shipped_kind = dataclasses.replace(done, look_ahead=False)
+    (out / shipped_kind.name).mkdir()
+    (out / shipped_kind.name / "selection.json").write_text("{}")
+    lines, copied = script.snapshot([shipped_kind], out, paused)
+    assert copied == 0 and "refused, finished" in lines[0]
     kept = {p.name for p in (paused / running.name).iterdir()}
     assert "last.safetensors" in kept and "curves.png" not in kept
     # Another machine: no run folder yet, so the run starts from its paused state...

@@ -168,7 +168,7 @@ def test_byte_order_marks_commas_and_comments_read_alike_in_both_readers(tmp_pat
     # A typo on the first line is an error, not a header that is quietly dropped.
     typo = tmp_path / "typo.txt"
     typo.write_text(plain.read_text().replace("0.0", "O.0", 1))
-    with pytest.raises(GrouptronError, match=r"typo\.txt:1: not a number"):
+    with pytest.raises(GrouptronError, match=r"typo\.txt:1: x is not a number: 'O\.0'"):
         read_resampled(typo, RecordingFormat())
 
 
@@ -379,3 +379,39 @@ def test_a_plot_frame_past_the_file_and_a_mode_named_twice(
     argv = ["evaluate", "--model", "constant-velocity", "--tracks", str(tracks), "--quiet"]
     assert main([*argv, "--mode", "ml,ml", "--format", "json"]) == 0
     assert len(json.loads(capsys.readouterr().out)["results"]) == 2  # the file and the pool
+
+
+def test_a_header_is_a_hint_to_the_layout(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    rows = [
+        f"{0.1 * k:.1f},{p},{120.0 * 0.1 * k:.1f},{80.0 * p}" for k in range(40) for p in (1, 2)
+    ]
+    path = tmp_path / "tracker.csv"
+    path.write_text("time_s,person,x_cm,y_cm\n" + "\n".join(rows) + "\n")
+    err = fails(["predict", "--tracks", str(path), "--out", str(tmp_path / "f.csv")], capsys, "")
+    assert "its header 'time_s,person,x_cm,y_cm' reads as --columns t,id,x,y --units cm" in err
+    # ...and the hint works as written.
+    argv = ["predict", "--tracks", str(path), "--columns", "t,id,x,y", "--units", "cm"]
+    assert main([*argv, "--out", str(tmp_path / "f.csv"), "--min-points", "2"]) == 0
+
+
+@pytest.mark.parametrize("columns", [[], ["--columns", "frame,id,x,y"]])
+def test_one_message_for_a_file_that_is_not_utf8(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], columns: list[str]
+) -> None:
+    path = tmp_path / "latin.txt"
+    path.write_bytes("0 1 1.0 2.0\n10 1 1.5 2.0 # caf\xe9\n".encode("latin-1"))
+    argv = ["predict", "--tracks", str(path), *columns, "--out", str(tmp_path / "f.csv")]
+    err = fails(argv, capsys, "latin.txt:2: not UTF-8 text (save the file as UTF-8")
+    assert "codec" not in err
+
+
+@pytest.mark.parametrize("columns", [[], ["--columns", "frame,id,x,y"]])
+def test_a_name_for_an_id_is_refused_naming_the_column(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], columns: list[str]
+) -> None:
+    path = tmp_path / "named.txt"
+    path.write_text("".join(f"{10 * k} ped_1 {0.5 * k} 1.0\n" for k in range(20)))
+    argv = ["predict", "--tracks", str(path), *columns, "--out", str(tmp_path / "f.csv")]
+    fails(argv, capsys, "id is not a number: 'ped_1' (ids must be integers")

@@ -201,7 +201,7 @@ def test_bad_formats_are_refused_in_one_line(
 def test_bad_rows_name_the_line(tmp_path: Path) -> None:
     path = tmp_path / "bad.txt"
     path.write_text("0 1 0 0\n10 1 0.4 0\n20 1 oops 0\n")
-    with pytest.raises(DataFormatError, match=r":3: not a number"):
+    with pytest.raises(DataFormatError, match=r":3: x is not a number: .oops."):
         read_resampled(path, RecordingFormat())
     path.write_text("0 1 0 0\n10 1 0.4\n")
     with pytest.raises(DataFormatError, match=r":2: 3 columns, but 4 column names were given"):

@@ -26,6 +26,29 @@ _DIGIT_COMMA_DIGIT = re.compile(r"\d,\d")
 _BLANK_INSIDE = re.compile(r"\S[ \t]+\S")
 
 
+def read_text_file(path: Path) -> str:
+    """A track or label file's text, or one line that says why not: missing, a folder, not
+    UTF-8 (naming the line; "save it as UTF-8") or binary. A byte-order mark is no data."""
+    if not path.exists():
+        raise DataFormatError(path, "file not found")
+    if not path.is_file():
+        raise DataFormatError(path, "not a regular file")
+    raw = path.read_bytes()
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise DataFormatError(
+            path,
+            "not UTF-8 text (save the file as UTF-8, e.g. from a spreadsheet's CSV UTF-8)",
+            line,
+        ) from None
+    if "\x00" in text:
+        line = text[: text.index("\x00")].count("\n") + 1
+        raise DataFormatError(path, "not a text file (contains NUL bytes)", line)
+    return text
+
+
 KNOWN_COLUMNS = ("frame", "id", "x", "y", "t")
 """Column names a layout gives meaning to: a header that uses them can be checked."""
 

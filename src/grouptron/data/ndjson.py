@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from grouptron.data.fields import refuse_bad_numbers
+from grouptron.data.fields import read_text_file, refuse_bad_numbers
 from grouptron.errors import DataFormatError
 from grouptron.io import write_text_atomically
 
@@ -57,10 +57,7 @@ def read_ndjson(path: Path) -> tuple[np.ndarray, np.ndarray, float]:
 def _entries(path: Path) -> tuple[np.ndarray, np.ndarray, list[float]]:
     """(R, 4) every track row as written, (R,) its file line, and every scene's ``fps``."""
     rows, numbers, fps = [], [], []
-    try:
-        lines = Path(path).read_text(encoding="utf-8-sig").splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DataFormatError(path, f"cannot read the file ({exc})") from None
+    lines = read_text_file(Path(path)).splitlines()
     for number, line in enumerate(lines, start=1):
         if not line.strip():
             continue

@@ -18,6 +18,7 @@ import numpy as np
 from grouptron.constants import DT_S, FRAMES_PER_STEP
 from grouptron.data.fields import (
     empty_field_error,
+    read_text_file,
     refuse_bad_numbers,
     refuse_header_disagreement,
     split_fields,
@@ -122,7 +123,10 @@ def _find_bad_value(path: Path, numbers: list[int], rows: list[list[str]]) -> Da
             try:
                 value = float(token)
             except ValueError:
-                return DataFormatError(path, f"{name} is not a number: {token[:40]!r}", number)
+                why = f"{name} is not a number: {token[:40]!r}"
+                if name == "id":
+                    why += " (ids must be integers: map names such as 'ped_1' to numbers first)"
+                return DataFormatError(path, why, number)
             if not math.isfinite(value):
                 return DataFormatError(path, f"{name} is not finite: {token!r}", number)
     return DataFormatError(path, "could not parse the file")  # pragma: no cover
@@ -130,19 +134,7 @@ def _find_bad_value(path: Path, numbers: list[int], rows: list[list[str]]) -> Da
 
 def _parse(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """(R, 4) float64 values and (R,) line numbers of a file, all finite."""
-    if not path.exists():
-        raise DataFormatError(path, "file not found")
-    if not path.is_file():
-        raise DataFormatError(path, "not a regular file")
-    raw = path.read_bytes()
-    try:
-        text = raw.decode("utf-8-sig")  # a byte-order mark is no data
-    except UnicodeDecodeError as exc:
-        line = raw[: exc.start].count(b"\n") + 1
-        raise DataFormatError(path, "not a text file (invalid UTF-8)", line) from None
-    if "\x00" in text:
-        line = text[: text.index("\x00")].count("\n") + 1
-        raise DataFormatError(path, "not a text file (contains NUL bytes)", line)
+    text = read_text_file(path)
     numbers, rows = _data_lines(path, text)
     if not rows:
         raise DataFormatError(path, "file is empty (no 'frame id x y' rows)")

@@ -29,11 +29,13 @@ from grouptron.data.fields import (
     empty_field_error,
     may_have_decimal_commas,
     may_have_empty_field,
+    read_text_file,
     refuse_bad_numbers,
     refuse_header_disagreement,
     split_fields,
 )
 from grouptron.data.glitches import MAX_MEDIAN_SPEED_MPS, median_speed_mps, repair_observations
+from grouptron.data.hints import layout_hint, not_a_number
 from grouptron.data.ndjson import read_ndjson
 from grouptron.data.neighbours import ranges_to_indices
 from grouptron.data.reader import (
@@ -160,10 +162,7 @@ def _numbers(
     (R,) their line numbers."""
     width = len(columns)
     hint = f": give the file's order with {spelling.name('columns')}"
-    try:
-        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is no data
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DataFormatError(path, f"cannot read the file ({exc})") from None
+    text = read_text_file(path)
     fast = _parse_fast(text, width)
     if fast is not None:
         return fast
@@ -189,7 +188,7 @@ def _numbers(
             values = [float(f) for f in fields[:width]]  # columns past the named ones: ignored
         except ValueError:
             why = empty_field_error(path, fields[:width], raw, number)
-            bad = why or DataFormatError(path, f"not a number in {raw.strip()!r}", number)
+            bad = why or DataFormatError(path, not_a_number(fields[:width], columns), number)
             raise bad from None
         rows.append(values)
         lines.append(number)
@@ -384,14 +383,10 @@ def read_table(
         return read_resampled(Path(path), fmt, dt_s, on_gap)
     try:
         table = read_tracks(path, frames_per_step, on_gap, check_jumps=fmt.check_speed)
-    except OffGridError as exc:
-        # The usual cause: a row every video frame (25 fps, 16 fps), or the time not first.
-        spelling = fmt.spelling
-        hint = (
-            f"; if the file has a row for every video frame, give its frame rate "
-            f"({spelling.setting('fps', 25)}, say); if its columns are not frame, id, x, y, "
-            f"give their order ({spelling.setting('columns', 'id,frame,x,y')})"
-        )
+    except DataFormatError as exc:
+        hint = layout_hint(Path(path), fmt.spelling, off_grid=isinstance(exc, OffGridError))
+        if not hint:
+            raise
         raise DataFormatError(exc.path, exc.message + hint, exc.line) from None
     if fmt.check_speed:
         # Steps of an ETH/UCY-style file are dt_s apart, whatever its frames per step.

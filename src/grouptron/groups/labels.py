@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from grouptron.data.fields import read_text_file
 from grouptron.errors import DataFormatError
 
 
@@ -56,10 +57,7 @@ def read_group_labels(path: str | Path) -> dict[int, int]:
 
 
 def _read_text(path: Path) -> str:
-    try:
-        return path.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise DataFormatError(path, "not a text file (invalid UTF-8)") from None
+    return read_text_file(path)
 
 
 def _as_float(token: str) -> float | None:
