@@ -1,9 +1,10 @@
-"""Golden outputs of two frozen checkpoints on a fixed synthetic scene.
+"""Golden outputs of four frozen checkpoints on a fixed synthetic scene.
 
 The checkpoints in this folder are copies of shipped ones frozen for the tests (retraining the
 shipped models does not move them). ``compute`` runs them through the public prediction paths
-(``Predictor`` in both most-likely definitions, with samples and the mixture) and one training
-loss on a fixed batch. Regenerate ``forecasts.npz`` only for an intended change of behaviour:
+(``Predictor`` with every point forecast, with samples and the mixture), one evaluator call
+and one training loss on a fixed batch. Regenerate ``forecasts.npz`` only for an intended
+change of behaviour:
 
     python -m tests.golden.compute
 """
@@ -18,6 +19,7 @@ import torch
 from grouptron.data.reader import table_from_values
 from grouptron.data.samples import scene_samples
 from grouptron.data.scene import build_scene
+from grouptron.evaluation.evaluate import score_samples
 from grouptron.inference.predictor import Predictor
 from grouptron.model.batch import make_batch
 from grouptron.model.checkpoint import load_trained_model
@@ -27,7 +29,13 @@ from grouptron.training import schedules
 from grouptron.training.losses import elbo_loss
 
 HERE = Path(__file__).parent
-CHECKPOINTS = ("grouptron-univ-backward", "trajectron++-eth-central")
+CHECKPOINTS = (
+    "grouptron-univ-backward",
+    "trajectron++-eth-central",
+    "trajectron++-residual-univ-backward",  # the default model
+    "grouptron-robust-residual-univ-backward",  # every robust switch and the residual decoder
+)
+POINT_FORECASTS = ("ml", "ml-argmax", "mean", "ml-top10")
 GOLDEN = HERE / "forecasts.npz"
 FORECAST_FRAME = 100
 LOSS_ITERATION = 500  # past the annealing centres, so every loss term is active
@@ -58,13 +66,13 @@ def synthetic_tracks() -> np.ndarray:
 
 
 def forecasts(name: str) -> dict[str, np.ndarray]:
-    """Forecasts at ``FORECAST_FRAME``: the ml and ml-argmax most likely, a seeded
-    sample set and the mixture parameters."""
+    """Forecasts at ``FORECAST_FRAME``: every point forecast, a seeded sample set and the
+    mixture parameters."""
     path = HERE / f"{name}.safetensors"
     tracks = synthetic_tracks()
     live = name.endswith("backward")  # a central model reads the recording's next two steps
     out = {}
-    for most_likely in ("ml", "ml-argmax"):
+    for most_likely in POINT_FORECASTS:
         # Full histories only: the forecasts the golden values were first taken of.
         predictor = Predictor.from_checkpoint(
             path, most_likely=most_likely, mixture=True, min_points=8
@@ -96,17 +104,31 @@ def training_loss(name: str) -> np.ndarray:
     generator_state = torch.get_rng_state()
     torch.manual_seed(11)
     noise = draw_training_noise(len(index), config.model, config.data.horizon_steps)
-    torch.set_rng_state(generator_state)
     model.train()
+    # Seeded through the pass too: E_scene's dropout (a robust switch) draws as it runs.
     output = model(
         batch,
         noise,
         logit_clip=schedules.logit_clip(config.loss, LOSS_ITERATION),
     )
+    torch.set_rng_state(generator_state)
     kl_weight = schedules.kl_weight(config.loss, LOSS_ITERATION)
     terms = elbo_loss(output, batch, config.loss, kl_weight, dt_s=config.data.dt_s)
     values = (terms.loss, terms.log_likelihood, terms.kl, terms.mutual_info)
     return np.asarray([float(v.detach()) for v in values] + [kl_weight])
+
+
+def scores(name: str) -> np.ndarray:
+    """(4, 2) ADE and FDE (m) of every point forecast on the scene's samples with a full
+    history and future: one call of the evaluator."""
+    model, config = load_trained_model(HERE / f"{name}.safetensors")
+    table = table_from_values(Path("golden"), synthetic_tracks(), np.arange(21 * 10), 10)
+    scene = build_scene(table, config.data, name="golden")
+    samples = scene_samples(scene, config.data, config.data.history_steps)
+    scored = score_samples(
+        model, config, samples, POINT_FORECASTS, groups=groups_for_model(samples, config)
+    )
+    return np.asarray([[float(s.ade.mean()), float(s.fde.mean())] for s in scored])
 
 
 def compute() -> dict[str, np.ndarray]:
@@ -117,6 +139,7 @@ def compute() -> dict[str, np.ndarray]:
             golden.update({f"{name}/{k}": v for k, v in forecasts(name).items()})
     for name in CHECKPOINTS:
         golden[f"{name}/training_loss"] = training_loss(name)
+        golden[f"{name}/scores"] = scores(name)
     return golden
 
 
