@@ -52,7 +52,7 @@ def _settings_file(path: str) -> dict[str, Any]:
 
 
 def parse_setting(text: str) -> dict[str, Any]:
-    """``"model.group_dim=32"`` -> ``{"model": {"group_dim": 32}}``; the value is read as
+    """``"group_encoder.group_dim=32"`` -> ``{"group_encoder": {"group_dim": 32}}``; read as
     JSON where it parses (numbers, true/false, lists), else as a string."""
     key, sep, raw = text.partition("=")
     parts = key.strip().split(".")

@@ -262,7 +262,7 @@ class Predictor:
         ahead = 0 if live else 2 * self.frames_per_step
         near = (values[:, 0] >= frame - self.window_frames) & (values[:, 0] <= frame + ahead)
         rows = self._without_jumps(values[near], frame, np.flatnonzero(near))
-        return self._forecast(rows, frame, num_samples, seed, warn_if_central=live)
+        return self.forecast_window(rows, frame, num_samples, seed, warn_if_central=live)
 
     def _without_jumps(self, values: np.ndarray, frame: int, numbers: np.ndarray) -> np.ndarray:
         """``values`` with impossible jumps up to ``frame`` repaired and named by their row
@@ -282,7 +282,7 @@ class Predictor:
         """A session that is fed one frame at a time and keeps the history it needs."""
         return StreamSession(self)
 
-    def _forecast(
+    def forecast_window(
         self,
         values: np.ndarray,
         frame: int,
@@ -291,6 +291,7 @@ class Predictor:
         *,
         warn_if_central: bool = True,
     ) -> Forecast:
+        """The forecast at ``frame`` of (R, 4) rows cut to its window and checked already."""
         num_samples = integer_argument(num_samples, "num_samples", 0, MAX_SAMPLES)
         seed = integer_argument(seed, "seed", -(2**63), 2**64 - 1)  # torch's seed range
         if warn_if_central:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -12,8 +12,26 @@ from grouptron.errors import GrouptronError
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.inputs import as_track_array, frame_argument, frame_arrays
 
-if TYPE_CHECKING:
-    from grouptron.inference.predictor import Predictor
+
+class WindowForecaster(Protocol):
+    """What a session needs of a predictor (``Predictor`` is one); a protocol, so that this
+    module does not import the predictor that imports it."""
+
+    check_speed: bool
+    config: Any
+
+    @property
+    def window_frames(self) -> int: ...
+
+    @property
+    def frames_per_step(self) -> int: ...
+
+    def check_plausible(self, values: np.ndarray, min_pairs: int = 1) -> bool: ...
+
+    def forecast_window(
+        self, values: np.ndarray, frame: int, num_samples: int, seed: int
+    ) -> Forecast: ...
+
 
 log = logging.getLogger(__name__)
 
@@ -34,7 +52,7 @@ class StreamSession:
     reaches a forecast.
     """
 
-    def __init__(self, predictor: Predictor) -> None:
+    def __init__(self, predictor: WindowForecaster) -> None:
         self.predictor = predictor
         self._rows = np.zeros((0, 4))
         self._last_frame: int | None = None
@@ -69,7 +87,7 @@ class StreamSession:
         rows = np.concatenate([kept, new])
         rows = rows[rows[:, 0] >= frame - self.window_frames]
         judged = self._judged or self.predictor.check_plausible(rows, min_pairs=STREAM_MIN_PAIRS)
-        forecast = self.predictor._forecast(rows, frame, num_samples, seed)
+        forecast = self.predictor.forecast_window(rows, frame, num_samples, seed)
         if not judged and len(forecast):
             # No forecast leaves unjudged: one or two people never fill the window with
             # STREAM_MIN_PAIRS observations, and a centimetre stream would pass unseen.
