@@ -8,6 +8,7 @@ import logging
 import sys
 from pathlib import Path
 
+from grouptron.config import DataConfig
 from grouptron.constants import DT_S, FRAMES_PER_STEP
 from grouptron.data.reader import TrackTable
 from grouptron.data.recording import (
@@ -74,6 +75,13 @@ def recording_format(
         as_is=not own_layout(args),
         spelling=FLAGS,
     )
+
+
+def data_settings(args: argparse.Namespace) -> DataConfig:
+    """The data settings of a command without a checkpoint (``data stats``, constant velocity):
+    ``--derivatives`` if given, else the papers' (``DataConfig``'s default), and ``--on-gap``."""
+    chosen = {"derivatives": args.derivatives} if args.derivatives else {}
+    return DataConfig(on_gap=args.on_gap, **chosen)
 
 
 def warn_look_ahead(name: str, derivatives: str) -> None:

@@ -5,10 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from grouptron.cli.common import data_settings
 from grouptron.cli.options import int_list, parse_splits
-from grouptron.config import (
-    DataConfig,
-)
 from grouptron.data.dataset import load_part
 from grouptron.data.download import fetch_dataset
 from grouptron.data.locate import resolve_data_dir
@@ -27,7 +25,7 @@ def cmd_data_fetch(args: argparse.Namespace) -> int:
 
 def cmd_data_stats(args: argparse.Namespace) -> int:
     data_dir = resolve_data_dir(args.data_dir)
-    config = DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
+    config = data_settings(args)
     univ_n = int_list(args.univ_n)
     stats: dict[str, dict[str, object]] = {}
     for split in parse_splits(args.split):

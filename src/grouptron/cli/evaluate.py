@@ -9,7 +9,14 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.cli.common import log, own_layout, recording_format, show_progress, warn_look_ahead
+from grouptron.cli.common import (
+    data_settings,
+    log,
+    own_layout,
+    recording_format,
+    show_progress,
+    warn_look_ahead,
+)
 from grouptron.cli.options import eval_modes, parse_splits
 from grouptron.config import (
     DataConfig,
@@ -60,7 +67,7 @@ def cmd_evaluate_tracks(args: argparse.Namespace) -> int:
     if args.split is not None or args.subset is not None:
         raise GrouptronError("--split and --subset choose benchmark test sets, not --tracks")
     model, experiment = None, None
-    data = DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
+    data = data_settings(args)
     if args.checkpoint:
         model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
         torch.set_num_threads(args.threads)
@@ -101,7 +108,7 @@ def cmd_evaluate_dataset(args: argparse.Namespace) -> int:
         )
     dataset = read_dataset(args.dataset)
     model, experiment = None, None
-    data = DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
+    data = data_settings(args)
     if args.checkpoint:
         model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
         torch.set_num_threads(args.threads)
@@ -169,7 +176,7 @@ def _model_and_data(
     """The checkpoint's model, experiment and data settings, or only data settings for the
     baseline."""
     if not args.checkpoint:
-        return None, None, DataConfig(derivatives=args.derivatives or "central", on_gap=args.on_gap)
+        return None, None, data_settings(args)
     model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
     torch.set_num_threads(args.threads)
     config = experiment.data
