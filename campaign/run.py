@@ -317,7 +317,9 @@ def snapshot(runs: list[Run], out: Path, paused: Path = PAUSED) -> tuple[list[st
     lines, copied = [], 0
     for run in runs:
         folder = out / run.name
-        if finished(folder) and run.diagnostic:
+        if held(folder):  # its files would be of different epochs
+            lines.append(f"{run.name}: refused, being trained (stop its worker first)")
+        elif finished(folder) and run.diagnostic:
             target = paused / run.name
             shutil.rmtree(target, ignore_errors=True)
             target.mkdir(parents=True)

@@ -79,6 +79,8 @@ def test_bad_track_file_is_one_line_and_exit_2(
             "expected univ-N",
         ),
         (["data", "stats", "--univ-n", "forty"], "comma-separated integers"),
+        (["train", "--out", "r", "--resume", "--model", "grouptron"], "--model would be ignored"),
+        (["train", "--out", "nowhere", "--resume"], "no last.safetensors to resume"),
     ],
 )
 def test_usage_errors(argv: list[str], fragment: str, capsys: pytest.CaptureFixture[str]) -> None:

@@ -129,3 +129,53 @@ def test_a_recording_in_its_own_layout_is_repaired_before_it_is_resampled(
         table = read_resampled(path, fmt)
     assert "line 41 (id 1, x=5000" in caplog.text
     assert np.abs(table.pos_m[:, 0]).max() < 10  # nothing near 5000 m after resampling
+
+
+def no_jump_left(time_s: np.ndarray, pos_m: np.ndarray) -> bool:
+    """Whether a single person's (R,) sorted times and (R, 2) positions, repaired and split
+    as ``find_glitches`` says, hold no jump inside any piece."""
+    found = find_glitches(np.zeros(len(time_s)), time_s, pos_m)
+    piece = np.cumsum(np.isin(np.arange(len(time_s)), found.splits))[found.keep]
+    t, xy = time_s[found.keep], found.pos_m[found.keep]
+    speed = np.linalg.norm(np.diff(xy, axis=0), axis=1) / np.diff(t)
+    return bool((speed[piece[1:] == piece[:-1]] <= MAX_JUMP_SPEED_MPS).all())
+
+
+def test_a_good_row_between_two_glitches_is_never_moved_onto_them() -> None:
+    """bad, good, bad: the good row's neighbours agree with each other too, so no row of the
+    three is interpolated (which would put the good one at 5000 m); the jumps split."""
+    time_s = np.arange(12) * 0.4
+    walk = np.column_stack([1.2 * time_s, np.zeros(12)])
+    for bad_rows in ([5, 7], [0, 2], [9, 11]):
+        bad = walk.copy()
+        bad[bad_rows, 0] = 5000.0
+        found = find_glitches(np.zeros(12), time_s, bad)
+        good = bad_rows[0] + 1
+        assert not len(found.spikes) and found.pos_m[good, 0] == walk[good, 0]
+        assert no_jump_left(time_s, bad), bad_rows
+    single = walk.copy()
+    single[5, 0] = 5000.0
+    assert no_jump_left(time_s, single) and len(find_glitches(np.zeros(12), time_s, single))
+
+
+def test_a_lasting_jump_in_a_recording_of_its_own_layout_splits_its_track(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    lines = [
+        f"{p} {f} {100 * (1.2 * f / 16 + (100.0 if p == 1 and f >= 30 else 0.0)):.4f} "
+        f"{100 * 0.8 * p:.4f}"
+        for f in range(64)
+        for p in (1, 2)
+    ]
+    path = tmp_path / "swap.txt"
+    path.write_text("\n".join(lines) + "\n")
+    fmt = RecordingFormat(columns=parse_columns("id,frame,x,y"), fps=16, units="cm")
+    with caplog.at_level(logging.WARNING):
+        table = read_resampled(path, fmt)
+    assert "starts a new track" in caplog.text
+    person = table.ped_id == 1
+    tracks = table.track[person]
+    assert len(np.unique(tracks)) == 2  # split at the jump, no 100 m step inside a track
+    for track in np.unique(tracks):
+        xy = table.pos_m[table.track == track]
+        assert np.linalg.norm(np.diff(xy, axis=0), axis=1).max() < 1.0

@@ -131,7 +131,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
         data = dataclasses.replace(predictor.config.data, frames_per_step=table.frames_per_step)
         predictor.config = dataclasses.replace(predictor.config, data=data)
     data = predictors[0].config.data
-    rows = np.column_stack([table.frame, table.ped_id, table.pos_m]).astype(np.float64)
+    rows = table_rows(table)
     if args.until is None:
         plot_forecasts(_plot_panels(args, predictors, rows, args.frame), args.frame, out)
         print(f"wrote {out}: forecasts at frame {args.frame}")
@@ -158,6 +158,18 @@ def cmd_plot(args: argparse.Namespace) -> int:
     animate_forecasts(drawn, out)
     print(f"wrote {out}: {len(drawn)} frames from {drawn[0][0]} to {drawn[-1][0]}")
     return 0
+
+
+def table_rows(table: TrackTable) -> np.ndarray:
+    """(R, 4) ``frame, id, x, y`` of a table, each person's earlier tracks (split at a gap or
+    a jump) under fresh ids, so that a predictor does not join them up again."""
+    last_track = np.zeros(table.num_tracks, dtype=bool)
+    ends = np.flatnonzero(np.append(table.ped_id[1:] != table.ped_id[:-1], True))
+    last_track[table.track[ends]] = True  # rows are sorted by id, then step
+    ids = table.ped_id.astype(np.float64)
+    fresh = float(ids.max()) + 1 + table.track
+    ids = np.where(last_track[table.track], ids, fresh)
+    return np.column_stack([table.frame, ids, table.pos_m]).astype(np.float64)
 
 
 def _check_plot_frame(args: argparse.Namespace, table: TrackTable) -> None:

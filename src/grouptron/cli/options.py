@@ -195,5 +195,6 @@ def add_recording_options(parser: argparse.ArgumentParser) -> None:
         "--no-speed-check",
         action="store_true",
         help="read files whose median walking speed is above 3 m/s (refused otherwise: a sign "
-        "of wrong --units or --fps)",
+        "of wrong --units or --fps), and leave jumps faster than anyone runs unrepaired "
+        "(runners, vehicles)",
     )

@@ -212,11 +212,21 @@ def _resumed(args: argparse.Namespace, out: Path, asked: ExperimentConfig) -> Ex
     return dataclasses.replace(stored, train=dataclasses.replace(stored.train, **length))
 
 
+_SETTINGS = ("model", "config", "set", "derivatives", "init_from", "seed", "batch_size", "lr")
+"""Options that define a run: a resumed run keeps its own."""
+
+
 def _experiment_and_folder(args: argparse.Namespace) -> tuple[ExperimentConfig, Path]:
     """The run's configuration and output folder; ``--resume --out FOLDER`` alone continues
     the run there with its stored configuration (split or dataset, model and all)."""
     if args.resume and args.out and args.split is None and getattr(args, "dataset", None) is None:
         out = Path(args.out)
+        given = [f"--{n.replace('_', '-')}" for n in _SETTINGS if getattr(args, n, None)]
+        if given:
+            raise GrouptronError(
+                f"--resume continues {out} with its stored settings; {', '.join(given)} would "
+                "be ignored (start a new run with --out elsewhere, or give --split to check)"
+            )
         if not (out / LAST).exists():
             raise GrouptronError(f"{out}: no {LAST} to resume; give --split or --dataset to start")
         stored = load_checkpoint(out / LAST).config

@@ -33,7 +33,10 @@ def read_text_file(path: Path) -> str:
         raise DataFormatError(path, "file not found")
     if not path.is_file():
         raise DataFormatError(path, "not a regular file")
-    raw = path.read_bytes()
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise DataFormatError(path, f"cannot read the file ({exc.strerror or exc})") from None
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:

@@ -134,7 +134,11 @@ def _explain_jumps(
     inner = np.flatnonzero(joined_before & joined_after)
     bridge = np.zeros(rows, dtype=bool)
     bridge[inner] = ~fast(inner - 1, inner + 1)  # the sightings around it agree
-    spike = before & after & bridge
+    candidate = before & after & bridge
+    # Two candidates side by side (bad, good, bad: the good row's neighbours agree with each
+    # other too) cannot tell which is the glitch: neither is interpolated, the jumps split.
+    beside = np.concatenate([[False], candidate[:-1]]) | np.concatenate([candidate[1:], [False]])
+    spike = candidate & ~beside
     # An impossible end of a track, the pair next to it plausible (a track of three at least).
     next_ok = np.concatenate([joined_after[1:] & ~after[1:], [False]])
     prev_ok = np.concatenate([[False], joined_before[:-1] & ~before[:-1]])
@@ -160,17 +164,20 @@ def repair_observations(
     return found.keep, found.pos_m, split
 
 
-def repair_rows(rows: np.ndarray, seconds_per_frame: float) -> tuple[np.ndarray, Glitches]:
+def repair_rows(
+    rows: np.ndarray, seconds_per_frame: float, fresh_id: float | None = None
+) -> tuple[np.ndarray, Glitches]:
     """(R', 4) ``frame, id, x, y`` rows with their impossible jumps repaired, and what was
     found (row indices of ``rows``). Spikes are interpolated and dropped rows removed; a jump
     that persists leaves the sightings before it under a fresh id (above every id), so the
-    person's track starts again at the jump while its ids stay the caller's."""
+    person's track starts again at the jump while its ids stay the caller's (``fresh_id``: the
+    first free id, when other rows than these use ids too)."""
     found = find_glitches(rows[:, 1], rows[:, 0] * seconds_per_frame, rows[:, 2:4])
     if not len(found):
         return rows, found
     fixed = rows.copy()
     fixed[:, 2:4] = found.pos_m
-    fresh = float(rows[:, 1].max()) + 1
+    fresh = float(rows[:, 1].max()) + 1 if fresh_id is None else max(fresh_id, rows[:, 1].max() + 1)
     for split in found.splits.tolist():  # a handful of jumps, never one per sample
         before = (fixed[:, 1] == fixed[split, 1]) & (fixed[:, 0] < fixed[split, 0])
         fixed[before, 1], fresh = fresh, fresh + 1

@@ -227,11 +227,13 @@ def table_from_values(
     on_gap: GapPolicy = "split",
     warn_on_gap: bool = True,
     check_jumps: bool = False,
+    pieces: np.ndarray | None = None,
 ) -> TrackTable:
     """Validate finite (R, 4) ``frame id x y`` values into a table; errors name ``source`` and
     the entry of ``lines`` (file line or row number) at fault. See :func:`read_tracks`.
-    ``warn_on_gap=False`` splits gapped tracks and repairs jumps silently (missed detections
-    in live data, rows already repaired by the caller)."""
+    ``warn_on_gap=False`` splits gapped tracks silently (missed detections in live data);
+    ``check_jumps`` repairs impossible jumps, with a warning. (R,) ``pieces`` (a resampled
+    recording's) keeps rows of one id in different pieces on different tracks."""
     if frames_per_step < 1 or len(values) == 0:
         why = "no 'frame id x y' rows" if len(values) == 0 else "frames per step must be >= 1"
         raise DataFormatError(source, f"{why}, not {frames_per_step}" if len(values) else why)
@@ -270,6 +272,9 @@ def table_from_values(
                 "%s: %d track gap(s); split into tracks (first: %s)", path, gap.sum(), message
             )
     new_track = np.concatenate([[True], ~same_ped | gap])
+    if pieces is not None:  # e.g. a lasting jump split before resampling
+        piece = pieces[order]
+        new_track[1:] |= piece[1:] != piece[:-1]
     if check_jumps:  # steps are DT_S apart whatever the frame rate (the benchmark's convention)
         keep, pos_m, split = repair_observations(path, ped_id, step * DT_S, pos_m, lines)
         new_track |= split

@@ -334,7 +334,9 @@ def resample(
     first_frame, per_step = _frame_base(recording, dt_s)
     frame = first_frame + all_step[keep] * per_step
     values = np.column_stack([frame, all_id[keep], all_pos[keep]])
-    return table_from_values(recording.path, values, all_line[keep], per_step, warn_on_gap=False)
+    return table_from_values(
+        recording.path, values, all_line[keep], per_step, warn_on_gap=False, pieces=all_piece[keep]
+    )
 
 
 def _warn_gaps(

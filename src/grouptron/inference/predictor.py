@@ -270,8 +270,8 @@ class Predictor:
         past = values[:, 0] <= frame
         if not self.check_speed:
             return values
-        seconds_per_frame = self.config.data.dt_s / self.frames_per_step
-        repaired, found = glitches.repair_rows(values[past], seconds_per_frame)
+        per_frame_s, fresh = self.config.data.dt_s / self.frames_per_step, values[:, 1].max() + 1
+        repaired, found = glitches.repair_rows(values[past], per_frame_s, float(fresh))
         if len(found):
             rows, names = values[past], [f"row {n}" for n in numbers[past]]
             text = glitches.describe_glitches(found, rows[:, 1], rows[:, 2:4], names.__getitem__)

@@ -64,7 +64,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "last.safetensors continues its optimiser and step count, at --lr when given",
     )
     _add_settings_options(train_cmd)
-    add_data_options(train_cmd)
+    add_data_options(train_cmd, derivatives_default="backward")
     train_cmd.set_defaults(handler="grouptron.cli.train:cmd_train")
 
 
