@@ -8,7 +8,10 @@ Usage:
 
 A synthetic scene of N pedestrians walking in pairs and alone through a square sized for about
 one person per 4 m^2 is streamed frame by frame; the first 9 frames (before anyone has 8 steps)
-are not timed. Prints the median and 90th percentile of the update time per N.
+are not timed. By default the default model with its own point forecast (what
+``Predictor.from_checkpoint()`` gives), and beside it, fed the same frames in turn, the same
+checkpoint's argmax latent: the ratio of the two medians is the figure that holds across
+machines. Prints the median and 90th percentile of the update time per N.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ import numpy as np
 import torch
 
 from grouptron import Predictor
-from grouptron.model.predict import POINT_FORECASTS
+from grouptron.constants import DEFAULT_CHECKPOINT, POINT_FORECAST_NAMES
 
 
 def synthetic_frames(
@@ -42,16 +45,16 @@ def synthetic_frames(
     return out
 
 
-def add_predictor_options(parser: argparse.ArgumentParser, most_likely: str) -> None:
+def add_predictor_options(parser: argparse.ArgumentParser, most_likely: str | None) -> None:
     """The options that pick and configure the predictor (shared with ``soak.py``)."""
-    parser.add_argument("--checkpoint", default="grouptron-univ-backward")
+    parser.add_argument("--checkpoint", default=DEFAULT_CHECKPOINT)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument(
         "--most-likely",
-        choices=tuple(POINT_FORECASTS),
+        choices=POINT_FORECAST_NAMES,
         default=most_likely,
-        help="the Predictor's point forecast (ml-argmax skips the mixture; mean decodes all Z "
-        "latent values, ml-top10 the 10 most probable)",
+        help="the Predictor's point forecast (default: the model's own; ml-argmax skips the "
+        "mixture; mean decodes all Z latent values, ml-top10 the 10 most probable)",
     )
     parser.add_argument(
         "--latent-values", type=int, help="Predictor(latent_values=...) for --most-likely ml"
@@ -63,11 +66,11 @@ def add_predictor_options(parser: argparse.ArgumentParser, most_likely: str) -> 
     )
 
 
-def load_predictor(args: argparse.Namespace) -> Predictor:
+def load_predictor(args: argparse.Namespace, most_likely: str | None = None) -> Predictor:
     torch.set_num_threads(args.threads)
     return Predictor.from_checkpoint(
         args.checkpoint,
-        most_likely=args.most_likely,
+        most_likely=most_likely or args.most_likely,
         latent_values=args.latent_values,
         mixture=args.mixture,
         min_points=args.min_points,
@@ -75,29 +78,51 @@ def load_predictor(args: argparse.Namespace) -> Predictor:
     )
 
 
+def timed_updates(
+    predictors: list[Predictor], people: int, frames: int
+) -> tuple[list[list[float]], list[int]]:
+    """Per predictor, the update times (ms) after the first 9 frames and its last forecast
+    count; the predictors take each frame in turn, so a drift of the machine hits all alike."""
+    sessions = [p.stream() for p in predictors]
+    times: list[list[float]] = [[] for _ in predictors]
+    counts = [0] * len(predictors)
+    for k, (ids, xy) in enumerate(synthetic_frames(people, frames)):
+        for i, session in enumerate(sessions):
+            started = time.perf_counter()
+            forecast = session.update(10 * k, ids, xy)
+            if k >= 9:
+                times[i].append(1000 * (time.perf_counter() - started))
+                counts[i] = len(forecast)
+    return times, counts
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    add_predictor_options(parser, most_likely="ml-argmax")
+    add_predictor_options(parser, most_likely=None)
     parser.add_argument("--people", default="10,50,100,200")
     parser.add_argument("--frames", type=int, default=60)
     args = parser.parse_args()
     predictor = load_predictor(args)
+    predictors = [predictor]
+    if predictor.most_likely != "ml-argmax" or predictor.decoded_latent_values != 1:
+        predictors.append(load_predictor(args, "ml-argmax"))  # the yardstick, same run
     print(
         f"{predictor.source}: {predictor.config.model_name}, {args.threads} threads, "
-        f"most likely = {args.most_likely}, mixture = {predictor.mixture}"
+        f"point forecast {args.most_likely or 'by default'} ({predictor.most_likely}, "
+        f"{predictor.decoded_latent_values} latent values decoded), mixture = {predictor.mixture}"
     )
-    print(f"{'people':>7} {'median ms':>10} {'p90 ms':>8} {'forecasts':>10}")
+    header = f"{'people':>7} {'median ms':>10} {'p90 ms':>8} {'forecasts':>10}"
+    if len(predictors) > 1:
+        header += f" {'argmax median':>14} {'p90':>6} {'ratio':>6}"
+    print(header)
     for people in (int(n) for n in args.people.split(",")):
-        session = predictor.stream()
-        times, count = [], 0
-        for k, (ids, xy) in enumerate(synthetic_frames(people, args.frames)):
-            started = time.perf_counter()
-            forecast = session.update(10 * k, ids, xy)
-            if k >= 9:
-                times.append(1000 * (time.perf_counter() - started))
-                count = len(forecast)
-        p90 = float(np.percentile(times, 90))
-        print(f"{people:>7} {statistics.median(times):>10.1f} {p90:>8.1f} {count:>10}")
+        times, counts = timed_updates(predictors, people, args.frames)
+        medians = [statistics.median(t) for t in times]
+        p90s = [float(np.percentile(t, 90)) for t in times]
+        line = f"{people:>7} {medians[0]:>10.1f} {p90s[0]:>8.1f} {counts[0]:>10}"
+        if len(predictors) > 1:
+            line += f" {medians[1]:>14.1f} {p90s[1]:>6.1f} {medians[0] / medians[1]:>6.2f}"
+        print(line)
 
 
 if __name__ == "__main__":
