@@ -122,3 +122,27 @@ def test_fine_tuning_a_checkpoint_on_a_dataset_of_ones_own_runs_end_to_end(
     ]  # fmt: skip
     assert all(r["fde_ci"][0] <= r["fde"] <= r["fde_ci"][1] for r in rows)
     assert main([*report, "--checkpoints", str(tmp_path / "nowhere")]) == 2
+
+
+def test_a_description_can_name_its_data_folder_by_an_environment_variable(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A description that lives in the repository names data that lives elsewhere on each
+    machine: ``${NAME}`` or ``${NAME:-default}`` (relative to the description)."""
+    (tmp_path / "data").mkdir()
+    write_dataset(tmp_path / "data")
+    (tmp_path / "repo").mkdir()
+    described = tmp_path / "repo" / "elsewhere.toml"
+    described.write_text(
+        'name = "elsewhere"\n[format]\ncolumns = "id,t,x,y"\nunits = "cm"\n[parts]\n'
+        'test = ["${WALKERS_DIR:-../data}/walk3.csv"]\n'
+    )
+    monkeypatch.delenv("WALKERS_DIR", raising=False)
+    assert read_dataset(described).parts["test"] == ((tmp_path / "data" / "walk3.csv").resolve(),)
+    monkeypatch.setenv("WALKERS_DIR", str(tmp_path / "nowhere"))
+    with pytest.raises(GrouptronError, match=r"test files not found: .*\(set \$WALKERS_DIR"):
+        read_dataset(described)
+    described.write_text(described.read_text().replace(":-../data", ""))
+    monkeypatch.delenv("WALKERS_DIR")
+    with pytest.raises(GrouptronError, match=r"names \$WALKERS_DIR, which is not set"):
+        read_dataset(described)

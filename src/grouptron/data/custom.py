@@ -17,6 +17,8 @@ JSON with the same keys works too. A custom dataset never gets the ETH/UCY per-s
 from __future__ import annotations
 
 import json
+import os
+import re
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -101,6 +103,27 @@ def read_dataset(path: str | Path) -> DatasetDescription:
     return DatasetDescription(name.strip(), path.resolve(), parts, recording)
 
 
+_VARIABLE = re.compile(r"\$\{(\w+)(?::-([^}]*))?\}")
+
+
+def expand_variables(path: Path, entry: Any) -> str:
+    """A file entry with ``${NAME}`` or ``${NAME:-default}`` replaced by the environment
+    variable (or the default where it is unset), so that a description can name a data
+    folder that lives elsewhere on each machine; an unset variable without a default is one
+    line that names it."""
+    if not isinstance(entry, str):
+        raise GrouptronError(f"{path}: a file entry must be a string, not {entry!r:.40}")
+
+    def value(match: re.Match[str]) -> str:
+        name, default = match.group(1), match.group(2)
+        found = os.environ.get(name) or default
+        if found is None:
+            raise GrouptronError(f"{path}: {entry!r} names ${name}, which is not set")
+        return found
+
+    return _VARIABLE.sub(value, entry)
+
+
 def _parts(path: Path, parts: Any) -> dict[str, tuple[Path, ...]]:
     if not isinstance(parts, dict) or not parts:
         raise GrouptronError(f"{path}: 'parts' must list the files of train, val and/or test")
@@ -110,12 +133,14 @@ def _parts(path: Path, parts: Any) -> dict[str, tuple[Path, ...]]:
             raise GrouptronError(f"{path}: unknown part {part!r}; parts are {', '.join(PARTS)}")
         if isinstance(files, str):
             files = [files]
-        resolved = tuple((path.parent / f).resolve() for f in files)
+        resolved = tuple((path.parent / expand_variables(path, f)).resolve() for f in files)
         if not resolved:
             raise GrouptronError(f"{path}: the {part} part lists no files")
         missing = [str(f) for f in resolved if not f.is_file()]
         if missing:
-            raise GrouptronError(f"{path}: {part} files not found: {', '.join(missing)}")
+            named = sorted(set(_VARIABLE.findall(" ".join(map(str, files)))))
+            hint = f" (set ${named[0][0]} to the folder that holds them)" if named else ""
+            raise GrouptronError(f"{path}: {part} files not found: {', '.join(missing)}{hint}")
         out[part] = resolved
     return out
 
