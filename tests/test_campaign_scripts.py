@@ -325,3 +325,18 @@ def test_the_look_ahead_runs_are_their_shipped_runs_plus_the_window(tmp_path: Pa
     for section in ("data", "model", "loss"):  # the shipped settings (newer keys at defaults)
         kept = {k: v for k, v in stored[section].items() if k in shipped[section]}
         assert kept == shipped[section]
+
+
+def test_a_snapshot_refuses_a_run_being_trained(tmp_path: Path) -> None:
+    """Its files could be of different epochs: stop its worker first."""
+    script = _script("run")
+    out, paused = tmp_path / "runs", tmp_path / "paused"
+    out.mkdir()
+    (running,) = script.look_ahead_queue()[:1]
+    _run(out / running.name, SCREENED, finished=False)
+    lock = script.claim(out / running.name)
+    try:
+        lines, copied = script.snapshot([running], out, paused)
+    finally:
+        os.close(lock)
+    assert copied == 0 and "being trained" in lines[0] and not paused.exists()

@@ -179,3 +179,18 @@ def test_a_lasting_jump_in_a_recording_of_its_own_layout_splits_its_track(
     for track in np.unique(tracks):
         xy = table.pos_m[table.track == track]
         assert np.linalg.norm(np.diff(xy, axis=0), axis=1).max() < 1.0
+
+
+def test_plot_rows_keep_the_readers_track_splits() -> None:
+    """A person's earlier track (split at a jump) gets a fresh id, so that a predictor fed the
+    table's rows does not join the pieces again (and warns no second time)."""
+    from grouptron.cli.forecast import table_rows
+    from grouptron.data.reader import table_from_values
+
+    rows = crowd_rows()
+    rows[(rows[:, 1] == 2) & (rows[:, 0] >= 100), 2] += 50.0  # a lasting jump of id 2
+    table = table_from_values(Path("t"), rows, np.arange(len(rows)), 10, check_jumps=True)
+    again = table_rows(table)
+    assert set(again[again[:, 0] >= 100, 1].tolist()) == {0.0, 1.0, 2.0, 3.0}
+    assert again[(again[:, 0] < 100) & ~np.isin(again[:, 1], [0, 1, 3]), 1].min() >= 4.0
+    assert not len(repair_rows(again, 0.04)[1])  # nothing left to repair
