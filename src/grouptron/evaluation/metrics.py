@@ -21,12 +21,14 @@ def displacement_errors(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
     Returns:
         (..., H) distances in metres.
     """
-    return np.linalg.norm(pred - truth, axis=-1)
+    distances: np.ndarray = np.linalg.norm(pred - truth, axis=-1)
+    return distances
 
 
 def ade(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
     """Average displacement error over the horizon: (..., H, 2) -> (...)."""
-    return displacement_errors(pred, truth).mean(axis=-1)
+    errors: np.ndarray = displacement_errors(pred, truth).mean(axis=-1)
+    return errors
 
 
 def fde(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
@@ -45,12 +47,14 @@ def min_ade_k(samples: np.ndarray, truth: np.ndarray) -> np.ndarray:
         (B,) minimum over K. The minimum of ADE and of FDE are taken independently (they may
         come from different predictions), as the reference evaluation does.
     """
-    return ade(samples, truth[:, None]).min(axis=1)
+    best: np.ndarray = ade(samples, truth[:, None]).min(axis=1)
+    return best
 
 
 def min_fde_k(samples: np.ndarray, truth: np.ndarray) -> np.ndarray:
     """Best FDE among K predictions per sample: (B, K, H, 2), (B, H, 2) -> (B,)."""
-    return fde(samples, truth[:, None]).min(axis=1)
+    best: np.ndarray = fde(samples, truth[:, None]).min(axis=1)
+    return best
 
 
 def kde_log_density(samples: np.ndarray, points: np.ndarray) -> np.ndarray:

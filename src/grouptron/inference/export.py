@@ -220,4 +220,5 @@ def run_onnx(path: Path, inputs: dict[str, np.ndarray]) -> list[np.ndarray]:
             "running ONNX needs onnxruntime: pip install 'grouptron[export]'"
         ) from None
     session = onnxruntime.InferenceSession(str(path), providers=["CPUExecutionProvider"])
-    return session.run(list(OUTPUTS), inputs)
+    outputs: list[np.ndarray] = session.run(list(OUTPUTS), inputs)
+    return outputs

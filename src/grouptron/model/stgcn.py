@@ -128,5 +128,5 @@ class STGCNBlock(nn.Module):
         for conv, act in zip(self.more_temporal, self.more_act, strict=True):
             assert isinstance(conv, nn.Conv1d)
             temporal = temporal_conv(conv, act(temporal) * mask[..., None].to(temporal.dtype))
-        out = self.out_act(temporal + self.residual(x))
+        out: torch.Tensor = self.out_act(temporal + self.residual(x))
         return out * mask[..., None].to(out.dtype)
