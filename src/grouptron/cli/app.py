@@ -18,6 +18,7 @@ from grouptron.errors import GrouptronError
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``grouptron`` parser: global options and every command's subparser."""
     parser = Parser(
         prog="grouptron",
         description="Group-aware pedestrian trajectory forecasting on ETH/UCY "

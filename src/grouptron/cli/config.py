@@ -12,6 +12,8 @@ from grouptron.config import config_to_dict, non_default_settings
 
 
 def cmd_config_show(args: argparse.Namespace) -> int:
+    """``grouptron config show``: print the run's effective settings as JSON (with
+    ``--changes``, only those other than the defaults, one per line)."""
     run_flags = ("epochs", "seed", "batch_size", "lr", "threads", "init_from", "precision")
     full = argparse.Namespace(**vars(args), **dict.fromkeys(run_flags), on_gap="split")
     if full.split is None and full.dataset is None:

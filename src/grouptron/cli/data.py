@@ -14,6 +14,8 @@ from grouptron.data.subsets import UNIV_N_DEFINITIONS, UnivN, univ_n_mask
 
 
 def cmd_data_fetch(args: argparse.Namespace) -> int:
+    """``grouptron data fetch``: download missing or corrupt benchmark files, checking
+    every file's checksum."""
     data_dir = resolve_data_dir(args.data_dir)
     report = fetch_dataset(data_dir, base_url=args.base_url, timeout_s=args.timeout)
     print(
@@ -24,6 +26,8 @@ def cmd_data_fetch(args: argparse.Namespace) -> int:
 
 
 def cmd_data_stats(args: argparse.Namespace) -> int:
+    """``grouptron data stats``: scenes, tracks and samples per part of each split (UNIV-N
+    counts for univ), as a table or JSON."""
     data_dir = resolve_data_dir(args.data_dir)
     config = data_settings(args)
     univ_n = int_list(args.univ_n)

@@ -204,6 +204,8 @@ def _check_options(args: argparse.Namespace) -> None:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
+    """``grouptron evaluate``: score a checkpoint beside constant velocity (or that alone) on
+    the benchmark's test sets, as a table or JSON (``--tracks``, ``--dataset``: own handlers)."""
     _check_options(args)
     if args.tracks:
         return cmd_evaluate_tracks(args)

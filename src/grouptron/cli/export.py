@@ -21,6 +21,8 @@ from grouptron.model.checkpoint import load_trained_model
 
 
 def cmd_export(args: argparse.Namespace) -> int:
+    """``grouptron export``: write a checkpoint's network as ONNX, then (unless
+    ``--no-check``) compare onnxruntime's outputs with PyTorch's on an example batch."""
     out = Path(args.out)
     refuse_folder(out)  # before the work, not after it
     torch.set_num_threads(args.threads)

@@ -52,6 +52,8 @@ def _write_trajnet(path: Path, forecast: Forecast, table: TrackTable, *, sampled
 
 
 def cmd_predict(args: argparse.Namespace) -> int:
+    """``grouptron predict``: forecast every pedestrian of a track file and write the
+    positions as CSV (or ``.ndjson``) rows to a file or standard output."""
     to_stdout = args.out == "-"
     if not to_stdout:
         refuse_folder(Path(args.out), inputs=(args.tracks,))  # before the work, not after it
@@ -100,6 +102,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
+    """``grouptron plot``: draw forecasts at a frame, or with ``--until`` an animation."""
     out = Path(args.out)
     if args.until is not None and args.frame is not None and args.until <= args.frame:
         raise GrouptronError(f"--until {args.until} must come after --frame {args.frame}")

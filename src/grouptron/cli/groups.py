@@ -70,6 +70,8 @@ def _track_scene(args: argparse.Namespace) -> Scene:
 
 
 def cmd_groups_evaluate(args: argparse.Namespace) -> int:
+    """``grouptron groups evaluate``: score detected groups against labelled ones (pair
+    precision, recall, F1, Dice) for each rule, linkage and distance, as a table or JSON."""
     scene = _track_scene(args)
     labels = read_group_labels(args.labels)
     if not labels:
@@ -124,6 +126,8 @@ def cmd_groups_evaluate(args: argparse.Namespace) -> int:
 
 def cmd_groups_detect(args: argparse.Namespace) -> int:
     # Every output checked before the work, so that a bad one leaves no file behind.
+    """``grouptron groups detect``: the groups of every step as ``frame,id,group`` CSV rows
+    (to ``--out`` or standard output), with ``--plot`` a picture of one step."""
     if args.out:
         refuse_folder(Path(args.out), inputs=(args.tracks,))
     if args.frame is not None and not args.plot:

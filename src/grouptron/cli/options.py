@@ -36,18 +36,23 @@ class Formatter(argparse.RawDescriptionHelpFormatter):
 
 
 class Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors print the usage and raise ``GrouptronError``
+    (handled by the one error policy) instead of exiting."""
+
     def error(self, message: str) -> None:  # type: ignore[override]
         self.print_usage(sys.stderr)
         raise GrouptronError(message)
 
 
 def add_threads_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--threads``: CPU threads for the computation (2 by default)."""
     parser.add_argument(
         "--threads", type=positive_int, default=2, help="CPU threads for the computation"
     )
 
 
 def add_device_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--device``: where the network runs (cpu by default)."""
     parser.add_argument(
         "--device",
         type=device_type,
@@ -57,6 +62,7 @@ def add_device_option(parser: argparse.ArgumentParser) -> None:
 
 
 def add_gap_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--on-gap``: split a track at a gap in the middle (the default) or stop."""
     parser.add_argument(
         "--on-gap",
         choices=("split", "error"),
@@ -72,6 +78,8 @@ def add_data_options(
     cache_help: str = "rebuild samples instead of using the cache",
     derivatives_default: str = "central",
 ) -> None:
+    """Add ``--data-dir``, ``--derivatives`` (where ``derivatives``), ``--on-gap`` and
+    ``--no-cache`` (helped by ``cache_help``)."""
     parser.add_argument(
         "--data-dir",
         help="ETH/UCY folder (default: $GROUPTRON_DATA, else ~/.cache/grouptron/eth_ucy)",
@@ -89,6 +97,7 @@ def add_data_options(
 
 
 def int_at_least(value: str, lowest: int) -> int:
+    """``value`` as an integer of at least ``lowest``; an argparse error otherwise."""
     try:
         number = int(value)
     except ValueError:
@@ -100,6 +109,8 @@ def int_at_least(value: str, lowest: int) -> int:
 
 
 def float_at_least(value: str, lowest: float, *, strictly: bool) -> float:
+    """``value`` as a finite number above ``lowest`` (``strictly``) or at least
+    ``lowest``; an argparse error otherwise."""
     try:
         number = float(value)
     except ValueError:
@@ -111,18 +122,22 @@ def float_at_least(value: str, lowest: float, *, strictly: bool) -> float:
 
 
 def positive_float(value: str) -> float:
+    """An argparse type: a finite number > 0."""
     return float_at_least(value, 0.0, strictly=True)
 
 
 def non_negative_float(value: str) -> float:
+    """An argparse type: a finite number >= 0."""
     return float_at_least(value, 0.0, strictly=False)
 
 
 def positive_int(value: str) -> int:
+    """An argparse type: an integer >= 1."""
     return int_at_least(value, 1)
 
 
 def non_negative_int(value: str) -> int:
+    """An argparse type: an integer >= 0."""
     return int_at_least(value, 0)
 
 
@@ -137,6 +152,7 @@ def device_type(value: str) -> torch.device:
 
 
 def parse_splits(value: str) -> list[str]:
+    """The splits ``value`` names: one ETH/UCY split, or every one for ``all``."""
     if value == "all":
         return list(SPLITS)
     if value not in SPLITS:
@@ -145,6 +161,7 @@ def parse_splits(value: str) -> list[str]:
 
 
 def int_list(value: str) -> list[int]:
+    """Comma-separated positive integers, e.g. ``"1,5,10"`` -> ``[1, 5, 10]``."""
     try:
         numbers = [int(v) for v in value.split(",") if v.strip()]
     except ValueError:
@@ -155,6 +172,7 @@ def int_list(value: str) -> list[int]:
 
 
 def eval_modes(value: str) -> tuple[str, ...]:
+    """Comma-separated evaluation modes (or ``all``), each once, in the order given."""
     if value == "all":
         return EVALUATION_MODES
     modes = tuple(v.strip() for v in value.split(",") if v.strip())

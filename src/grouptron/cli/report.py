@@ -124,6 +124,7 @@ def cmd_report_dataset(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
+    """``grouptron report``: score a folder of checkpoints on every test set (Markdown or JSON)."""
     if args.out:
         refuse_folder(Path(args.out))  # before the work, not after it
     if args.dataset:

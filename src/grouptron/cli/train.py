@@ -261,6 +261,8 @@ def _chosen(out: Path, best_subset_fde: float) -> str:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
+    """``grouptron train``: train a model (on several processes when launched by torchrun),
+    then plot its training curves and say which checkpoint was chosen."""
     experiment, out = _experiment_and_folder(args)
     data = experiment.data
     train_part, val_part, train_groups, val_groups = _parts(args, experiment)

@@ -130,6 +130,8 @@ def _parse_part(arrays: dict[str, np.ndarray]) -> PartData:
 
 
 def cache_path(split: str, part: str, config: DataConfig, key: str) -> Path:
+    """The ``.npz`` file caching one part's samples, named by split, part, derivatives
+    and ``key``."""
     return preprocessed_cache_dir() / f"{split}-{part}-{config.derivatives}-{key}.npz"
 
 

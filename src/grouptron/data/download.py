@@ -62,6 +62,7 @@ def shipped_checksums() -> dict[str, str]:
 
 
 def file_sha256(path: Path) -> str:
+    """The SHA-256 of a file's contents in hex digits (read in chunks)."""
     digest = hashlib.sha256()
     with path.open("rb") as handle:
         for chunk in iter(lambda: handle.read(CHUNK_BYTES), b""):

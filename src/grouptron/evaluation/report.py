@@ -51,6 +51,8 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class ReportSettings:
+    """What a report scores and how: modes, seed, NLL sample cap, batch size and caches."""
+
     modes: tuple[str, ...] = ("ml", "best-of-20", "nll")
     seed: int = 0
     nll_max_samples: int = REPORT_NLL_MAX_SAMPLES

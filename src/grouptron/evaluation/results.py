@@ -63,6 +63,7 @@ def mean_over_splits(results: Sequence[EvaluationResult]) -> EvaluationResult:
 
 
 def results_json(results: Sequence[EvaluationResult]) -> str:
+    """The rows as a JSON document ``{"results": [...]}``, NaN written as null."""
     return json.dumps({"results": [r.to_dict() for r in results]}, indent=2)
 
 

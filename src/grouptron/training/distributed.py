@@ -51,6 +51,7 @@ SINGLE = Cluster()
 
 
 def launched_by_torchrun() -> bool:
+    """Whether torchrun started several processes (``WORLD_SIZE`` above 1)."""
     return int(os.environ.get("WORLD_SIZE", "1")) > 1
 
 
@@ -72,6 +73,7 @@ def start(device: torch.device) -> Cluster:
 
 
 def stop(cluster: Cluster) -> None:
+    """Leave the process group of a distributed run (nothing for a single process)."""
     if cluster.distributed and dist.is_initialized():
         dist.destroy_process_group()
 

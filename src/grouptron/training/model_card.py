@@ -213,5 +213,6 @@ def write_model_card(
     records: list[dict[str, Any]],
     selection: dict[str, Any] | None = None,
 ) -> None:
+    """Write the run's model card (``README.md``) into ``out_dir``, atomically."""
     card = render_model_card(out_dir.name, config, records, selection)
     write_text_atomically(out_dir / CARD, card)

@@ -104,4 +104,5 @@ def resolve_precision(
 
 
 def precision_name(bf16: bool) -> str:
+    """The name of a precision: ``bf16`` or ``fp32``."""
     return "bf16" if bf16 else "fp32"

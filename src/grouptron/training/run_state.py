@@ -147,6 +147,8 @@ def _restore(
 
 
 def checkpoint_of(state: TrainState, config: ExperimentConfig, weights_only: bool) -> Checkpoint:
+    """A checkpoint of the training state; ``weights_only`` leaves out the optimiser
+    state and torch's RNG state (what ``last.safetensors`` needs to resume)."""
     return Checkpoint(
         config=config,
         model_state=state.model.state_dict(),
