@@ -446,6 +446,10 @@ def main() -> int:
             continue
         precision = "bf16" if run.bf16_only else chosen
         if args.dry_run:
+            paused = PAUSED / run.name
+            if not (folder / "last.safetensors").exists() and paused.is_dir():
+                print(f"{run.name}: would be restored from {paused}", flush=True)
+                continue
             print(" ".join(command(run, folder, precision, args.threads, args.device)), flush=True)
             continue
         lock = claim(folder)
