@@ -27,8 +27,8 @@ PAUSED_LIMIT_BYTES = 30 * MB
 WEIGHTS = ("checkpoints/*/best.safetensors", "tests/golden/*.safetensors")
 PAUSED = "campaign/paused/"
 LEGACY = ("campaign/screen/*", "checkpoints/*/last.safetensors")
-LEGACY_MAX_FILES = 170
-LEGACY_MAX_BYTES = 100_200_000
+LEGACY_MAX_FILES = 159
+LEGACY_MAX_BYTES = 81_900_000
 
 
 def _matches(path: str, patterns: tuple[str, ...]) -> bool:
