@@ -74,9 +74,10 @@ PAUSED = REPO / "campaign" / "paused"
 NOT_PAUSED = ("curves.png",)
 """Run files a paused run does not need: redrawn when it finishes."""
 WAITING = ("best.safetensors", "config.json", "campaign-config.json", "README.md",
-           "metrics.csv", "metrics.jsonl", "selection.json")  # fmt: skip
+           "metrics.jsonl", "selection.json")  # fmt: skip
 """What a finished diagnostic run keeps while its study waits to be scored: its result, never
-its training state (``last.safetensors``, ``candidates/``)."""
+its training state (``last.safetensors``, ``candidates/``) nor what is derived (``metrics.csv``
+repeats ``metrics.jsonl``)."""
 EPOCHS = 100
 SPLITS = ("univ", "eth", "hotel", "zara1", "zara2")
 MODELS = ("trajectron++", "grouptron")

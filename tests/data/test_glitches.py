@@ -11,6 +11,7 @@ import pytest
 
 from grouptron.cli import main
 from grouptron.data.glitches import MAX_JUMP_SPEED_MPS, find_glitches, repair_rows
+from grouptron.data.reader import TrackTable
 from grouptron.data.recording import RecordingFormat, parse_columns, read_resampled
 from grouptron.inference.predictor import Predictor
 from tests.conftest import write_tracks
@@ -114,6 +115,15 @@ def test_the_cli_repairs_the_5000_m_row_and_its_csv_equals_the_clean_files(
     assert outputs[0] == outputs[1]
 
 
+def read_corridor(path: Path, lines: list[str], caplog: pytest.LogCaptureFixture) -> TrackTable:
+    """Write ``id frame x y`` lines (16 fps, centimetres) and read them resampled to 0.4 s,
+    keeping the warnings in ``caplog``."""
+    path.write_text("\n".join(lines) + "\n")
+    fmt = RecordingFormat(columns=parse_columns("id,frame,x,y"), fps=16, units="cm")
+    with caplog.at_level(logging.WARNING):
+        return read_resampled(path, fmt)
+
+
 def test_a_recording_in_its_own_layout_is_repaired_before_it_is_resampled(
     tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
@@ -122,11 +132,7 @@ def test_a_recording_in_its_own_layout_is_repaired_before_it_is_resampled(
         f"{p} {f} {100 * 1.2 * f / 16:.4f} {100 * 0.8 * p:.4f}" for f in range(64) for p in (1, 2)
     ]
     lines[40] = lines[40].split()[0] + " 20 500000 80"  # person 1 at frame 20, 5000 m
-    path = tmp_path / "corridor.txt"
-    path.write_text("\n".join(lines) + "\n")
-    fmt = RecordingFormat(columns=parse_columns("id,frame,x,y"), fps=16, units="cm")
-    with caplog.at_level(logging.WARNING):
-        table = read_resampled(path, fmt)
+    table = read_corridor(tmp_path / "corridor.txt", lines, caplog)
     assert "line 41 (id 1, x=5000" in caplog.text
     assert np.abs(table.pos_m[:, 0]).max() < 10  # nothing near 5000 m after resampling
 
@@ -167,11 +173,7 @@ def test_a_lasting_jump_in_a_recording_of_its_own_layout_splits_its_track(
         for f in range(64)
         for p in (1, 2)
     ]
-    path = tmp_path / "swap.txt"
-    path.write_text("\n".join(lines) + "\n")
-    fmt = RecordingFormat(columns=parse_columns("id,frame,x,y"), fps=16, units="cm")
-    with caplog.at_level(logging.WARNING):
-        table = read_resampled(path, fmt)
+    table = read_corridor(tmp_path / "swap.txt", lines, caplog)
     assert "starts a new track" in caplog.text
     person = table.ped_id == 1
     tracks = table.track[person]
