@@ -187,27 +187,20 @@ def repair_rows(
 def describe_glitches(
     glitches: Glitches, ped_id: np.ndarray, pos_m: np.ndarray, where: Callable[[int], str]
 ) -> str:
-    """One line for a warning: how many rows were repaired and how, the first few named by
-    ``where(row)`` (a file line, an array row)."""
-    named: list[tuple[int, str]] = []
-    for rows, what in (
-        (glitches.spikes, "replaced by interpolation"),
-        (glitches.dropped, "dropped"),
-        (glitches.splits, "starts a new track"),
-    ):
-        for r in rows.tolist():
-            x, y = pos_m[r]
-            named.append(
-                (
-                    r,
-                    f"{where(r)} (id {int(ped_id[r])}, x={x:.6g}, y={y:.6g}) is "
-                    f"{glitches.jump_m[r]:.4g} m from the track: {what}",
-                )
-            )
-    named.sort()
-    shown = "; ".join(text for _, text in named[:3])
-    more = f"; and {len(named) - 3} more" if len(named) > 3 else ""
+    """One line for a warning: how many rows were repaired and how, the first three (in row
+    order) named by ``where(row)`` (a file line, an array row); only those are formatted."""
+    kinds = ("replaced by interpolation", "dropped", "starts a new track")
+    found = (glitches.spikes, glitches.dropped, glitches.splits)
+    rows = np.concatenate(found)
+    kind = np.repeat(np.arange(len(kinds)), [len(f) for f in found])
+    first = np.argsort(rows, kind="stable")[:3]
+    shown = "; ".join(
+        f"{where(r)} (id {int(ped_id[r])}, x={pos_m[r, 0]:.6g}, y={pos_m[r, 1]:.6g}) is "
+        f"{glitches.jump_m[r]:.4g} m from the track: {kinds[k]}"
+        for r, k in zip(rows[first].tolist(), kind[first].tolist(), strict=True)
+    )
+    more = f"; and {len(rows) - 3} more" if len(rows) > 3 else ""
     return (
-        f"{len(named)} impossible jump(s) (faster than {MAX_JUMP_SPEED_MPS:g} m/s between "
+        f"{len(rows)} impossible jump(s) (faster than {MAX_JUMP_SPEED_MPS:g} m/s between "
         f"sightings): {shown}{more}"
     )

@@ -265,16 +265,15 @@ class Predictor:
         return self.forecast_window(rows, frame, num_samples, seed, warn_if_central=live)
 
     def _without_jumps(self, values: np.ndarray, frame: int, numbers: np.ndarray) -> np.ndarray:
-        """``values`` with impossible jumps up to ``frame`` repaired and named by their row
-        ``numbers`` in a warning (``data.glitches.repair_rows``); later rows are left alone."""
+        """``values``, jumps up to ``frame`` repaired and named by row ``numbers`` in a warning."""
         past = values[:, 0] <= frame
         if not self.check_speed:
             return values
         per_frame_s, fresh = self.config.data.dt_s / self.frames_per_step, values[:, 1].max() + 1
         repaired, found = glitches.repair_rows(values[past], per_frame_s, float(fresh))
         if len(found):
-            rows, names = values[past], [f"row {n}" for n in numbers[past]]
-            text = glitches.describe_glitches(found, rows[:, 1], rows[:, 2:4], names.__getitem__)
+            rows, where = values[past], lambda r: f"row {numbers[past][r]}"
+            text = glitches.describe_glitches(found, rows[:, 1], rows[:, 2:4], where)
             log.warning("tracks: %s", text)
         return np.concatenate([repaired, values[~past]])
 
