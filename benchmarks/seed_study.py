@@ -2,7 +2,7 @@
 
 Usage:
     python benchmarks/seed_study.py [--split univ] [--seeds 0,1,2] [--epochs 10]
-                                    [--warm-start checkpoints] [--out runs/seeds]
+                                    [--warm-start campaign/runs] [--out runs/seeds]
                                     [--data-dir DIR]
 
 Trains (or resumes, or reuses) ``OUT/<model>-<split>-s<seed>`` with

@@ -115,10 +115,12 @@ class Run:
 
     @property
     def shipped_source(self) -> Path | None:
-        """The shipped run this one continues (seed-0 central runs)."""
+        """The shipped run this one continues (seed-0 central runs), when that folder still
+        holds its training state; shipped folders no longer do (campaign/README.md)."""
         continued = self.model in MODELS and self.protocol == "central" and self.seed == 0
+        source = REPO / "checkpoints" / f"{self.model}-{self.split}-central"
         if continued and not self.bf16_only and not self.look_ahead:
-            return REPO / "checkpoints" / f"{self.model}-{self.split}-central"
+            return source if (source / "last.safetensors").exists() else None
         return None
 
 
