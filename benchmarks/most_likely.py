@@ -25,7 +25,7 @@ from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.model.batch import batches
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.factory import groups_for_model
-from grouptron.model.predict import decode_every_latent, most_likely_positions, top_latent_values
+from grouptron.model.predict import decode_every_latent, most_likely_of_decoded_top
 
 
 def errors_by_top(name: str, split: str, tops: list[int]) -> dict[int, np.ndarray]:
@@ -40,7 +40,7 @@ def errors_by_top(name: str, split: str, tops: list[int]) -> dict[int, np.ndarra
         for _, batch in batches(samples, config, 512, groups):
             encoding, velocity = decode_every_latent(model.eval(), batch, H)
             for k in tops:
-                forecast = most_likely_positions(*top_latent_values(encoding, velocity, k), H, dt)
+                forecast = most_likely_of_decoded_top(encoding, velocity, k, dt)
                 error = (forecast - batch.fut_rel_m).norm(dim=-1)  # (B, H)
                 out[k].append(torch.stack([error.mean(-1), error[:, -1]], -1).numpy())
     return {k: np.concatenate(v) for k, v in out.items()}

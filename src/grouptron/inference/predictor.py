@@ -57,10 +57,9 @@ from grouptron.model.predict import (
     decode_every_latent,
     default_point_forecast,
     mixture_mean_positions,
-    most_likely_positions,
+    most_likely_of_decoded_top,
     predict_most_likely_of_top,
     predict_samples,
-    top_latent_values,
 )
 
 log = logging.getLogger(__name__)
@@ -389,7 +388,7 @@ class Predictor:
         if self.most_likely == "mean":
             most_likely = mixture_mean_positions(encoding, velocity, dt)
         else:
-            most_likely = most_likely_positions(*top_latent_values(encoding, velocity, M), H, dt)
+            most_likely = most_likely_of_decoded_top(encoding, velocity, M, dt)
         if not self.mixture:
             return most_likely.double().cpu().numpy(), None, None, None
         mean = positions_from_velocities(velocity.mean, dt)  # (N, Z, H, 2)
