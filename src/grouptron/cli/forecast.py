@@ -66,6 +66,8 @@ def cmd_predict(args: argparse.Namespace) -> int:
     experiment = dataclasses.replace(experiment, data=data)
     scene = build_scene(table, data, name=str(args.tracks))
     mode = args.mode or default_point_forecast(experiment.model)
+    if args.regions and (mode == "samples" or Path(args.out).suffix == ".ndjson"):
+        raise GrouptronError("--regions goes with a point forecast (--mode) written as CSV")
     forecast = forecast_scene(
         model,
         experiment,
@@ -76,12 +78,13 @@ def cmd_predict(args: argparse.Namespace) -> int:
         progress=show_progress(args),
         min_points=args.min_points,
         device=args.device,
+        keep_distribution=bool(args.regions),
     )
     if Path(args.out).suffix == ".ndjson":
         _write_trajnet(Path(args.out), forecast, table, sampled=mode == "samples")
         count = len(forecast) * data.horizon_steps * (args.samples if mode == "samples" else 1)
     else:
-        header, rows, formats = forecast.table(sampled=mode == "samples")
+        header, rows, formats = forecast.table(sampled=mode == "samples", regions=args.regions)
         if to_stdout:
             sys.stdout.write(",".join(header) + "\n")
             np.savetxt(sys.stdout, rows, fmt=list(formats), delimiter=",")

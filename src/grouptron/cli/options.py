@@ -8,7 +8,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
-from grouptron.constants import EVALUATION_MODES, SPLITS, UNITS_M
+from grouptron.constants import EVALUATION_MODES, MAX_REGION_Q, SPLITS, UNITS_M
 from grouptron.errors import GrouptronError
 from grouptron.geometry import DERIVATIVE_SCHEMES
 
@@ -169,6 +169,20 @@ def int_list(value: str) -> list[int]:
     if any(n < 1 for n in numbers):
         raise GrouptronError(f"expected positive integers, got {value!r}")
     return numbers
+
+
+def region_probabilities(value: str) -> tuple[float, ...]:
+    """Comma-separated probabilities of prediction regions, e.g. ``"0.5,0.9"``, each in
+    (0, MAX_REGION_Q], each once, in the order given."""
+    try:
+        qs = [float(v) for v in value.split(",") if v.strip()]
+    except ValueError:
+        raise GrouptronError(
+            f"--regions takes probabilities such as 0.5,0.9, not {value!r}"
+        ) from None
+    if not qs or any(not 0.0 < q <= MAX_REGION_Q for q in qs):
+        raise GrouptronError(f"--regions probabilities must be in (0, {MAX_REGION_Q}]: {value!r}")
+    return tuple(dict.fromkeys(qs))
 
 
 def eval_modes(value: str) -> tuple[str, ...]:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from grouptron.errors import GrouptronError
+from grouptron.model.regions import MAX_COVERAGE, Regions, prediction_regions
 
 
 @dataclass(frozen=True, eq=False)  # arrays have no single truth value: compare by identity
@@ -35,6 +36,11 @@ class Forecast:
             ``history_steps``; fewer for agents seen only recently), or None.
         filled_points: (N,) positions of that history filled in for missed detections (not
             counted in ``observed_points``), or None.
+        point_log_weights: (N, M) log weights of the M latent values the point forecast was
+            made from (10 for ``ml-top10``, 1 for ``ml-argmax``, all Z for ``ml`` and
+            ``mean``), renormalised over them; None when not kept (likewise the next two).
+        point_means: (N, M, H, 2) their position means.
+        point_covariances: (N, M, H, 2, 2) their covariances (m^2).
     """
 
     frame: int | None
@@ -48,14 +54,20 @@ class Forecast:
     group: np.ndarray | None
     observed_points: np.ndarray | None = None
     filled_points: np.ndarray | None = None
+    point_log_weights: np.ndarray | None = None
+    point_means: np.ndarray | None = None
+    point_covariances: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.ids)
 
-    def table(self, sampled: bool = False) -> tuple[list[str], np.ndarray, list[str]]:
+    def table(
+        self, sampled: bool = False, regions: tuple[float, ...] = ()
+    ) -> tuple[list[str], np.ndarray, list[str]]:
         """CSV header, rows ``frame, id, step, x, y`` of the most likely forecasts (or of the
         samples, with a ``sample`` column) and their number formats; ``step`` k is the
-        position k steps after ``frame``."""
+        position k steps after ``frame``. Each probability of ``regions`` adds its ellipse's
+        ``qQ_major_m, qQ_minor_m, qQ_angle_rad`` (point forecasts only)."""
         if sampled and self.samples is None:
             raise GrouptronError("this forecast holds no samples")
         positions = self.samples if sampled else self.most_likely[:, None]
@@ -69,4 +81,30 @@ class Forecast:
             columns.append(k)
             header.append("sample")
             formats.append("%d")
+        elif regions:
+            for q in regions:
+                region = self.regions(q)
+                label = f"q{100 * q:g}"
+                columns += [a[s, h] for a in (region.major_m, region.minor_m, region.angle_rad)]
+                header += [f"{label}_major_m", f"{label}_minor_m", f"{label}_angle_rad"]
+                formats += ["%.4f", "%.4f", "%.4f"]
         return header, np.stack([np.asarray(c, dtype=np.float64) for c in columns], 1), formats
+
+    def regions(self, q: float) -> Regions:
+        """Per forecast and step, the ellipse around the point forecast holding probability
+        ``q`` (0 < q <= 0.99) of the distribution the point forecast was made from (the
+        mixture of its latent values' Gaussians): ``Regions`` of (N, H) semi-axes and angles.
+        Their coverage on recordings is measured, not promised (benchmarks/RESULTS.md)."""
+        if self.point_means is None or self.point_log_weights is None:
+            raise GrouptronError(
+                "this forecast holds no distribution to draw regions from (whole-file "
+                "forecasts keep it when made with keep_distribution=True)"
+            )
+        if not 0.0 < q <= MAX_COVERAGE:
+            raise GrouptronError(
+                f"a region's probability q must be in (0, {MAX_COVERAGE}], not {q}"
+            )
+        assert self.point_covariances is not None
+        return prediction_regions(
+            self.most_likely, self.point_log_weights, self.point_means, self.point_covariances, q
+        )

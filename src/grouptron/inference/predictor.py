@@ -46,19 +46,13 @@ from grouptron.model.batch import Batch, batches
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import uses_groups
-from grouptron.model.gaussians import (
-    covariance_matrices,
-    position_covariances,
-    positions_from_velocities,
-)
 from grouptron.model.predict import (
     POINT_FORECASTS,
     TOP_LATENT_VALUES,
-    decode_every_latent,
+    ForecastGaussians,
     default_point_forecast,
-    mixture_mean_positions,
-    most_likely_of_decoded_top,
-    predict_most_likely_of_top,
+    point_forecast_and_gaussians,
+    point_forecast_and_mixture,
     predict_samples,
 )
 
@@ -345,7 +339,7 @@ class Predictor:
             groups = assign_groups_at_step(samples, found.tracks, found.distances, self.group_rule)
         ((_, batch),) = batches(samples, self.config, len(samples), groups)
         batch = batch.to(self.device)
-        most_likely, log_weights, mean, cov = self._most_likely_and_mixture(batch)
+        point, own, mixture = self._most_likely_and_mixture(batch)
         drawn = None
         if num_samples:
             generator = torch.Generator(device=self.device).manual_seed(seed)
@@ -358,47 +352,41 @@ class Predictor:
             group_of_track[found.tracks] = found.labels
         ids = scene.ped_id[samples.track]
         order = np.argsort(ids, kind="stable")
+        mix_w, mix_mu, mix_cov = _ordered(
+            None if mixture is None else mixture.as_arrays(origin), order
+        )
+        own_w, own_mu, own_cov = _ordered(own.as_arrays(origin), order)
         return Forecast(
             frame=frame,
             frames=np.full(len(ids), frame, dtype=np.int64),
             ids=ids[order],
-            most_likely=(most_likely + origin[:, None])[order],
+            most_likely=(point.double().cpu().numpy() + origin[:, None])[order],
             samples=None
             if drawn is None
             else (drawn.double().cpu().numpy() + origin[:, None, None])[order],
-            mixture_log_weights=None if log_weights is None else log_weights[order],
-            mixture_means=None if mean is None else (mean + origin[:, None, None])[order],
-            mixture_covariances=None if cov is None else cov[order],
+            mixture_log_weights=mix_w,
+            mixture_means=mix_mu,
+            mixture_covariances=mix_cov,
             group=group_of_track[samples.track][order],
             observed_points=samples.hist_mask.sum(axis=1)[order],  # filled ones counted too
             filled_points=np.zeros(len(ids), dtype=np.int64),
+            point_log_weights=own_w,
+            point_means=own_mu,
+            point_covariances=own_cov,
         )
 
     def _most_likely_and_mixture(
         self, batch: Batch
-    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, np.ndarray | None]:
-        """(N, H, 2) most likely offsets from now and, if asked for, the mixture: (N, Z) log
-        weights, (N, Z, H, 2) position offsets, (N, Z, H, 2, 2) covariances (float64)."""
-        H, dt = self.config.data.horizon_steps, self.config.data.dt_s
-        M, Z = self.decoded_latent_values, self.config.model.latent_modes
-        if not self.mixture and M < Z:  # decode only the M most probable latent values
-            top = predict_most_likely_of_top(self.model, batch, H, dt, latent_values=M)
-            return top.double().cpu().numpy(), None, None, None
-        encoding, velocity = decode_every_latent(self.model, batch, H)
-        if self.most_likely == "mean":
-            most_likely = mixture_mean_positions(encoding, velocity, dt)
-        else:
-            most_likely = most_likely_of_decoded_top(encoding, velocity, M, dt)
-        if not self.mixture:
-            return most_likely.double().cpu().numpy(), None, None, None
-        mean = positions_from_velocities(velocity.mean, dt)  # (N, Z, H, 2)
-        cov = position_covariances(velocity.cov, dt)  # (N, Z, H, 3)
-        return (
-            most_likely.double().cpu().numpy(),
-            torch.log_softmax(encoding.p_logits, -1).double().cpu().numpy(),
-            mean.double().cpu().numpy(),
-            covariance_matrices(cov).double().cpu().numpy(),
+    ) -> tuple[torch.Tensor, ForecastGaussians, ForecastGaussians | None]:
+        """(N, H, 2) point forecast offsets from now, the Gaussians it was made from and, if
+        asked for, those of all Z latent values."""
+        H, dt, mode = self.config.data.horizon_steps, self.config.data.dt_s, self.most_likely
+        if self.mixture:
+            return point_forecast_and_mixture(self.model, batch, H, dt, mode, self.latent_values)
+        point, own = point_forecast_and_gaussians(
+            self.model, batch, H, dt, mode, self.latent_values
         )
+        return point, own, None
 
     def check_plausible(self, values: np.ndarray, min_pairs: int = 1) -> bool:
         """Refuse (R, 4) tracks whose median speed no pedestrian walks (wrong units or frame
@@ -422,6 +410,7 @@ class Predictor:
 
     def _empty(self, frame: int, num_samples: int) -> Forecast:
         H, Z = self.config.data.horizon_steps, self.config.model.latent_modes
+        M = self.decoded_latent_values
         return Forecast(
             frame=frame,
             frames=np.zeros(0, dtype=np.int64),
@@ -434,6 +423,9 @@ class Predictor:
             group=np.zeros(0, dtype=np.int64),
             observed_points=np.zeros(0, dtype=np.int64),
             filled_points=np.zeros(0, dtype=np.int64),
+            point_log_weights=np.zeros((0, M)),
+            point_means=np.zeros((0, M, H, 2)),
+            point_covariances=np.zeros((0, M, H, 2, 2)),
         )
 
     def _warn_if_central(self) -> None:
@@ -446,3 +438,13 @@ class Predictor:
                 "data.",
                 stacklevel=3,
             )
+
+
+def _ordered(
+    arrays: tuple[np.ndarray, np.ndarray, np.ndarray] | None, order: np.ndarray
+) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+    """Each array's rows in ``order`` (three Nones for no arrays)."""
+    if arrays is None:
+        return None, None, None
+    first, second, third = (a[order] for a in arrays)
+    return first, second, third

@@ -6,6 +6,8 @@ over the input directly.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 import torch
 from tqdm import tqdm
@@ -16,10 +18,14 @@ from grouptron.data.samples import SampleSet, scene_samples
 from grouptron.data.scene import Scene
 from grouptron.errors import GrouptronError
 from grouptron.inference.forecast import Forecast
-from grouptron.model.batch import batches
+from grouptron.model.batch import Batch, batches
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model
-from grouptron.model.predict import POINT_FORECASTS, predict_most_likely, predict_samples
+from grouptron.model.predict import (
+    POINT_FORECASTS,
+    point_forecast_and_gaussians,
+    predict_samples,
+)
 
 FORECAST_MODES = constants.FORECAST_MODES
 
@@ -54,6 +60,7 @@ def forecast_scene(
     progress: bool = False,
     min_points: int | None = None,
     device: torch.device | str = "cpu",
+    keep_distribution: bool = False,
 ) -> Forecast:
     """Forecast every (pedestrian, step) of ``scene`` with ``min_points`` observed positions in
     a row up to it (default ``history_steps``: the samples the evaluator scores; 2 at least).
@@ -62,29 +69,24 @@ def forecast_scene(
     evaluator's most likely, ``ml-argmax``, ``mean``); ``samples`` adds ``num_samples``
     futures per pedestrian drawn from the model (seeded) to the ``ml`` one. Grouptron clusters
     the neighbours first. The forecasts carry no mixture and no scene-wide groups
-    (``Predictor`` gives those).
+    (``Predictor`` gives those); ``keep_distribution`` keeps the Gaussians the point forecast
+    was made from, for ``Forecast.regions`` (about 1 KB per forecast and latent value).
     """
     if mode not in FORECAST_MODES:
         raise GrouptronError(f"unknown forecast mode {mode!r}; choose from {FORECAST_MODES}")
-    data = config.data
     samples = _samples_to_forecast(scene, config, min_points)
     groups = groups_for_model(samples, config)
     model.eval().to(device)
-    generator = torch.Generator(device=device).manual_seed(seed)
-    K, H = (num_samples if mode == "samples" else 0), data.horizon_steps
-    most_likely = np.empty((len(samples), H, 2))  # (S, H, 2)
-    drawn = np.empty((len(samples), K, H, 2))  # (S, K, H, 2)
+    K = num_samples if mode == "samples" else 0
+    loader = batches(samples, config, batch_size, groups)
     total = -(-len(samples) // batch_size)
-    for index, batch in tqdm(
-        batches(samples, config, batch_size, groups), total=total, disable=not progress
-    ):
-        batch = batch.to(device)
-        point = POINT_FORECASTS.get(mode, predict_most_likely)  # samples: with the ml one
-        most_likely[index] = point(model, batch, H, data.dt_s, ()).double().cpu().numpy()
-        if K:
-            pred = predict_samples(model, batch, H, data.dt_s, num_samples=K, generator=generator)
-            drawn[index] = pred.double().cpu().numpy()
+    batched = tqdm(loader, total=total, disable=not progress)
+    point_mode = mode if mode in POINT_FORECASTS else "ml"  # samples: with the ml one
+    most_likely, drawn, kept = _decode_batches(
+        model, config, batched, len(samples), point_mode, K, seed, device, keep_distribution
+    )
     origin_world = samples.pos_now_scene_m.astype(np.float64) + scene.centre_world_m  # (S, 2)
+    log_weights, means, covariances = (None, None, None) if kept is None else kept
     frames = scene.first_frame + samples.step.astype(np.int64) * scene.frames_per_step
     return Forecast(
         frame=int(frames[0]) if len(np.unique(frames)) == 1 else None,
@@ -98,4 +100,45 @@ def forecast_scene(
         group=None,
         observed_points=samples.hist_mask.sum(axis=1),
         filled_points=np.zeros(len(samples), dtype=np.int64),
+        point_log_weights=log_weights,
+        point_means=None if means is None else means + origin_world[:, None, None, :],
+        point_covariances=covariances,
     )
+
+
+def _decode_batches(
+    model: TrajectronCVAE,
+    config: ExperimentConfig,
+    batched: Iterable[tuple[np.ndarray, Batch]],
+    count: int,
+    point_mode: str,
+    num_samples: int,
+    seed: int,
+    device: torch.device | str,
+    keep_distribution: bool,
+) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray] | None]:
+    """(S, H, 2) point forecasts, (S, K, H, 2) samples and, if kept, the point forecast's
+    (S, M) log weights, (S, M, H, 2) means and (S, M, H, 2, 2) covariances, relative to now."""
+    H, dt = config.data.horizon_steps, config.data.dt_s
+    generator = torch.Generator(device=device).manual_seed(seed)
+    most_likely = np.empty((count, H, 2))
+    drawn = np.empty((count, num_samples, H, 2))
+    kept: list[np.ndarray] = []
+    for index, batch in batched:
+        batch = batch.to(device)
+        if keep_distribution:
+            point, own = point_forecast_and_gaussians(model, batch, H, dt, point_mode)
+            for i, part in enumerate(own.as_arrays(np.zeros((len(point), 2)))):
+                if len(kept) <= i:  # M is known once the first batch is decoded
+                    kept.append(np.empty((count, *part.shape[1:])))
+                kept[i][index] = part
+        else:
+            point = POINT_FORECASTS[point_mode](model, batch, H, dt, ())
+        most_likely[index] = point.double().cpu().numpy()
+        if num_samples:
+            pred = predict_samples(
+                model, batch, H, dt, num_samples=num_samples, generator=generator
+            )
+            drawn[index] = pred.double().cpu().numpy()
+    distribution = (kept[0], kept[1], kept[2]) if kept else None
+    return most_likely, drawn, distribution

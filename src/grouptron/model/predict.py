@@ -7,6 +7,7 @@ import dataclasses
 from collections.abc import Callable
 from typing import Literal
 
+import numpy as np
 import torch
 
 from grouptron import constants
@@ -14,7 +15,11 @@ from grouptron.config import ModelConfig
 from grouptron.errors import GrouptronError
 from grouptron.model.batch import Batch
 from grouptron.model.cvae import Encoding, TrajectronCVAE, VelocityGaussians
-from grouptron.model.gaussians import positions_from_velocities
+from grouptron.model.gaussians import (
+    covariance_matrices,
+    position_covariances,
+    positions_from_velocities,
+)
 from grouptron.model.mixture_mode import mixture_mode
 
 ABLATIONS = constants.ABLATIONS
@@ -169,6 +174,94 @@ def most_likely_of_decoded_top(
     starts = TOP_MODE_STARTS if latent_values < Z else MODE_STARTS
     top = top_latent_values(encoding, velocity, latent_values)
     return most_likely_positions(*top, horizon, dt_s, starts)
+
+
+@dataclasses.dataclass(frozen=True)
+class ForecastGaussians:
+    """The position Gaussians of the M latent values a point forecast was made from (10 for
+    ``ml-top10``, 1 for ``ml-argmax``, all Z for ``ml`` and ``mean``): the forecast's own
+    distribution, from which prediction regions are drawn (``model/regions.py``).
+
+    Attributes:
+        log_weights: (B, M) log p(z|x) renormalised over the M values.
+        means: (B, M, H, 2) position means relative to ``t``, metres.
+        covariances: (B, M, H, 3) their covariance entries (var_x, cov_xy, var_y), m^2.
+    """
+
+    log_weights: torch.Tensor
+    means: torch.Tensor
+    covariances: torch.Tensor
+
+    def as_arrays(self, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Float64 NumPy: (B, M) log weights, (B, M, H, 2) means moved to the (B, 2)
+        ``origin`` and (B, M, H, 2, 2) covariance matrices."""
+        means = self.means.double().cpu().numpy() + origin[:, None, None, :]
+        covariances = covariance_matrices(self.covariances).double().cpu().numpy()
+        return self.log_weights.double().cpu().numpy(), means, covariances
+
+
+def point_forecast_and_gaussians(
+    model: TrajectronCVAE,
+    batch: Batch,
+    horizon: int,
+    dt_s: float,
+    mode: str,
+    latent_values: int | None = None,
+) -> tuple[torch.Tensor, ForecastGaussians]:
+    """(B, H, 2) point forecast ``mode`` (``ml`` of the ``latent_values`` most probable latent
+    values when given) and the Gaussians it was made from, decoding only those."""
+    Z = model.config.latent_modes
+    if mode == "ml-top10":
+        mode, latent_values = "ml", min(TOP_LATENT_VALUES, Z)
+    encoding = encode_prior(model, batch)
+    if mode == "ml-argmax" or (latent_values or Z) < Z:
+        M = 1 if mode == "ml-argmax" else latent_values
+        logits, top = encoding.p_logits.topk(M or 1, dim=-1)  # (B, M)
+        encoding = Encoding(x=encoding.x, p_logits=logits, q_logits=None)
+        velocity = model.decode(encoding.x, batch.state_now_st, top, horizon, feedback="mean")
+    else:
+        velocity = model.decode(encoding.x, batch.state_now_st, None, horizon, feedback="mean")
+    if mode == "mean":
+        point = mixture_mean_positions(encoding, velocity, dt_s)
+    else:
+        starts = TOP_MODE_STARTS if velocity.mean.shape[1] < Z else MODE_STARTS
+        point = most_likely_positions(encoding, velocity, horizon, dt_s, starts)
+    return point, forecast_gaussians(encoding, velocity, dt_s)
+
+
+def point_forecast_and_mixture(
+    model: TrajectronCVAE,
+    batch: Batch,
+    horizon: int,
+    dt_s: float,
+    mode: str,
+    latent_values: int | None = None,
+) -> tuple[torch.Tensor, ForecastGaussians, ForecastGaussians]:
+    """:func:`point_forecast_and_gaussians` and the Gaussians of all Z latent values, from one
+    decoding of all of them (the forecast is the same)."""
+    Z = model.config.latent_modes
+    if mode == "ml-top10":
+        mode, latent_values = "ml", min(TOP_LATENT_VALUES, Z)
+    M = 1 if mode == "ml-argmax" else (latent_values or Z)
+    encoding, velocity = decode_every_latent(model, batch, horizon)
+    if mode == "mean":
+        point = mixture_mean_positions(encoding, velocity, dt_s)
+        own = forecast_gaussians(encoding, velocity, dt_s)
+    else:
+        point = most_likely_of_decoded_top(encoding, velocity, M, dt_s)
+        own = forecast_gaussians(*top_latent_values(encoding, velocity, M), dt_s)
+    return point, own, forecast_gaussians(encoding, velocity, dt_s)
+
+
+def forecast_gaussians(
+    encoding: Encoding, velocity: VelocityGaussians, dt_s: float
+) -> ForecastGaussians:
+    """The decoded latent values' velocity Gaussians as position Gaussians."""
+    return ForecastGaussians(
+        log_weights=torch.log_softmax(encoding.p_logits, dim=-1),
+        means=positions_from_velocities(velocity.mean, dt_s),
+        covariances=position_covariances(velocity.cov, dt_s),
+    )
 
 
 def predict_argmax_latent(

@@ -12,6 +12,7 @@ from grouptron.cli.options import (
     add_threads_option,
     non_negative_int,
     positive_int,
+    region_probabilities,
 )
 from grouptron.constants import DEFAULT_CHECKPOINT, FORECAST_MODES, POINT_FORECAST_NAMES
 
@@ -70,6 +71,16 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--samples", type=positive_int, default=20, help="futures per pedestrian (samples)"
     )
     predict.add_argument("--seed", type=int, default=0, help="seed of --mode samples")
+    predict.add_argument(
+        "--regions",
+        type=region_probabilities,
+        default=(),
+        metavar="Q[,Q...]",
+        help="add, per forecast point, the ellipse around it that holds probability Q of the "
+        "forecast's distribution: columns qQ_major_m, qQ_minor_m (semi-axes, metres) and "
+        "qQ_angle_rad (the major axis from +x), e.g. --regions 0.5,0.9 gives q50_* and q90_*. "
+        "Their coverage on recordings is measured, not promised: benchmarks/RESULTS.md",
+    )
     predict.add_argument(
         "--min-points",
         type=positive_int,
