@@ -165,6 +165,26 @@ def test_plot_draws_one_panel_per_model_and_refuses_an_empty_frame(
     assert not (tmp_path / "x.png").exists()
 
 
+def test_plot_draws_regions_by_default_and_ids_when_asked(
+    tiny_checkpoints: Path, synthetic_data_dir: Path, tmp_path: Path
+) -> None:
+    tracks = next((synthetic_data_dir / "eth/test").glob("*.txt"))
+    b = str(tiny_checkpoints / "grouptron-eth-backward")
+    argv = ["plot", "--checkpoint", b, "--tracks", str(tracks), "--quiet"]
+    pictures = {}
+    for name, extra in {
+        "regions": [],
+        "wider": ["--region", "0.5"],
+        "ids": ["--ids"],
+        "bare": ["--region", "0"],
+    }.items():
+        pictures[name] = tmp_path / f"{name}.png"
+        assert main([*argv, *extra, "--out", str(pictures[name])]) == 0
+    drawn = {name: path.read_bytes() for name, path in pictures.items()}
+    assert len(set(drawn.values())) == 4  # each option changes the picture
+    assert main([*argv, "--region", "0.5,0.9", "--out", str(tmp_path / "x.png")]) == 2
+
+
 def test_plot_animates_a_range_of_frames_as_a_gif(
     tiny_checkpoints: Path, synthetic_data_dir: Path, tmp_path: Path
 ) -> None:

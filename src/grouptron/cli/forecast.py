@@ -228,7 +228,7 @@ def _plot_panels(
             "ml-top10": "most likely of top 10",
         }.get(args.forecast or default_point_forecast(predictor.config.model), "mean")
         rule = describe_group_rule(predictor.group_rule)
-        panels.append(Panel(name, forecast, history, truth, label, rule))
+        panels.append(Panel(name, forecast, history, truth, label, rule, args.region, args.ids))
     return panels
 
 

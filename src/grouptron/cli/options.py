@@ -185,6 +185,16 @@ def region_probabilities(value: str) -> tuple[float, ...]:
     return tuple(dict.fromkeys(qs))
 
 
+def plot_region_probability(value: str) -> float | None:
+    """One probability of a drawn region, or 0 for none."""
+    if value.strip() in ("0", "none"):
+        return None
+    qs = region_probabilities(value)
+    if len(qs) != 1:
+        raise GrouptronError(f"--region takes one probability such as 0.9 (0: none): {value!r}")
+    return qs[0]
+
+
 def eval_modes(value: str) -> tuple[str, ...]:
     """Comma-separated evaluation modes (or ``all``), each once, in the order given."""
     if value == "all":

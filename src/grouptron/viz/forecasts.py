@@ -1,5 +1,6 @@
-"""Pictures of forecasts: histories, ground truth, most likely and sampled futures, pedestrians
-coloured by detected group; one panel per model; one frame (PNG) or a range (GIF/MP4)."""
+"""Pictures of forecasts: histories, ground truth, the point forecast with its prediction
+regions (or sampled futures), pedestrians coloured by detected group; one panel per model; one
+frame (PNG) or a range (GIF/MP4)."""
 
 from __future__ import annotations
 
@@ -14,6 +15,8 @@ matplotlib.use("Agg")  # files only; works without a display
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib import animation
+from matplotlib.colors import hsv_to_rgb
+from matplotlib.patches import Ellipse
 
 from grouptron.errors import GrouptronError
 from grouptron.inference.forecast import Forecast
@@ -32,6 +35,8 @@ class Panel:
         truth: (N, H, 2) the recorded future (NaN where the file has none).
         point_forecast: what the dashed line is (``most likely``, ``argmax latent``, ``mean``).
         group_rule: how the colours' groups were found (``config.describe_group_rule``).
+        region_q: draw each forecast step's region holding this probability (None: none).
+        ids: write each person's id beside them.
     """
 
     title: str
@@ -40,6 +45,21 @@ class Panel:
     truth: np.ndarray
     point_forecast: str = "most likely"
     group_rule: str = ""
+    region_q: float | None = None
+    ids: bool = False
+
+
+REGION_STEPS = (3, 6, 9, 12)
+"""Forecast steps whose regions are drawn (1.2 s apart: all twelve overlap into a smear)."""
+
+
+def group_colour(group: int) -> tuple[float, float, float]:
+    """A colour per group that stays distinct from its neighbours' in a crowd of many groups:
+    hues a golden-ratio turn apart, so that consecutive groups never look alike."""
+    hue = (group * 0.6180339887) % 1.0
+    value = 0.85 if group % 2 else 0.65  # alternate brightness too
+    rgb = hsv_to_rgb((hue, 0.8, value))
+    return float(rgb[0]), float(rgb[1]), float(rgb[2])
 
 
 def tracks_around(
@@ -64,13 +84,28 @@ def tracks_around(
 
 
 def _draw_panel(ax: plt.Axes, panel: Panel, frame: int) -> None:
-    """Histories, truth, most likely and sampled futures of one model, coloured by group."""
-    colours = plt.get_cmap("tab10")
+    """Histories, truth, the point forecast with its regions (or samples) of one model,
+    coloured by group."""
     forecast = panel.forecast
+    regions = None if panel.region_q is None else forecast.regions(panel.region_q)
     for k in range(len(forecast)):
         group = k if forecast.group is None else int(forecast.group[k])
-        colour = colours(group % 10)
+        colour = group_colour(group)
         origin = panel.history[k, -1]
+        if regions is not None:
+            for step in REGION_STEPS:
+                h = step - 1
+                ellipse = Ellipse(
+                    tuple(regions.centre[k, h]),
+                    2 * regions.major_m[k, h],
+                    2 * regions.minor_m[k, h],
+                    angle=float(np.degrees(regions.angle_rad[k, h])),
+                    facecolor=colour,
+                    edgecolor=colour,
+                    alpha=0.12,
+                    lw=0.6,
+                )
+                ax.add_patch(ellipse)
         if forecast.samples is not None:
             for drawn in forecast.samples[k]:
                 path = np.vstack([origin, drawn])
@@ -82,19 +117,29 @@ def _draw_panel(ax: plt.Axes, panel: Panel, frame: int) -> None:
         ml = np.vstack([origin, forecast.most_likely[k]])
         ax.plot(ml[:, 0], ml[:, 1], "--", color=colour, lw=1.8)
         ax.plot(*origin, "o", color=colour, ms=6, mec="black", mew=0.6)
+        if panel.ids:
+            ax.annotate(f"{forecast.ids[k]:g}", origin, xytext=(3, 3), textcoords="offset points",
+                        fontsize=7)  # fmt: skip
     ax.set_aspect("equal", adjustable="box")
     rule = f", groups: {panel.group_rule}" if panel.group_rule else ""
     ax.set(xlabel="x (m)", ylabel="y (m)", title=f"{panel.title}\nframe {frame}{rule}")
     ax.grid(alpha=0.3)
 
 
-def _add_legend(ax: plt.Axes, point_forecast: str) -> None:
-    legend = [
+def _add_legend(ax: plt.Axes, panel: Panel) -> None:
+    legend: list[Any] = [
         plt.Line2D([0], [0], color="grey", lw=2.2, label="observed (3.2 s)"),
         plt.Line2D([0], [0], color="black", ls=":", lw=1.2, label="ground truth"),
-        plt.Line2D([0], [0], color="grey", ls="--", lw=1.8, label=f"{point_forecast} (4.8 s)"),
-        plt.Line2D([0], [0], color="grey", lw=0.5, alpha=0.6, label="samples"),
+        plt.Line2D(
+            [0], [0], color="grey", ls="--", lw=1.8, label=f"{panel.point_forecast} (4.8 s)"
+        ),
     ]
+    if panel.region_q is not None:
+        seconds = ", ".join(f"{0.4 * s:g}" for s in REGION_STEPS)
+        label = f"{100 * panel.region_q:g}% region at {seconds} s"
+        legend.append(Ellipse((0, 0), 1, 1, facecolor="grey", alpha=0.25, label=label))
+    if panel.forecast.samples is not None and panel.forecast.samples.shape[1]:
+        legend.append(plt.Line2D([0], [0], color="grey", lw=0.5, alpha=0.6, label="samples"))
     # Outside the axes: inside, it hides pedestrians in crowded frames.
     ax.legend(
         handles=legend,
@@ -118,7 +163,7 @@ def plot_forecasts(panels: Sequence[Panel], frame: int, out: Path) -> None:
     try:
         for ax, panel in zip(axes, panels, strict=True):
             _draw_panel(ax, panel, frame)
-        _add_legend(axes[-1], panels[0].point_forecast)
+        _add_legend(axes[-1], panels[0])
         fig.tight_layout()
         save_atomically(out, fig.savefig)
     finally:
@@ -170,7 +215,7 @@ def animate_forecasts(
             ax.clear()
             _draw_panel(ax, panel, frame)
             ax.set(xlim=x_lim, ylim=y_lim)
-        _add_legend(axes[-1], panels[0].point_forecast)
+        _add_legend(axes[-1], panels[0])
 
     try:
         draw(0)

@@ -11,6 +11,7 @@ from grouptron.cli.options import (
     add_recording_options,
     add_threads_option,
     non_negative_int,
+    plot_region_probability,
     positive_int,
     region_probabilities,
 )
@@ -107,9 +108,10 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
         help="draw a checkpoint's forecasts at one frame of a track file",
         description="Draw, at one frame, every pedestrian with 2 or more observed steps (the "
         "Python API's rule; short gaps filled): the observed "
-        "path, the recorded future (dotted), the most likely forecast (dashed) and sampled "
-        "futures (thin), coloured by detected group; axes in metres. --compare adds a second "
-        "model's panel beside the first.",
+        "path, the recorded future (dotted), the point forecast (dashed) with the regions that "
+        "hold 90%% of its distribution 1.2, 2.4, 3.6 and 4.8 s ahead (or sampled futures, thin), "
+        "coloured by detected group; axes in metres. --compare adds a second model's panel "
+        "beside the first.",
         formatter_class=Formatter,
         epilog="examples:\n"
         "  grouptron plot --checkpoint checkpoints/grouptron-univ-central/best.safetensors \\\n"
@@ -151,7 +153,17 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
         "most probable latent value's), mean (the p(z|x)-weighted mean) or ml-top10 (ml of "
         "the 10 most probable latent values) (default: the model's own, as for predict)",
     )
-    plot.add_argument("--samples", type=non_negative_int, default=20, help="sampled futures")
+    plot.add_argument(
+        "--region",
+        type=plot_region_probability,
+        default=0.9,
+        metavar="Q",
+        help="draw the regions holding probability Q of each forecast (0: none)",
+    )
+    plot.add_argument(
+        "--samples", type=non_negative_int, default=0, help="sampled futures drawn as thin lines"
+    )
+    plot.add_argument("--ids", action="store_true", help="write each person's id beside them")
     plot.add_argument("--seed", type=int, default=0, help="seed of the samples")
     plot.add_argument("--quiet", action="store_true", help="no progress bar")
     add_threads_option(plot)

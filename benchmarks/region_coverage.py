@@ -1,0 +1,121 @@
+"""Coverage of prediction regions: how often the true position lies inside the q-region.
+
+Usage:
+    python benchmarks/region_coverage.py [--checkpoint NAME] [--splits univ,eth,...]
+                                         [--datasets A.toml,B.toml] [--q 0.5,0.9]
+                                         [--threads 1]
+
+For every validation file of the splits (never test files) and every test file of the
+out-of-domain descriptions (default: the development set, ``$GROUPTRON_OOD``), every person
+with 8 observed and 12 future steps is forecast with the checkpoint's own point forecast
+(``Predictor``'s default) and ``Forecast.regions(q)`` is drawn around it. Prints, per
+recording and q, the share of true positions inside the ellipse at steps 1, 3, 6, 9 and 12
+and over all steps, with a 95% interval over resampled time steps for the all-steps share.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from grouptron.config import DataConfig, ExperimentConfig
+from grouptron.data.custom import read_dataset
+from grouptron.data.locate import resolve_data_dir, split_files
+from grouptron.data.recording import RecordingFormat
+from grouptron.data.samples import SampleSet
+from grouptron.evaluation.recordings import recording_samples
+from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
+from grouptron.model.batch import batches
+from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.factory import groups_for_model
+from grouptron.model.predict import default_point_forecast, point_forecast_and_gaussians
+from grouptron.model.regions import prediction_regions
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from out_of_domain import DEVELOPMENT_SET
+
+STEPS = (1, 3, 6, 9, 12)
+
+
+def inside_per_step(
+    model: TrajectronCVAE, config: ExperimentConfig, samples: SampleSet, qs: list[float]
+) -> dict[float, np.ndarray]:
+    """Per q, (S, H) whether each truth is inside its region."""
+    H, dt = config.data.horizon_steps, config.data.dt_s
+    mode = default_point_forecast(config.model)
+    groups = groups_for_model(samples, config)
+    inside: dict[float, list[np.ndarray]] = {q: [] for q in qs}
+    with torch.inference_mode():
+        for _, batch in batches(samples, config, 512, groups):
+            point, own = point_forecast_and_gaussians(model, batch, H, dt, mode)
+            log_weights, means, covs = own.as_arrays(np.zeros((len(point), 2)))
+            centre = point.double().numpy()
+            truth = batch.fut_rel_m.double().numpy()
+            for q in qs:
+                region = prediction_regions(centre, log_weights, means, covs, q)
+                inside[q].append(region.contains(truth))
+    return {q: np.concatenate(v) for q, v in inside.items()}
+
+
+def interval(hits: np.ndarray, steps: np.ndarray, draws: int = 1000) -> tuple[float, float]:
+    """95% interval of the all-steps share, resampling time steps (people at one time step
+    are not independent)."""
+    rng = np.random.default_rng(0)
+    unique, owner = np.unique(steps, return_inverse=True)
+    per_step = np.bincount(owner, hits.mean(axis=1), len(unique))
+    count = np.bincount(owner, minlength=len(unique)).astype(float)
+    picks = rng.integers(0, len(unique), (draws, len(unique)))
+    shares = per_step[picks].sum(axis=1) / count[picks].sum(axis=1)
+    return float(np.percentile(shares, 2.5)), float(np.percentile(shares, 97.5))
+
+
+def recordings(args: argparse.Namespace, data: DataConfig) -> list[tuple[str, SampleSet]]:
+    """(name, samples) of every validation file and every out-of-domain test file."""
+    out = []
+    for split in (s for s in args.splits.split(",") if s):
+        for path in split_files(resolve_data_dir(), split, "val"):
+            samples = recording_samples([path], RecordingFormat(), data)
+            out.append((f"{split} val: {path.name}", samples))
+    for description in (d for d in args.datasets.split(",") if d):
+        dataset = read_dataset(description)
+        for path in dataset.files("test"):
+            samples = recording_samples([path], dataset.recording, data)
+            out.append((f"{dataset.name}: {path.name}", samples))
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--checkpoint", default=DEFAULT_CHECKPOINT)
+    parser.add_argument("--splits", default="univ,eth,hotel,zara1,zara2")
+    parser.add_argument("--datasets", default=DEVELOPMENT_SET)
+    parser.add_argument("--q", default="0.5,0.9")
+    parser.add_argument("--threads", type=int, default=1)
+    args = parser.parse_args()
+    torch.set_num_threads(args.threads)
+    qs = [float(q) for q in args.q.split(",")]
+    model, config = load_trained_model(resolve_checkpoint(args.checkpoint))
+    model.eval()
+    print(f"{args.checkpoint}: {default_point_forecast(config.model)} point forecast")
+    steps_header = " | ".join(f"step {k}" for k in STEPS)
+    print(f"| recording | samples | q | {steps_header} | all steps [95%] |")
+    print("|---|---|---|" + "---|" * len(STEPS) + "---|")
+    for name, samples in recordings(args, config.data):
+        if not len(samples):
+            continue
+        inside = inside_per_step(model, config, samples, qs)
+        for q in qs:
+            share = inside[q].mean(axis=0)  # (H,)
+            low, high = interval(inside[q], samples.step)
+            cells = " | ".join(f"{share[k - 1]:.3f}" for k in STEPS)
+            total = f"{inside[q].mean():.3f} [{low:.3f}, {high:.3f}]"
+            print(f"| {name} | {len(samples)} | {q:g} | {cells} | {total} |")
+
+
+if __name__ == "__main__":
+    main()
