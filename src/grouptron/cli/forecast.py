@@ -21,6 +21,7 @@ from grouptron.data.ndjson import write_forecast_ndjson
 from grouptron.data.reader import TrackTable
 from grouptron.data.scene import build_scene
 from grouptron.errors import GrouptronError
+from grouptron.evaluation.calibration import calibration_for
 from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.predictor import Predictor
@@ -57,7 +58,8 @@ def cmd_predict(args: argparse.Namespace) -> int:
     to_stdout = args.out == "-"
     if not to_stdout:
         refuse_folder(Path(args.out), inputs=(args.tracks,))  # before the work, not after it
-    model, experiment = load_trained_model(resolve_checkpoint(args.checkpoint))
+    path = resolve_checkpoint(args.checkpoint)
+    model, experiment = load_trained_model(path)
     warn_look_ahead(args.checkpoint, experiment.data.derivatives)
     torch.set_num_threads(args.threads)
     table = read_track_table(args, args.frames_per_step or experiment.data.frames_per_step)
@@ -80,6 +82,8 @@ def cmd_predict(args: argparse.Namespace) -> int:
         device=args.device,
         keep_distribution=bool(args.regions),
     )
+    calibrated = calibration_for(args.calibration, experiment, mode, str(path))
+    forecast = dataclasses.replace(forecast, calibration=calibrated)
     if Path(args.out).suffix == ".ndjson":
         _write_trajnet(Path(args.out), forecast, table, sampled=mode == "samples")
         count = len(forecast) * data.horizon_steps * (args.samples if mode == "samples" else 1)
@@ -113,16 +117,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
         out, animation=args.until is not None, inputs=(args.tracks,)
     )  # before the work, not after it
     torch.set_num_threads(args.threads)
-    predictors = [
-        Predictor.from_checkpoint(
-            c,
-            most_likely=args.forecast,
-            device=args.device,
-            check_speed=not args.no_speed_check,  # the file was checked as it was read
-        )
-        for c in (args.checkpoint, args.compare)
-        if c
-    ]
+    predictors = _plot_predictors(args)
     for predictor in predictors:
         warn_look_ahead(predictor.source, predictor.config.data.derivatives)
     table = read_track_table(args, predictors[0].config.data.frames_per_step)
@@ -164,6 +159,21 @@ def cmd_plot(args: argparse.Namespace) -> int:
     animate_forecasts(drawn, out)
     print(f"wrote {out}: {len(drawn)} frames from {drawn[0][0]} to {drawn[-1][0]}")
     return 0
+
+
+def _plot_predictors(args: argparse.Namespace) -> list[Predictor]:
+    """The predictor of ``--checkpoint`` (with ``--calibration``) and of ``--compare``."""
+    return [
+        Predictor.from_checkpoint(
+            c,
+            most_likely=args.forecast,
+            device=args.device,
+            check_speed=not args.no_speed_check,  # the file was checked as it was read
+            calibration=args.calibration if c == args.checkpoint else None,
+        )
+        for c in (args.checkpoint, args.compare)
+        if c
+    ]
 
 
 def table_rows(table: TrackTable) -> np.ndarray:

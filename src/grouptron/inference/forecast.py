@@ -7,7 +7,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from grouptron.errors import GrouptronError
-from grouptron.model.regions import MAX_COVERAGE, Regions, prediction_regions
+from grouptron.model.regions import (
+    MAX_COVERAGE,
+    RegionCalibration,
+    Regions,
+    calibrated_regions,
+    prediction_regions,
+)
 
 
 @dataclass(frozen=True, eq=False)  # arrays have no single truth value: compare by identity
@@ -41,6 +47,8 @@ class Forecast:
             ``mean``), renormalised over them; None when not kept (likewise the next two).
         point_means: (N, M, H, 2) their position means.
         point_covariances: (N, M, H, 2, 2) their covariances (m^2).
+        calibration: conformal radii of a site's recording (``grouptron calibrate``) that
+            ``regions`` takes instead of the distribution's own, or None.
     """
 
     frame: int | None
@@ -57,6 +65,7 @@ class Forecast:
     point_log_weights: np.ndarray | None = None
     point_means: np.ndarray | None = None
     point_covariances: np.ndarray | None = None
+    calibration: RegionCalibration | None = None
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -94,7 +103,8 @@ class Forecast:
         """Per forecast and step, the ellipse around the point forecast holding probability
         ``q`` (0 < q <= 0.99) of the distribution the point forecast was made from (the
         mixture of its latent values' Gaussians): ``Regions`` of (N, H) semi-axes and angles.
-        Their coverage on recordings is measured, not promised (benchmarks/RESULTS.md)."""
+        Their coverage on recordings is measured, not promised (benchmarks/RESULTS.md); with
+        a ``calibration`` (q = 0.01, 0.02, ... 0.99) their size is the site's conformal one."""
         if self.point_means is None or self.point_log_weights is None:
             raise GrouptronError(
                 "this forecast holds no distribution to draw regions from (whole-file "
@@ -105,6 +115,35 @@ class Forecast:
                 f"a region's probability q must be in (0, {MAX_COVERAGE}], not {q}"
             )
         assert self.point_covariances is not None
-        return prediction_regions(
-            self.most_likely, self.point_log_weights, self.point_means, self.point_covariances, q
+        arrays = (
+            self.most_likely,
+            self.point_log_weights,
+            self.point_means,
+            self.point_covariances,
         )
+        if self.calibration is not None:
+            return calibrated_regions(*arrays, q, self.calibration.radius(q))
+        return prediction_regions(*arrays, q)
+
+
+def empty_forecast(
+    frame: int, horizon: int, latent_modes: int, decoded: int, num_samples: int, mixture: bool
+) -> Forecast:
+    """A forecast of nobody at ``frame``, with arrays of the shapes a full one would have."""
+    H, Z, M = horizon, latent_modes, decoded
+    return Forecast(
+        frame=frame,
+        frames=np.zeros(0, dtype=np.int64),
+        ids=np.zeros(0, dtype=np.int64),
+        most_likely=np.zeros((0, H, 2)),
+        samples=np.zeros((0, num_samples, H, 2)) if num_samples else None,
+        mixture_log_weights=np.zeros((0, Z)) if mixture else None,
+        mixture_means=np.zeros((0, Z, H, 2)) if mixture else None,
+        mixture_covariances=np.zeros((0, Z, H, 2, 2)) if mixture else None,
+        group=np.zeros(0, dtype=np.int64),
+        observed_points=np.zeros(0, dtype=np.int64),
+        filled_points=np.zeros(0, dtype=np.int64),
+        point_log_weights=np.zeros((0, M)),
+        point_means=np.zeros((0, M, H, 2)),
+        point_covariances=np.zeros((0, M, H, 2, 2)),
+    )

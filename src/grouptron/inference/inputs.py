@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from grouptron.config import DataConfig
+from grouptron.data import glitches
 from grouptron.data.reader import far_position
 from grouptron.errors import GrouptronError
 
@@ -144,3 +145,25 @@ def refuse_future_neighbours(data: DataConfig, source: str) -> None:
             f"{source or 'this model'} picks neighbours by whom they meet after t "
             "(data.neighbour_window_steps, a leak diagnostic): it cannot forecast live"
         )
+
+
+def check_walking_speed(
+    values: np.ndarray, data: DataConfig, frames_per_step: int, min_pairs: int = 1
+) -> bool:
+    """Refuse (R, 4) ``frame, id, x, y`` tracks whose median speed no pedestrian walks (wrong
+    units or frame grid); returns whether there were ``min_pairs`` consecutive observations
+    to judge."""
+    seconds_per_frame = data.dt_s / frames_per_step
+    time_s = values[:, 0] * seconds_per_frame
+    pairs = len(values) - len(np.unique(values[:, 1]))
+    if pairs < min_pairs:
+        return False
+    median = glitches.median_speed_mps(values[:, 1], time_s, values[:, 2:4])
+    if median > glitches.MAX_MEDIAN_SPEED_MPS:
+        raise GrouptronError(
+            f"the tracks' median walking speed is {median:.3g} m/s with frames "
+            f"{frames_per_step} apart per {data.dt_s} s step: positions "
+            "must be metres (convert centimetres or millimetres) and frames on that grid; "
+            "Predictor(check_speed=False) goes on anyway"
+        )
+    return True

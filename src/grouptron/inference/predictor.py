@@ -30,13 +30,15 @@ from grouptron.data.samples import SampleSet, scene_samples
 from grouptron.data.scene import Scene, build_scene
 from grouptron.devices import available_device
 from grouptron.errors import GrouptronError
+from grouptron.evaluation.calibration import calibration_for
 from grouptron.groups.assign import assign_groups_at_step
 from grouptron.groups.scene import groups_at_step
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
-from grouptron.inference.forecast import Forecast
+from grouptron.inference.forecast import Forecast, empty_forecast
 from grouptron.inference.inputs import (
     as_track_array,
     check_track_rows,
+    check_walking_speed,
     frame_argument,
     integer_argument,
     refuse_future_neighbours,
@@ -55,6 +57,7 @@ from grouptron.model.predict import (
     point_forecast_and_mixture,
     predict_samples,
 )
+from grouptron.model.regions import RegionCalibration
 
 log = logging.getLogger(__name__)
 
@@ -90,6 +93,8 @@ class Predictor:
         max_missed_steps: missed detections of up to this many steps in a row are filled by
             linear interpolation between the positions around them (0: a missed detection
             restarts the agent's track).
+        calibration: a ``grouptron calibrate`` file (or its ``RegionCalibration``) for this
+            model and point forecast: ``Forecast.regions`` then takes its conformal radii.
 
     Attributes:
         group_rule: the rule behind ``Forecast.group``: the model's own for one that reads
@@ -109,6 +114,7 @@ class Predictor:
         device: str | torch.device = "cpu",
         min_points: int = 2,
         max_missed_steps: int = 2,
+        calibration: str | Path | RegionCalibration | None = None,
     ) -> None:
         own = "ml" if latent_values else default_point_forecast(config.model)
         named: Any = own if most_likely is None else most_likely
@@ -151,6 +157,7 @@ class Predictor:
         history = config.data.history_steps
         self.min_points = integer_argument(min_points, "min_points", 2, history)
         self.max_missed_steps = integer_argument(max_missed_steps, "max_missed_steps", 0)
+        self.calibration = calibration_for(calibration, config, self.point_forecast_name, source)
         self._warned_central = False
 
     @classmethod
@@ -167,6 +174,7 @@ class Predictor:
         device: str | torch.device = "cpu",
         min_points: int = 2,
         max_missed_steps: int = 2,
+        calibration: str | Path | RegionCalibration | None = None,
     ) -> Predictor:
         """Load a ``.safetensors`` checkpoint (never a pickle) by path or shipped name
         (default: :data:`DEFAULT_CHECKPOINT`)."""
@@ -187,7 +195,16 @@ class Predictor:
             device=device,
             min_points=min_points,
             max_missed_steps=max_missed_steps,
+            calibration=calibration,
         )
+
+    @property
+    def point_forecast_name(self) -> str:
+        """The point forecast by its command-line name (``ml-top10`` rather than ``ml`` of 10)."""
+        Z = self.config.model.latent_modes
+        if self.most_likely == "ml" and self.latent_values == min(TOP_LATENT_VALUES, Z) < Z:
+            return "ml-top10"
+        return self.most_likely
 
     @property
     def decoded_latent_values(self) -> int:
@@ -318,7 +335,12 @@ class Predictor:
         filled = filled_in_histories(
             forecast.ids, frame, points, values[is_filled, :2], frames_per_step=self.frames_per_step
         )
-        return dataclasses.replace(forecast, observed_points=points - filled, filled_points=filled)
+        return dataclasses.replace(
+            forecast,
+            observed_points=points - filled,
+            filled_points=filled,
+            calibration=self.calibration,
+        )
 
     @torch.inference_mode()
     def _run(
@@ -393,40 +415,13 @@ class Predictor:
         grid); returns whether there were ``min_pairs`` consecutive observations to judge."""
         if not self.check_speed:
             return True
-        seconds_per_frame = self.config.data.dt_s / self.frames_per_step
-        time_s = values[:, 0] * seconds_per_frame
-        pairs = len(values) - len(np.unique(values[:, 1]))
-        if pairs < min_pairs:
-            return False
-        median = glitches.median_speed_mps(values[:, 1], time_s, values[:, 2:4])
-        if median > glitches.MAX_MEDIAN_SPEED_MPS:
-            raise GrouptronError(
-                f"the tracks' median walking speed is {median:.3g} m/s with frames "
-                f"{self.frames_per_step} apart per {self.config.data.dt_s} s step: positions "
-                "must be metres (convert centimetres or millimetres) and frames on that grid; "
-                "Predictor(check_speed=False) goes on anyway"
-            )
-        return True
+        return check_walking_speed(values, self.config.data, self.frames_per_step, min_pairs)
 
     def _empty(self, frame: int, num_samples: int) -> Forecast:
-        H, Z = self.config.data.horizon_steps, self.config.model.latent_modes
+        data, Z = self.config.data, self.config.model.latent_modes
         M = self.decoded_latent_values
-        return Forecast(
-            frame=frame,
-            frames=np.zeros(0, dtype=np.int64),
-            ids=np.zeros(0, dtype=np.int64),
-            most_likely=np.zeros((0, H, 2)),
-            samples=np.zeros((0, num_samples, H, 2)) if num_samples else None,
-            mixture_log_weights=np.zeros((0, Z)) if self.mixture else None,
-            mixture_means=np.zeros((0, Z, H, 2)) if self.mixture else None,
-            mixture_covariances=np.zeros((0, Z, H, 2, 2)) if self.mixture else None,
-            group=np.zeros(0, dtype=np.int64),
-            observed_points=np.zeros(0, dtype=np.int64),
-            filled_points=np.zeros(0, dtype=np.int64),
-            point_log_weights=np.zeros((0, M)),
-            point_means=np.zeros((0, M, H, 2)),
-            point_covariances=np.zeros((0, M, H, 2, 2)),
-        )
+        empty = empty_forecast(frame, data.horizon_steps, Z, M, num_samples, self.mixture)
+        return dataclasses.replace(empty, calibration=self.calibration)
 
     def _warn_if_central(self) -> None:
         if self.config.data.derivatives == "central" and not self._warned_central:

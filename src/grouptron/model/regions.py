@@ -12,11 +12,12 @@ quantile).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from grouptron.constants import MAX_REGION_Q
+from grouptron.errors import GrouptronError
 
 POINTS = 128
 """Lattice points per component: point ``p`` holds ``(p + 0.5) / POINTS`` of the standard
@@ -165,4 +166,93 @@ def prediction_regions(
         empty = np.zeros(centre.shape[:2])
         return Regions(q, centre, empty, empty.copy(), empty.copy())
     major, minor, angle = (np.concatenate(part) for part in zip(*parts, strict=True))
+    return Regions(q, centre, major, minor, angle)
+
+
+def shape_distances(
+    centre: np.ndarray,
+    log_weights: np.ndarray,
+    means: np.ndarray,
+    covs: np.ndarray,
+    points: np.ndarray,
+) -> np.ndarray:
+    """(N, H) each (N, H, 2) point's Mahalanobis distance from the point forecast under its
+    region's shape (the score a calibration ranks): a point is inside the region of radius r
+    when this is at most r."""
+    weights = np.exp(log_weights - log_weights.max(axis=1, keepdims=True))
+    weights = weights / weights.sum(axis=1, keepdims=True)
+    shape = _shape_about(centre, weights, means, covs)
+    offset = points - centre
+    solved = np.linalg.solve(shape, offset[..., None])[..., 0]
+    distance: np.ndarray = np.sqrt(np.maximum((offset * solved).sum(-1), 0.0))
+    return distance
+
+
+def conformal_radii(scores: np.ndarray, qs: np.ndarray) -> np.ndarray:
+    """Split-conformal radii: (n, H) calibration scores -> (Q, H) radii, per step the
+    ceil((n + 1) q)-th smallest score (infinite where that exceeds n). For a new sample
+    exchangeable with the calibration ones, its score is at most that radius with
+    probability at least q (Vovk et al. 2005; Lei et al. 2018)."""
+    n = len(scores)
+    ranked = np.sort(scores, axis=0)  # (n, H)
+    rank = np.ceil((n + 1) * qs).astype(np.int64)  # 1-based
+    radii = np.full((len(qs), scores.shape[1]), np.inf)
+    finite = rank <= n
+    radii[finite] = ranked[rank[finite] - 1]
+    return radii
+
+
+@dataclass(frozen=True, eq=False)
+class RegionCalibration:
+    """Conformal radii of a site's recording for one checkpoint and point forecast.
+
+    Attributes:
+        checkpoint: the model's name (``config.model_name``) the scores were made with.
+        point_forecast: its point forecast (``ml-top10``, ...).
+        samples: calibration samples (people with a full history and future).
+        qs: (Q,) probabilities, 0.01 to 0.99 in steps of 0.01.
+        radii: (Q, H) the radius per probability and forecast step.
+        source: the recording the scores came from.
+        weights_sha256: the checkpoint file's SHA-256 (empty when unknown).
+        uncalibrated_coverage_q90: (H,) the share of the recording's truths inside the
+            model's own 90% regions per step (for the record; empty when unknown).
+    """
+
+    checkpoint: str
+    point_forecast: str
+    samples: int
+    qs: np.ndarray
+    radii: np.ndarray
+    source: str = ""
+    weights_sha256: str = ""
+    uncalibrated_coverage_q90: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def radius(self, q: float) -> np.ndarray:
+        """(H,) the calibrated radius at ``q`` (one of ``qs``)."""
+        match = np.flatnonzero(np.isclose(self.qs, q))
+        if not len(match):
+            raise GrouptronError(f"calibrated regions are for q = 0.01, 0.02, ... 0.99, not {q}")
+        radius: np.ndarray = self.radii[match[0]]
+        if not np.isfinite(radius).all():
+            raise GrouptronError(
+                f"{self.samples} calibration samples cannot support q = {q:g}: it needs at "
+                f"least {int(np.ceil(q / (1 - q)))}; calibrate on a longer recording"
+            )
+        return radius
+
+
+def calibrated_regions(
+    centre: np.ndarray,
+    log_weights: np.ndarray,
+    means: np.ndarray,
+    covs: np.ndarray,
+    q: float,
+    radius: np.ndarray,
+) -> Regions:
+    """Regions of the same shape as :func:`prediction_regions`', of the (H,) calibrated
+    ``radius`` per step instead of the mixture's own."""
+    weights = np.exp(log_weights - log_weights.max(axis=1, keepdims=True))
+    weights = weights / weights.sum(axis=1, keepdims=True)
+    shape = _shape_about(centre, weights, means, covs)
+    major, minor, angle = ellipse_axes(shape, np.broadcast_to(radius, shape.shape[:2]))
     return Regions(q, centre, major, minor, angle)

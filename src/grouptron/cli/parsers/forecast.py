@@ -80,8 +80,10 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         help="add, per forecast point, the ellipse around it that holds probability Q of the "
         "forecast's distribution: columns qQ_major_m, qQ_minor_m (semi-axes, metres) and "
         "qQ_angle_rad (the major axis from +x), e.g. --regions 0.5,0.9 gives q50_* and q90_*. "
-        "Their coverage on recordings is measured, not promised: benchmarks/RESULTS.md",
+        "Their coverage on recordings is measured, not promised: benchmarks/RESULTS.md; "
+        "--calibration sizes them for a site",
     )
+    add_calibration_option(predict)
     predict.add_argument(
         "--min-points",
         type=positive_int,
@@ -100,8 +102,56 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     predict.add_argument("--quiet", action="store_true", help="no progress bar")
     predict.set_defaults(handler="grouptron.cli.forecast:cmd_predict")
     _add_plot(commands)
+    _add_calibrate(commands)
 
 
+def add_calibration_option(parser: argparse.ArgumentParser) -> None:
+    """``--calibration FILE`` (predict, plot)."""
+    parser.add_argument(
+        "--calibration",
+        help="a grouptron calibrate file of this checkpoint: regions take its conformal radii "
+        "(q = 0.01, 0.02, ... 0.99)",
+    )
+
+
+def _add_calibrate(commands: argparse._SubParsersAction) -> None:
+    calibrate = commands.add_parser(
+        "calibrate",
+        help="size a checkpoint's prediction regions for a site, from a recording of it",
+        description="Forecast every person of a recording of the site with 8 observed and 12 "
+        "future steps, score where the truth fell against each forecast's region, and write the "
+        "split-conformal radii per step and probability (a small JSON file). predict, plot and "
+        "Predictor(calibration=...) then draw regions of those radii: a new forecast at the site "
+        "falls inside its q-region with probability at least q, as long as it is exchangeable "
+        "with the recording's (docs/regions.md says when that holds). Calibrate on an earlier "
+        "recording than the one you check it on.",
+        formatter_class=Formatter,
+        epilog="examples:\n"
+        "  grouptron calibrate --tracks monday.csv --columns t,id,x,y --out site.json\n"
+        "  grouptron predict --tracks tuesday.csv --columns t,id,x,y --regions 0.9 \\\n"
+        "      --calibration site.json --out forecasts.csv",
+    )
+    calibrate.add_argument(
+        "--checkpoint",
+        default=DEFAULT_CHECKPOINT,
+        help="a .safetensors checkpoint or a shipped name (default: the model predict uses)",
+    )
+    calibrate.add_argument(
+        "--tracks", required=True, help="a recording of the site (any layout predict reads)"
+    )
+    calibrate.add_argument("--out", required=True, help="the calibration file to write (.json)")
+    calibrate.add_argument(
+        "--mode",
+        choices=POINT_FORECAST_NAMES,
+        help="the point forecast the regions go with (default: the model's own, as for predict)",
+    )
+    add_gap_option(calibrate)
+    add_recording_options(calibrate)
+    add_threads_option(calibrate)
+    calibrate.set_defaults(handler="grouptron.cli.calibrate:cmd_calibrate")
+
+
+# Longer than 60 lines on purpose: one flat list of options, in the order --help shows them.
 def _add_plot(commands: argparse._SubParsersAction) -> None:
     plot = commands.add_parser(
         "plot",
@@ -164,6 +214,7 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
         "--samples", type=non_negative_int, default=0, help="sampled futures drawn as thin lines"
     )
     plot.add_argument("--ids", action="store_true", help="write each person's id beside them")
+    add_calibration_option(plot)
     plot.add_argument("--seed", type=int, default=0, help="seed of the samples")
     plot.add_argument("--quiet", action="store_true", help="no progress bar")
     add_threads_option(plot)

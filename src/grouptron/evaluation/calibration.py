@@ -1,0 +1,180 @@
+"""Split-conformal calibration of prediction regions on a site's own recording.
+
+Every person of the recording with a full history and future is forecast; the score of a
+forecast step is the true position's Mahalanobis distance under its region's shape
+(``model.regions.shape_distances``). Per step and probability q the calibrated radius is the
+ceil((n + 1) q)-th smallest of the n scores, so that a new forecast whose score is exchangeable
+with the calibration ones falls inside with probability at least q (docs/regions.md says what
+that assumption means for tracks). The file is a few kilobytes of JSON.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from grouptron.config import ExperimentConfig
+from grouptron.data.samples import SampleSet
+from grouptron.errors import GrouptronError
+from grouptron.io import write_text_atomically
+from grouptron.model.batch import batches
+from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.factory import groups_for_model
+from grouptron.model.predict import point_forecast_and_gaussians
+from grouptron.model.regions import (
+    RegionCalibration,
+    conformal_radii,
+    prediction_regions,
+    shape_distances,
+)
+
+FORMAT = "grouptron-calibration/1"
+QS = np.round(np.arange(1, 100) / 100, 2)
+"""The probabilities a calibration file holds radii for."""
+
+
+@torch.inference_mode()
+def calibration_scores(
+    model: TrajectronCVAE,
+    config: ExperimentConfig,
+    samples: SampleSet,
+    point_forecast: str,
+    batch_size: int = 512,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(n, H) every sample's score per forecast step (samples with a full future), and (n, H)
+    whether its truth lies in the model's own (uncalibrated) 90% region."""
+    H, dt = config.data.horizon_steps, config.data.dt_s
+    groups = groups_for_model(samples, config)
+    scores, inside = [], []
+    for _, batch in batches(samples, config, batch_size, groups):
+        point, own = point_forecast_and_gaussians(model.eval(), batch, H, dt, point_forecast)
+        log_weights, means, covs = own.as_arrays(np.zeros((len(point), 2)))
+        truth = batch.fut_rel_m.double().cpu().numpy()
+        centre = point.double().cpu().numpy()
+        scores.append(shape_distances(centre, log_weights, means, covs, truth))
+        own_region = prediction_regions(centre, log_weights, means, covs, 0.9)
+        inside.append(own_region.contains(truth))
+    if not scores:
+        return np.zeros((0, H)), np.zeros((0, H), dtype=bool)
+    return np.concatenate(scores), np.concatenate(inside)
+
+
+def weights_digest(path: str | Path) -> str:
+    """SHA-256 of a checkpoint file (what ties a calibration to the weights it was made for)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def calibrate(
+    model: TrajectronCVAE,
+    config: ExperimentConfig,
+    samples: SampleSet,
+    point_forecast: str,
+    source: str = "",
+    weights_sha256: str = "",
+) -> RegionCalibration:
+    """The conformal radii of ``samples`` for ``model``'s ``point_forecast``."""
+    if not len(samples):
+        raise GrouptronError(
+            f"{source or 'the recording'}: nobody has {config.data.history_steps} observed and "
+            f"{config.data.horizon_steps} future steps, so there is nothing to calibrate on"
+        )
+    scores, inside = calibration_scores(model, config, samples, point_forecast)
+    return RegionCalibration(
+        checkpoint=config.model_name,
+        point_forecast=point_forecast,
+        samples=len(scores),
+        qs=QS,
+        radii=conformal_radii(scores, QS),
+        source=source,
+        weights_sha256=weights_sha256,
+        uncalibrated_coverage_q90=inside.mean(axis=0),
+    )
+
+
+def save_calibration(calibration: RegionCalibration, path: Path) -> None:
+    """Write ``calibration`` as JSON (an unreachable radius as null)."""
+    radii = [
+        [None if math.isinf(r) else round(float(r), 6) for r in row] for row in calibration.radii
+    ]
+    document = {
+        "format": FORMAT,
+        "checkpoint": calibration.checkpoint,
+        "point_forecast": calibration.point_forecast,
+        "samples": calibration.samples,
+        "source": calibration.source,
+        "weights_sha256": calibration.weights_sha256,
+        "uncalibrated_coverage_q90_per_step": [
+            round(float(c), 4) for c in calibration.uncalibrated_coverage_q90
+        ],
+        "q": [float(q) for q in calibration.qs],
+        "radius_per_step": radii,
+    }
+    lines = ",\n".join(
+        f" {json.dumps(key)}: {json.dumps(value)}" for key, value in document.items()
+    )
+    write_text_atomically(path, "{\n" + lines + "\n}\n")  # one line per key: easy to read
+
+
+def load_calibration(path: str | Path) -> RegionCalibration:
+    """Read a calibration file written by :func:`save_calibration` (one line if it is not one)."""
+    try:
+        document = json.loads(Path(path).read_text())
+        if document.get("format") != FORMAT:
+            raise ValueError(f"format {document.get('format')!r}")
+        radii = np.array(
+            [[np.inf if r is None else r for r in row] for row in document["radius_per_step"]],
+            dtype=np.float64,
+        )
+        return RegionCalibration(
+            checkpoint=str(document["checkpoint"]),
+            point_forecast=str(document["point_forecast"]),
+            samples=int(document["samples"]),
+            qs=np.asarray(document["q"], dtype=np.float64),
+            radii=radii,
+            source=str(document.get("source", "")),
+            weights_sha256=str(document.get("weights_sha256", "")),
+            uncalibrated_coverage_q90=np.asarray(
+                document.get("uncalibrated_coverage_q90_per_step", []), dtype=np.float64
+            ),
+        )
+    except OSError as error:
+        raise GrouptronError(
+            f"{path}: cannot read the calibration file ({error.strerror})"
+        ) from None
+    except (ValueError, KeyError, TypeError, AttributeError) as error:
+        raise GrouptronError(
+            f"{path}: not a grouptron calibration file ({error}); make one with grouptron calibrate"
+        ) from None
+
+
+def calibration_for(
+    calibration: str | Path | RegionCalibration | None,
+    config: ExperimentConfig,
+    point_forecast: str,
+    checkpoint: str = "",
+) -> RegionCalibration | None:
+    """``calibration`` (a file or a loaded one), checked to belong to this model, point
+    forecast and (when ``checkpoint``, its file, is known) these weights."""
+    if calibration is None:
+        return None
+    named = "" if isinstance(calibration, RegionCalibration) else f"{calibration}: "
+    loaded = (
+        calibration if isinstance(calibration, RegionCalibration) else load_calibration(calibration)
+    )
+    if (loaded.checkpoint, loaded.point_forecast) != (config.model_name, point_forecast):
+        raise GrouptronError(
+            f"{named}calibrated for {loaded.checkpoint} with its {loaded.point_forecast} "
+            f"forecast, not {config.model_name} with {point_forecast}; calibrate this one"
+        )
+    known = bool(checkpoint and loaded.weights_sha256 and Path(checkpoint).is_file())
+    if known and weights_digest(checkpoint) != loaded.weights_sha256:
+        raise GrouptronError(
+            f"{named}calibrated for other weights of {loaded.checkpoint} than {checkpoint}; "
+            "calibrate this checkpoint"
+        )
+    return loaded

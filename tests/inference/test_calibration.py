@@ -1,0 +1,97 @@
+"""Split-conformal calibration of prediction regions: the guarantee, the file, the commands."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grouptron import Predictor
+from grouptron.cli import main
+from grouptron.data.locate import split_files
+from grouptron.errors import GrouptronError
+from grouptron.evaluation.calibration import load_calibration
+from grouptron.model.regions import conformal_radii
+
+
+def test_conformal_radii_are_the_ranked_scores_and_keep_their_promise() -> None:
+    scores = np.arange(1.0, 20.0)[:, None]  # n = 19, one step
+    radii = conformal_radii(scores, np.array([0.5, 0.9, 0.95, 0.99]))
+    # ceil(20 q)-th smallest: 10th, 18th, 19th, and past n for 0.99.
+    assert radii[:, 0].tolist() == [10.0, 18.0, 19.0, np.inf]
+    rng = np.random.default_rng(0)
+    calibration, fresh = rng.gamma(2.0, size=(4000, 3)), rng.gamma(2.0, size=(40_000, 3))
+    (radius,) = conformal_radii(calibration, np.array([0.9]))
+    held = (fresh <= radius).mean(axis=0)
+    assert np.all((held > 0.885) & (held < 0.915)), held
+
+
+@pytest.fixture(scope="module")
+def site(synthetic_data_dir: Path) -> tuple[Path, Path]:
+    """An earlier and a later recording of one synthetic site."""
+    return (
+        split_files(synthetic_data_dir, "eth", "train")[0],
+        split_files(synthetic_data_dir, "eth", "test")[0],
+    )
+
+
+def test_calibrate_writes_a_file_that_predict_and_the_api_apply(
+    tiny_checkpoints: Path, site: tuple[Path, Path], tmp_path: Path
+) -> None:
+    earlier, later = site
+    checkpoint = str(tiny_checkpoints / "grouptron-eth-backward")
+    calibration = tmp_path / "site.json"
+    assert main(["calibrate", "--checkpoint", checkpoint, "--tracks", str(earlier),
+                 "--out", str(calibration)]) == 0  # fmt: skip
+    loaded = load_calibration(calibration)
+    assert loaded.point_forecast == "ml-argmax" and loaded.samples > 50
+    assert loaded.radii.shape == (99, 12) and np.all(np.diff(loaded.radii, axis=0) >= 0)
+
+    rows = np.loadtxt(later)
+    frame = int(rows[len(rows) // 2, 0])
+    plain = Predictor.from_checkpoint(checkpoint).predict(rows, frame)
+    sized = Predictor.from_checkpoint(checkpoint, calibration=calibration).predict(rows, frame)
+    own, calibrated = plain.regions(0.9), sized.regions(0.9)
+    np.testing.assert_allclose(calibrated.angle_rad, own.angle_rad)  # same shape, own size
+    ratio = calibrated.major_m / own.major_m
+    np.testing.assert_allclose(ratio, calibrated.minor_m / own.minor_m)
+    assert not np.allclose(ratio, 1.0)
+    with pytest.raises(GrouptronError, match=r"q = 0\.01, 0\.02"):
+        sized.regions(0.905)
+
+    out = tmp_path / "f.csv"
+    argv = ["predict", "--checkpoint", checkpoint, "--tracks", str(later), "--out", str(out),
+            "--regions", "0.9", "--quiet"]  # fmt: skip
+    assert main(argv) == 0
+    uncalibrated = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert main([*argv, "--calibration", str(calibration)]) == 0
+    calibrated_rows = np.loadtxt(out, delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(calibrated_rows[:, :5], uncalibrated[:, :5])
+    assert not np.allclose(calibrated_rows[:, 5], uncalibrated[:, 5])
+
+
+def test_a_calibration_of_another_model_or_no_calibration_is_refused(
+    tiny_checkpoints: Path, site: tuple[Path, Path], tmp_path: Path
+) -> None:
+    earlier, _ = site
+    calibration = tmp_path / "site.json"
+    argv = ["calibrate", "--tracks", str(earlier), "--out", str(calibration)]
+    assert main([*argv, "--checkpoint", str(tiny_checkpoints / "grouptron-eth-backward")]) == 0
+    with pytest.raises(GrouptronError, match="calibrated for grouptron with its ml-argmax"):
+        Predictor.from_checkpoint(
+            "trajectron++-eth-central", tiny_checkpoints, calibration=calibration
+        )
+    central = tmp_path / "central.json"  # the same model and forecast, other weights
+    assert main(["calibrate", "--tracks", str(earlier), "--out", str(central), "--checkpoint",
+                 str(tiny_checkpoints / "grouptron-eth-central")]) == 0  # fmt: skip
+    with pytest.raises(GrouptronError, match="other weights"):
+        Predictor.from_checkpoint("grouptron-eth-backward", tiny_checkpoints, calibration=central)
+    document = json.loads(calibration.read_text())
+    document["format"] = "something else"
+    calibration.write_text(json.dumps(document))
+    with pytest.raises(GrouptronError, match="not a grouptron calibration file"):
+        load_calibration(calibration)
+    with pytest.raises(GrouptronError, match="cannot read"):
+        load_calibration(tmp_path / "missing.json")
