@@ -1,16 +1,18 @@
 """Coverage of prediction regions: how often the true position lies inside the q-region.
 
 Usage:
-    python benchmarks/region_coverage.py [--checkpoint NAME] [--splits univ,eth,...]
+    python benchmarks/region_coverage.py [--checkpoint NAME] [--split SPLIT]
                                          [--datasets A.toml,B.toml] [--q 0.5,0.9]
                                          [--threads 1]
 
-For every validation file of the splits (never test files) and every test file of the
+For every validation file of the checkpoint's split (never test files; ``--split`` for
+another's) and every test file of the
 out-of-domain descriptions (default: the development set, ``$GROUPTRON_OOD``), every person
 with 8 observed and 12 future steps is forecast with the checkpoint's own point forecast
 (``Predictor``'s default) and ``Forecast.regions(q)`` is drawn around it. Prints, per
 recording and q, the share of true positions inside the ellipse at steps 1, 3, 6, 9 and 12
-and over all steps, with a 95% interval over resampled time steps for the all-steps share.
+and over all steps, with a 95% interval over resampled time steps for the all-steps share,
+and the same pooled over the validation files and over the out-of-domain files.
 """
 
 from __future__ import annotations
@@ -77,10 +79,9 @@ def interval(hits: np.ndarray, steps: np.ndarray, draws: int = 1000) -> tuple[fl
 def recordings(args: argparse.Namespace, data: DataConfig) -> list[tuple[str, SampleSet]]:
     """(name, samples) of every validation file and every out-of-domain test file."""
     out = []
-    for split in (s for s in args.splits.split(",") if s):
-        for path in split_files(resolve_data_dir(), split, "val"):
-            samples = recording_samples([path], RecordingFormat(), data)
-            out.append((f"{split} val: {path.name}", samples))
+    for path in split_files(resolve_data_dir(), args.split, "val"):
+        samples = recording_samples([path], RecordingFormat(), data)
+        out.append((f"{args.split} val: {path.name}", samples))
     for description in (d for d in args.datasets.split(",") if d):
         dataset = read_dataset(description)
         for path in dataset.files("test"):
@@ -92,7 +93,7 @@ def recordings(args: argparse.Namespace, data: DataConfig) -> list[tuple[str, Sa
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--checkpoint", default=DEFAULT_CHECKPOINT)
-    parser.add_argument("--splits", default="univ,eth,hotel,zara1,zara2")
+    parser.add_argument("--split", help="whose validation files (default: the checkpoint's)")
     parser.add_argument("--datasets", default=DEVELOPMENT_SET)
     parser.add_argument("--q", default="0.5,0.9")
     parser.add_argument("--threads", type=int, default=1)
@@ -101,20 +102,35 @@ def main() -> None:
     qs = [float(q) for q in args.q.split(",")]
     model, config = load_trained_model(resolve_checkpoint(args.checkpoint))
     model.eval()
+    args.split = args.split or config.split
     print(f"{args.checkpoint}: {default_point_forecast(config.model)} point forecast")
     steps_header = " | ".join(f"step {k}" for k in STEPS)
     print(f"| recording | samples | q | {steps_header} | all steps [95%] |")
     print("|---|---|---|" + "---|" * len(STEPS) + "---|")
+    pooled: dict[str, list[tuple[dict[float, np.ndarray], np.ndarray]]] = {}
     for name, samples in recordings(args, config.data):
         if not len(samples):
             continue
         inside = inside_per_step(model, config, samples, qs)
-        for q in qs:
-            share = inside[q].mean(axis=0)  # (H,)
-            low, high = interval(inside[q], samples.step)
-            cells = " | ".join(f"{share[k - 1]:.3f}" for k in STEPS)
-            total = f"{inside[q].mean():.3f} [{low:.3f}, {high:.3f}]"
-            print(f"| {name} | {len(samples)} | {q:g} | {cells} | {total} |")
+        kind = "validation" if " val: " in name else "out of domain"
+        offset = 10_000 * len(pooled.get(kind, []))  # keep each file's time steps apart
+        pooled.setdefault(kind, []).append((inside, samples.step + offset))
+        print_rows(name, inside, samples.step, qs)
+    for kind, parts in pooled.items():
+        inside = {q: np.concatenate([p[0][q] for p in parts]) for q in qs}
+        print_rows(f"**{kind}, pooled**", inside, np.concatenate([p[1] for p in parts]), qs)
+
+
+def print_rows(
+    name: str, inside: dict[float, np.ndarray], steps: np.ndarray, qs: list[float]
+) -> None:
+    """One table row per q: coverage at STEPS and over all steps with its interval."""
+    for q in qs:
+        share = inside[q].mean(axis=0)  # (H,)
+        low, high = interval(inside[q], steps)
+        cells = " | ".join(f"{share[k - 1]:.3f}" for k in STEPS)
+        total = f"{inside[q].mean():.3f} [{low:.3f}, {high:.3f}]"
+        print(f"| {name} | {len(steps)} | {q:g} | {cells} | {total} |")
 
 
 if __name__ == "__main__":

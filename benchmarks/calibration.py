@@ -1,0 +1,105 @@
+"""Calibrated prediction regions on held-back parts of recordings from elsewhere.
+
+Usage:
+    python benchmarks/calibration.py [--checkpoint NAME] [--datasets A.toml,B.toml]
+                                     [--q 0.5,0.9] [--blocks 2] [--threads 1]
+
+Every test file of the out-of-domain descriptions (default: the development set,
+``$GROUPTRON_OOD``) is cut in time into ``--blocks`` spans of equally many forecasts, taken in
+turn for calibration and held back: with 2 (the default) the first half calibrates the regions
+(what ``grouptron calibrate`` does with that part) and the second half is held back; with more,
+both parts sample the whole recording (closer to the exchangeable case the guarantee assumes).
+Prints, per recording and q, the share of the held-back truths inside the model's own regions
+and inside the calibrated ones, at steps 1, 3, 6, 9 and 12 and the lowest and highest share
+over the twelve steps.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from grouptron.config import ExperimentConfig
+from grouptron.data.custom import read_dataset
+from grouptron.data.samples import SampleSet
+from grouptron.evaluation.calibration import calibrate
+from grouptron.evaluation.recordings import recording_samples
+from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
+from grouptron.model.batch import batches
+from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.factory import groups_for_model
+from grouptron.model.predict import default_point_forecast, point_forecast_and_gaussians
+from grouptron.model.regions import RegionCalibration, calibrated_regions, prediction_regions
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from out_of_domain import DEVELOPMENT_SET
+
+STEPS = (1, 3, 6, 9, 12)
+
+
+def held_back_inside(
+    model: TrajectronCVAE,
+    config: ExperimentConfig,
+    samples: SampleSet,
+    mode: str,
+    calibration: RegionCalibration,
+    q: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(S, H) truths inside the model's own q-regions and inside the calibrated ones."""
+    H, dt = config.data.horizon_steps, config.data.dt_s
+    groups = groups_for_model(samples, config)
+    own, calibrated = [], []
+    with torch.inference_mode():
+        for _, batch in batches(samples, config, 512, groups):
+            point, gaussians = point_forecast_and_gaussians(model, batch, H, dt, mode)
+            arrays = (point.double().numpy(), *gaussians.as_arrays(np.zeros((len(point), 2))))
+            truth = batch.fut_rel_m.double().numpy()
+            own.append(prediction_regions(*arrays, q).contains(truth))
+            sized = calibrated_regions(*arrays, q, calibration.radius(q))
+            calibrated.append(sized.contains(truth))
+    return np.concatenate(own), np.concatenate(calibrated)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--checkpoint", default=DEFAULT_CHECKPOINT)
+    parser.add_argument("--datasets", default=DEVELOPMENT_SET)
+    parser.add_argument("--q", default="0.5,0.9")
+    parser.add_argument("--blocks", type=int, default=2)
+    parser.add_argument("--threads", type=int, default=1)
+    args = parser.parse_args()
+    torch.set_num_threads(args.threads)
+    qs = [float(q) for q in args.q.split(",")]
+    model, config = load_trained_model(resolve_checkpoint(args.checkpoint))
+    model.eval()
+    mode = default_point_forecast(config.model)
+    print(f"{args.checkpoint}: {mode} point forecast")
+    steps = " | ".join(f"step {k}" for k in STEPS)
+    print(f"| recording | calibration / held back | q | regions | {steps} | lowest-highest |")
+    print("|---|---|---|---|" + "---|" * len(STEPS) + "---|")
+    for description in (d for d in args.datasets.split(",") if d):
+        dataset = read_dataset(description)
+        for path in dataset.files("test"):
+            samples = recording_samples([path], dataset.recording, config.data)
+            edges = np.quantile(samples.step, np.linspace(0, 1, args.blocks + 1)[1:-1])
+            block = np.searchsorted(edges, samples.step, side="right")  # 0 .. blocks - 1
+            early, late = samples.subset(block % 2 == 0), samples.subset(block % 2 == 1)
+            calibration = calibrate(model, config, early, mode, str(path))
+            for q in qs:
+                own, sized = held_back_inside(model, config, late, mode, calibration, q)
+                for label, inside in (("own", own), ("calibrated", sized)):
+                    share = inside.mean(axis=0)
+                    cells = " | ".join(f"{share[k - 1]:.3f}" for k in STEPS)
+                    print(
+                        f"| {path.name} | {len(early)} / {len(late)} | {q:g} | {label} | "
+                        f"{cells} | {share.min():.3f}-{share.max():.3f} |"
+                    )
+
+
+if __name__ == "__main__":
+    main()
