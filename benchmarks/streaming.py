@@ -5,6 +5,7 @@ Usage:
                                    [--frames 60] [--threads 2]
                                    [--most-likely ml|ml-argmax|mean|ml-top10] [--latent-values K]
                                    [--mixture] [--min-points 2] [--max-missed-steps 2]
+                                   [--regions Q]
 
 A synthetic scene of N pedestrians walking in pairs and alone through a square sized for about
 one person per 4 m^2 is streamed frame by frame; the first 9 frames (before anyone has 8 steps)
@@ -79,7 +80,7 @@ def load_predictor(args: argparse.Namespace, most_likely: str | None = None) -> 
 
 
 def timed_updates(
-    predictors: list[Predictor], people: int, frames: int
+    predictors: list[Predictor], people: int, frames: int, region_q: float | None = None
 ) -> tuple[list[list[float]], list[int]]:
     """Per predictor, the update times (ms) after the first 9 frames and its last forecast
     count; the predictors take each frame in turn, so a drift of the machine hits all alike."""
@@ -90,6 +91,8 @@ def timed_updates(
         for i, session in enumerate(sessions):
             started = time.perf_counter()
             forecast = session.update(10 * k, ids, xy)
+            if region_q is not None and i == 0:  # the default's regions, timed with its update
+                forecast.regions(region_q)
             if k >= 9:
                 times[i].append(1000 * (time.perf_counter() - started))
                 counts[i] = len(forecast)
@@ -101,6 +104,9 @@ def main() -> None:
     add_predictor_options(parser, most_likely=None)
     parser.add_argument("--people", default="10,50,100,200")
     parser.add_argument("--frames", type=int, default=60)
+    parser.add_argument(
+        "--regions", type=float, help="also draw each update's Q-regions (first predictor only)"
+    )
     args = parser.parse_args()
     predictor = load_predictor(args)
     predictors = [predictor]
@@ -116,7 +122,7 @@ def main() -> None:
         header += f" {'argmax median':>14} {'p90':>6} {'ratio':>6}"
     print(header)
     for people in (int(n) for n in args.people.split(",")):
-        times, counts = timed_updates(predictors, people, args.frames)
+        times, counts = timed_updates(predictors, people, args.frames, args.regions)
         medians = [statistics.median(t) for t in times]
         p90s = [float(np.percentile(t, 90)) for t in times]
         line = f"{people:>7} {medians[0]:>10.1f} {p90s[0]:>8.1f} {counts[0]:>10}"
