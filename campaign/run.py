@@ -32,8 +32,9 @@ seeds are the screening runs of ``screen.py --only robust`` (``robust-residual``
 shipping with ``ship.py``.
 
 ``--look-ahead`` queues the diagnostic of where the paper's gain comes from: both paper models on
-univ in the papers' protocol, seeds 0-2, each its shipped run's configuration plus the reference
-implementation's neighbour window (``LOOK_AHEAD_WINDOW``). Live forecasting refuses them.
+univ in the papers' protocol, seeds 0-2, then on eth (seed 0), each its shipped run's
+configuration plus the reference implementation's neighbour window (``LOOK_AHEAD_WINDOW``).
+Live forecasting refuses them.
 
 The paper models' queue needs nothing newer than the package code its runs started with (the
 variant's preset is imported only for ``--variant``), so ``PYTHONPATH=<checkout of that
@@ -153,12 +154,11 @@ def look_ahead_queue() -> list[Run]:
     """The paper's two models on univ in the papers' protocol with the reference's neighbour
     window, three seeds, each its shipped run's configuration plus the window. The reference
     builds one scene graph for both models, so Trajectron++ (the control) gets it too. Paired
-    by seed so that each finished pair can be compared at once."""
-    return [
-        Run(model, "univ", "central", seed, look_ahead=True)
-        for seed in (0, 1, 2)
-        for model in ("grouptron", "trajectron++")
-    ]
+    by seed so that each finished pair can be compared at once. Then eth, seed 0: whether the
+    window also explains the paper's Grouptron row there (its runs take about 2 h each)."""
+    models = ("grouptron", "trajectron++")
+    univ = [Run(m, "univ", "central", seed, look_ahead=True) for seed in (0, 1, 2) for m in models]
+    return univ + [Run(m, "eth", "central", 0, look_ahead=True) for m in models]
 
 
 def queue(bf16_ab: bool = False) -> list[Run]:
