@@ -60,8 +60,7 @@ def main() -> None:
     fde: dict[tuple[int, str, bool], np.ndarray] = {}
     masks: dict[str | None, np.ndarray | None] = {}
     steps = np.zeros(0)
-    print("| checkpoint | val ML FDE | test univ | UNIV-40 | UNIV-45 | UNIV-50 |")
-    print("|---|---|---|---|---|---|")
+    rows = []
     for seed in seeds:
         for (model, ahead), weights in checkpoints(args.runs, seed).items():
             split, scores, samples = score(weights, data_dir, "ml")
@@ -71,8 +70,11 @@ def main() -> None:
             fde[(seed, model, ahead)] = scores.fde
             cells = " | ".join(f"{scores.summary(m).fde:.3f}" for m in masks.values())
             name = weights.parent.name
-            print(f"| {name} | {validation_fde(weights):.3f} | {cells} |")
+            rows.append(f"| {name} | {validation_fde(weights):.3f} | {cells} |")
     names = [n or "univ" for n in masks]
+    print("| checkpoint | val ML FDE | " + " | ".join(f"test {n}" for n in names) + " |")
+    print("|---|---|" + "---|" * len(names))
+    print("\n".join(rows))
     print("\n| seed | difference | " + " | ".join(names) + " |")
     print("|---|---|" + "---|" * len(names))
     gaps: dict[bool, list[float]] = {True: [], False: []}
