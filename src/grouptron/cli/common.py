@@ -17,6 +17,7 @@ from grouptron.data.recording import (
     parse_columns,
     read_table,
 )
+from grouptron.data.ros_bag import BagFields, BagTracks, read_bag_table
 from grouptron.data.spelling import FLAGS
 from grouptron.errors import GrouptronError
 
@@ -47,8 +48,29 @@ def read_track_table(args: argparse.Namespace, frames_per_step: int) -> TrackTab
     ``--on-gap``), or a recording in its own layout (``--columns``, ``--fps``, ``--units``;
     TrajNet++ ``.ndjson``) resampled to 0.4 s steps, in its own frame numbers where a step is a
     whole number of them, else in steps."""
+    if Path(args.tracks).suffix == ".mcap":
+        return read_bag_tracks(args)[0]
     fmt = recording_format(args, frames_per_step)
     return read_table(Path(args.tracks), fmt, frames_per_step, args.on_gap)
+
+
+def read_bag_tracks(args: argparse.Namespace) -> tuple[TrackTable, BagTracks]:
+    """The ``--topic`` of a ``--tracks`` ROS 2 bag, resampled to 0.4 s steps from its first
+    stamp, and what was read from it."""
+    if not getattr(args, "topic", None):
+        raise GrouptronError(
+            f"{args.tracks} is a ROS 2 bag: name the topic of tracked people (--topic)"
+        )
+    fields = BagFields.parse(args.ros_fields) if args.ros_fields else None
+    return read_bag_table(
+        Path(args.tracks),
+        args.topic,
+        fields,
+        tuple(args.fixed_frame),
+        max_gap_s=args.max_gap,
+        check_speed=not args.no_speed_check,
+        on_gap=args.on_gap,
+    )
 
 
 def recording_format(

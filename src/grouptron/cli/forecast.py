@@ -12,6 +12,7 @@ import torch
 from tqdm import tqdm
 
 from grouptron.cli.common import (
+    read_bag_tracks,
     read_track_table,
     show_progress,
     warn_look_ahead,
@@ -19,6 +20,7 @@ from grouptron.cli.common import (
 from grouptron.config import describe_group_rule
 from grouptron.data.ndjson import write_forecast_ndjson
 from grouptron.data.reader import TrackTable
+from grouptron.data.ros_bag import BagTracks
 from grouptron.data.scene import build_scene
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.calibration import calibration_for
@@ -34,6 +36,7 @@ from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.predict import default_point_forecast
 from grouptron.viz.files import check_picture_path
 from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tracks_around
+from grouptron.viz.foxglove import TOPIC, write_forecast_mcap
 
 
 def _write_trajnet(path: Path, forecast: Forecast, table: TrackTable, *, sampled: bool) -> None:
@@ -62,14 +65,19 @@ def cmd_predict(args: argparse.Namespace) -> int:
     model, experiment = load_trained_model(path)
     warn_look_ahead(args.checkpoint, experiment.data.derivatives)
     torch.set_num_threads(args.threads)
-    table = read_track_table(args, args.frames_per_step or experiment.data.frames_per_step)
+    bag = read_bag_tracks(args) if Path(args.tracks).suffix == ".mcap" else None
+    table = (
+        bag[0]
+        if bag
+        else read_track_table(args, args.frames_per_step or experiment.data.frames_per_step)
+    )
     frames_per_step = table.frames_per_step
     data = dataclasses.replace(experiment.data, frames_per_step=frames_per_step)
     experiment = dataclasses.replace(experiment, data=data)
     scene = build_scene(table, data, name=str(args.tracks))
     mode = args.mode or default_point_forecast(experiment.model)
     if args.regions and (mode == "samples" or Path(args.out).suffix == ".ndjson"):
-        raise GrouptronError("--regions goes with a point forecast (--mode) written as CSV")
+        raise GrouptronError("--regions goes with a point forecast (--mode) written as CSV or MCAP")
     forecast = forecast_scene(
         model,
         experiment,
@@ -87,6 +95,12 @@ def cmd_predict(args: argparse.Namespace) -> int:
     if Path(args.out).suffix == ".ndjson":
         _write_trajnet(Path(args.out), forecast, table, sampled=mode == "samples")
         count = len(forecast) * data.horizon_steps * (args.samples if mode == "samples" else 1)
+    elif Path(args.out).suffix == ".mcap":
+        count = _write_mcap(args, forecast, table, None if bag is None else bag[1], data.dt_s)
+        print(
+            f"wrote {count} scene updates ({len(forecast)} forecasts) to {args.out}, topic {TOPIC}"
+        )
+        return 0
     else:
         header, rows, formats = forecast.table(sampled=mode == "samples", regions=args.regions)
         if to_stdout:
@@ -103,6 +117,43 @@ def cmd_predict(args: argparse.Namespace) -> int:
         file=sys.stderr if to_stdout else sys.stdout,
     )
     return 0
+
+
+def _write_mcap(
+    args: argparse.Namespace,
+    forecast: Forecast,
+    table: TrackTable,
+    bag: BagTracks | None,
+    dt_s: float,
+) -> int:
+    """Foxglove scene updates of ``forecast`` on the bag's clock and frame (for another file:
+    seconds from its first step, frame ``map``)."""
+    # A person's pieces never overlap in time: (frame, id) names one row of the table.
+    keys = zip(table.frame, table.ped_id, strict=True)
+    index = {(int(f), int(i)): k for k, (f, i) in enumerate(keys)}
+    wanted = zip(forecast.frames, forecast.ids, strict=True)
+    origins = table.pos_m[[index[(int(f), int(i))] for f, i in wanted]]
+    start_s = 0.0 if bag is None else float(bag.time_s.min())
+    per_frame_s = dt_s / table.frames_per_step
+
+    def time_of_frame(frame: int) -> float:
+        return start_s + (frame - table.first_frame) * per_frame_s
+
+    names = (
+        (lambda i: str(i))
+        if bag is None or all(n.lstrip("-").isdigit() for n in bag.names)
+        else (lambda i: bag.names[int(i)])
+    )
+    return write_forecast_mcap(
+        Path(args.out),
+        forecast,
+        origins,
+        time_of_frame,
+        bag.frame_id if bag is not None and bag.frame_id else "map",
+        dt_s,
+        names,
+        args.regions[0] if args.regions else None,
+    )
 
 
 # --- plot -------------------------------------------------------------------------------------

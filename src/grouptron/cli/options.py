@@ -234,6 +234,24 @@ def add_recording_options(parser: argparse.ArgumentParser) -> None:
         "has its gaps split unless this is given)",
     )
     parser.add_argument(
+        "--topic",
+        help="for a ROS 2 bag (.mcap): the topic of tracked people (people_msgs/msg/People, "
+        "vision_msgs/msg/Detection3DArray or, with --ros-fields, any other; docs/robots.md)",
+    )
+    parser.add_argument(
+        "--ros-fields",
+        metavar="people=PATH,id=PATH,x=PATH,y=PATH",
+        help="where another message type holds its people: dotted paths to the list, and in "
+        "one person to the id and the x and y position",
+    )
+    parser.add_argument(
+        "--fixed-frame",
+        action="append",
+        default=[],
+        help="a frame id of your own that is fixed to the world (map, odom, world, earth and "
+        "utm are known); tracks in any other frame are refused",
+    )
+    parser.add_argument(
         "--no-speed-check",
         action="store_true",
         help="read files whose median walking speed is above 3 m/s (refused otherwise: a sign "
