@@ -10,11 +10,11 @@ import pytest
 
 pytest.importorskip("mcap_ros2")
 
-from mcap.reader import make_reader  # noqa: E402
-from mcap_ros2.writer import Writer  # noqa: E402
+from mcap.reader import make_reader
+from mcap_ros2.writer import Writer
 
-from grouptron.cli import main  # noqa: E402
-from grouptron.data.locate import split_files  # noqa: E402
+from grouptron.cli import main
+from grouptron.data.locate import split_files
 
 PEOPLE_MSGDEF = """std_msgs/Header header
 people_msgs/Person[] people

@@ -95,3 +95,22 @@ def test_a_calibration_of_another_model_or_no_calibration_is_refused(
         load_calibration(calibration)
     with pytest.raises(GrouptronError, match="cannot read"):
         load_calibration(tmp_path / "missing.json")
+
+
+def test_export_stores_a_calibration_of_its_checkpoint(
+    tiny_checkpoints: Path, site: tuple[Path, Path], tmp_path: Path
+) -> None:
+    onnx = pytest.importorskip("onnx")
+    checkpoint = str(tiny_checkpoints / "grouptron-eth-backward")
+    calibration, out = tmp_path / "site.json", tmp_path / "m.onnx"
+    assert main(["calibrate", "--checkpoint", checkpoint, "--tracks", str(site[0]),
+                 "--out", str(calibration)]) == 0  # fmt: skip
+    argv = ["export", "--checkpoint", checkpoint, "--out", str(out), "--no-check"]
+    assert main([*argv, "--calibration", str(calibration)]) == 0
+    meta = {p.key: p.value for p in onnx.load(str(out)).metadata_props}
+    stored = json.loads(meta["grouptron.region_calibration"])
+    assert stored == json.loads(calibration.read_text())
+    assert meta["grouptron.point_forecast"] == "ml-argmax"
+    other = str(tiny_checkpoints / "grouptron-eth-central")  # other weights: refused
+    assert main(["export", "--checkpoint", other, "--out", str(tmp_path / "o.onnx"),
+                 "--calibration", str(calibration)]) == 2  # fmt: skip

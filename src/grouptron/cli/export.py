@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from grouptron.evaluation.calibration import calibration_for, load_calibration
 from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.inference.export import (
     ForecastNetwork,
@@ -28,8 +29,12 @@ def cmd_export(args: argparse.Namespace) -> int:
     torch.set_num_threads(args.threads)
     path = resolve_checkpoint(args.checkpoint)
     model, config = load_trained_model(path)
+    calibration = None
+    if args.calibration:
+        forecast = load_calibration(args.calibration).point_forecast
+        calibration = calibration_for(args.calibration, config, forecast, str(path))
     print(f"exporting {config.model_name} from {path} to ONNX (about half a minute)", flush=True)
-    names = export_onnx(model, config, out)
+    names = export_onnx(model, config, out, calibration)
     print(f"wrote {out}: {config.model_name} from {path}, inputs {', '.join(names)}")
     if args.no_check:
         return 0

@@ -96,12 +96,12 @@ def calibrate(
     )
 
 
-def save_calibration(calibration: RegionCalibration, path: Path) -> None:
-    """Write ``calibration`` as JSON (an unreachable radius as null)."""
+def calibration_document(calibration: RegionCalibration) -> dict[str, object]:
+    """The JSON document of a calibration file (an unreachable radius as null)."""
     radii = [
         [None if math.isinf(r) else round(float(r), 6) for r in row] for row in calibration.radii
     ]
-    document = {
+    return {
         "format": FORMAT,
         "checkpoint": calibration.checkpoint,
         "point_forecast": calibration.point_forecast,
@@ -114,6 +114,11 @@ def save_calibration(calibration: RegionCalibration, path: Path) -> None:
         "q": [float(q) for q in calibration.qs],
         "radius_per_step": radii,
     }
+
+
+def save_calibration(calibration: RegionCalibration, path: Path) -> None:
+    """Write ``calibration`` as JSON, one line per key."""
+    document = calibration_document(calibration)
     lines = ",\n".join(
         f" {json.dumps(key)}: {json.dumps(value)}" for key, value in document.items()
     )

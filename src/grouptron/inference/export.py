@@ -22,6 +22,7 @@ from grouptron.data.reader import table_from_values
 from grouptron.data.samples import scene_samples
 from grouptron.data.scene import build_scene
 from grouptron.errors import GrouptronError
+from grouptron.evaluation.calibration import calibration_document
 from grouptron.io import refuse_folder, save_atomically
 from grouptron.model.batch import Batch, GroupBatch, make_batch
 from grouptron.model.cvae import TrajectronCVAE
@@ -31,7 +32,8 @@ from grouptron.model.gaussians import (
     position_covariances,
     positions_from_velocities,
 )
-from grouptron.model.predict import decode_every_latent
+from grouptron.model.predict import decode_every_latent, default_point_forecast
+from grouptron.model.regions import RegionCalibration
 
 EXPORT_FORMATS = constants.EXPORT_FORMATS
 BASE_INPUTS = ("hist_st", "hist_mask", "nbr_sum_st", "edge_scale")
@@ -132,9 +134,15 @@ def example_batch(config: ExperimentConfig) -> Batch:
     return make_batch(samples, index, config.data, groups=groups_for_model(samples, config))
 
 
-def export_onnx(model: TrajectronCVAE, config: ExperimentConfig, out: str | Path) -> list[str]:
+def export_onnx(
+    model: TrajectronCVAE,
+    config: ExperimentConfig,
+    out: str | Path,
+    calibration: RegionCalibration | None = None,
+) -> list[str]:
     """Write the network as ONNX to ``out`` (sample, node and group counts dynamic), with the
-    constants a caller needs in its metadata; returns the input names."""
+    constants a caller needs in its metadata (and a site's region calibration, when given);
+    returns the input names."""
     out = Path(out)
     refuse_folder(out)  # before the export, not after it
     try:
@@ -171,7 +179,10 @@ def export_onnx(model: TrajectronCVAE, config: ExperimentConfig, out: str | Path
     def save(path: Path) -> None:
         program.save(str(path))
         exported = onnx.load(str(path))
-        for key, value in contract_metadata(config).items():
+        metadata = contract_metadata(config)
+        if calibration is not None:
+            metadata["grouptron.region_calibration"] = json.dumps(calibration_document(calibration))
+        for key, value in metadata.items():
             exported.metadata_props.add(key=key, value=value)
         onnx.save(exported, str(path))
 
@@ -194,6 +205,7 @@ def contract_metadata(config: ExperimentConfig) -> dict[str, str]:
         "grouptron.edge_ramp_weights": json.dumps(list(data.edge_ramp_weights)),
         "grouptron.inputs": json.dumps(list(ForecastNetwork.names_for(config))),
         "grouptron.outputs": json.dumps(list(OUTPUTS)),
+        "grouptron.point_forecast": default_point_forecast(config.model),
     }
 
 

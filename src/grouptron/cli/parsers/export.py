@@ -35,5 +35,10 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     export.add_argument(
         "--no-check", action="store_true", help="skip running the file with onnxruntime"
     )
+    export.add_argument(
+        "--calibration",
+        help="a grouptron calibrate file of this checkpoint, stored in the file's metadata "
+        "(grouptron.region_calibration) for the caller's regions (docs/regions.md)",
+    )
     add_threads_option(export)
     export.set_defaults(handler="grouptron.cli.export:cmd_export")
