@@ -92,23 +92,13 @@ def cmd_predict(args: argparse.Namespace) -> int:
     )
     calibrated = calibration_for(args.calibration, experiment, mode, str(path))
     forecast = dataclasses.replace(forecast, calibration=calibrated)
-    if Path(args.out).suffix == ".ndjson":
-        _write_trajnet(Path(args.out), forecast, table, sampled=mode == "samples")
-        count = len(forecast) * data.horizon_steps * (args.samples if mode == "samples" else 1)
-    elif Path(args.out).suffix == ".mcap":
+    if Path(args.out).suffix == ".mcap":
         count = _write_mcap(args, forecast, table, None if bag is None else bag[1], data.dt_s)
         print(
             f"wrote {count} scene updates ({len(forecast)} forecasts) to {args.out}, topic {TOPIC}"
         )
         return 0
-    else:
-        header, rows, formats = forecast.table(sampled=mode == "samples", regions=args.regions)
-        if to_stdout:
-            sys.stdout.write(",".join(header) + "\n")
-            np.savetxt(sys.stdout, rows, fmt=list(formats), delimiter=",")
-        else:
-            write_array_csv_atomically(Path(args.out), header, rows, formats)
-        count = len(rows)
+    count = _write_rows(args, forecast, table, mode, data.horizon_steps)
     # The summary goes to standard error when the forecasts go to standard output.
     print(
         f"wrote {count} rows for {len(forecast)} (pedestrian, frame) pairs "
@@ -117,6 +107,24 @@ def cmd_predict(args: argparse.Namespace) -> int:
         file=sys.stderr if to_stdout else sys.stdout,
     )
     return 0
+
+
+def _write_rows(
+    args: argparse.Namespace, forecast: Forecast, table: TrackTable, mode: str, horizon: int
+) -> int:
+    """Write the forecasts as TrajNet++ ``.ndjson`` or CSV rows (``-``: standard output);
+    returns how many rows."""
+    sampled = mode == "samples"
+    if Path(args.out).suffix == ".ndjson":
+        _write_trajnet(Path(args.out), forecast, table, sampled=sampled)
+        return len(forecast) * horizon * (args.samples if sampled else 1)
+    header, rows, formats = forecast.table(sampled=sampled, regions=args.regions)
+    if args.out == "-":
+        sys.stdout.write(",".join(header) + "\n")
+        np.savetxt(sys.stdout, rows, fmt=list(formats), delimiter=",")
+    else:
+        write_array_csv_atomically(Path(args.out), header, rows, formats)
+    return len(rows)
 
 
 def _write_mcap(
