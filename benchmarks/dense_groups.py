@@ -37,15 +37,23 @@ def recordings(ood_dir: Path, crowds_dir: Path) -> dict[str, tuple[Path, Recordi
 
 
 def rule(text: str) -> GroupConfig:
-    """``"single,1.5,2.0"``: linkage, cut in metres, velocity weight in seconds."""
-    linkage, cut, weight = text.split(",")
-    return GroupConfig(linkage=linkage, max_distance_m=float(cut), velocity_weight_s=float(weight))  # type: ignore[arg-type]
+    """``"single,1.5,2.0"``: linkage, cut in metres, velocity weight in seconds, and
+    optionally the largest group (``"single,1.5,2.0,6"``)."""
+    linkage, cut, weight, *size = text.split(",")
+    return GroupConfig(
+        linkage=linkage,  # type: ignore[arg-type]
+        max_distance_m=float(cut),
+        velocity_weight_s=float(weight),
+        max_group_size=int(size[0]) if size else None,
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
-        "--rules", nargs="+", default=["single,1.5,2.0", "average,1.75,4.0", "complete,2.0,4.0"]
+        "--rules",
+        nargs="+",
+        default=["single,1.5,2.0", "single,1.5,2.0,6", "single,1.5,2.0,4", "average,1.75,4.0"],
     )
     shared = Path(__file__).resolve().parents[2] / "shared" / "data"
     parser.add_argument("--ood-dir", type=Path, default=shared / "ood")

@@ -3,18 +3,21 @@
 Usage:
     python benchmarks/group_labels.py --labels-dir DIR [--data-dir DIR]
     python benchmarks/group_labels.py --labels-dir DIR --sweep [--every 5]
+                                      [--max-group-sizes 0,4,5,6,8]
 
 DIR holds eth/, hotel/, zara1/, zara2/ with a groups.txt each (ids as in the benchmark files).
 Every linkage and distance is scored with both scopes under the paper's C(N) rule; prints
 Markdown tables (pairwise F1, precision, recall and Dice per recording, and the means used to
 choose the defaults). ``--sweep`` scores the threshold rule instead, per-ego scope, over
-linkages, cut heights and velocity weights on every ``--every``-th step, then the best one and
-C(N) again on every step.
+linkages, cut heights, velocity weights and (single linkage) largest group sizes (0: none) on
+every ``--every``-th step, each recording held out in turn, then the best one and C(N) again on
+every step.
 """
 
 from __future__ import annotations
 
 import argparse
+from itertools import product
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +41,9 @@ def main() -> None:
     parser.add_argument("--data-dir")
     parser.add_argument("--sweep", action="store_true", help="the threshold rule's grid")
     parser.add_argument("--every", type=int, default=5, help="sweep every k-th step")
+    parser.add_argument(
+        "--max-group-sizes", default="0", help="largest groups swept with single linkage (0: none)"
+    )
     args = parser.parse_args()
     data_dir = resolve_data_dir(args.data_dir)
     scenes = {
@@ -47,7 +53,8 @@ def main() -> None:
     labels = {name: read_group_labels(Path(args.labels_dir) / name / "groups.txt")
               for name in RECORDINGS}  # fmt: skip
     if args.sweep:
-        sweep(scenes, labels, args.every)
+        sizes = [int(n) or None for n in args.max_group_sizes.split(",")]
+        sweep(scenes, labels, args.every, sizes)
         return
     for scope in ("per_ego", "scene"):
         print(f"\n### scope `{scope}`\n")
@@ -90,25 +97,30 @@ def leave_one_out(grid: list[tuple[GroupConfig, list[float]]]) -> None:
         config, f1 = max(grid, key=others)
         held.append(f1[i])
         rule = f"{config.linkage}, {config.max_distance_m} m, {config.velocity_weight_s} s"
+        rule += f", at most {config.max_group_size}" if config.max_group_size else ""
         print(f"| {name} | {rule} | {others((config, f1)):.3f} | {f1[i]:.3f} |")
     print(f"| mean | | | {np.mean(held):.3f} |")
 
 
-def sweep(scenes: dict, labels: dict, every: int) -> None:
+def sweep(scenes: dict, labels: dict, every: int, sizes: list[int | None]) -> None:
     """The threshold rule's grid (every ``every``-th step), then the best and C(N) on all."""
     print(f"\n### threshold rule, scope `per_ego`, every {every}th step\n")
-    print("| linkage | cut m | velocity weight s | " + " | ".join(f"{n} F1" for n in RECORDINGS)
+    print("| linkage | cut m | velocity weight s | largest group | "
+          + " | ".join(f"{n} F1" for n in RECORDINGS)
           + " | mean F1 | mean precision | mean recall |")  # fmt: skip
-    print("|---|---|---|" + "---|" * (len(RECORDINGS) + 3))
+    print("|---|---|---|---|" + "---|" * (len(RECORDINGS) + 3))
     best: tuple[float, GroupConfig] | None = None
     grid: list[tuple[GroupConfig, list[float]]] = []
     for linkage in LINKAGES:
         for weight in (0.0, 1.0, 2.0, 3.0, 4.0):
-            for cut in (1.0, 1.25, 1.5, 1.75, 2.0, 2.5):
-                config = GroupConfig(linkage=linkage, max_distance_m=cut, velocity_weight_s=weight)
+            for cut, size in product((1.0, 1.25, 1.5, 1.75, 2.0, 2.5), sizes):
+                if size is not None and linkage != "single":
+                    continue  # only single linkage chains
+                config = GroupConfig(linkage=linkage, max_distance_m=cut,
+                                     velocity_weight_s=weight, max_group_size=size)  # fmt: skip
                 values = per_ego_means(scenes, labels, config, every)
                 grid.append((config, values[: len(RECORDINGS)]))
-                print(f"| {linkage} | {cut} | {weight} | "
+                print(f"| {linkage} | {cut} | {weight} | {size or '-'} | "
                       + " | ".join(f"{v:.3f}" for v in values) + " |", flush=True)  # fmt: skip
                 if best is None or values[len(RECORDINGS)] > best[0]:
                     best = (values[len(RECORDINGS)], config)

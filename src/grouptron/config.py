@@ -103,6 +103,9 @@ class GroupConfig:
     """Above 0, two people are at least this many seconds times the difference of their mean
     velocities over the window apart: walking together means walking alike (0: positions
     only, the paper's distance)."""
+    max_group_size: int | None = None
+    """With ``max_distance_m``: a merge that would make a group larger than this is skipped,
+    so that a dense crowd is not chained into one group (None: no limit)."""
 
     def __post_init__(self) -> None:
         if self.linkage not in ("single", "average", "complete"):
@@ -115,24 +118,8 @@ class GroupConfig:
             raise GrouptronError("groups.velocity_weight_s must be >= 0 (seconds)")
         if self.max_distance_m is not None and not self.max_distance_m > 0:
             raise GrouptronError("groups.max_distance_m must be a positive distance (or None)")
-
-
-DETECTION_GROUPS = GroupConfig(linkage="single", max_distance_m=1.5, velocity_weight_s=2.0)
-"""The groups ``grouptron groups detect`` finds: single linkage cut at 1.5 m, people at least
-2 s times their velocity difference apart. Chosen on the four recordings with human group
-labels (mean per-ego pair F1 0.774 against 0.612 for C(N); docs/groups.md). The paper's model
-keeps C(N) (``GroupConfig()``)."""
-
-
-def describe_group_rule(groups: GroupConfig) -> str:
-    """A few words naming the rule, e.g. ``single linkage, 1.5 m, 2 s x velocity``."""
-    if groups.max_distance_m is None:
-        rule = "C(N) rule"
-    else:
-        rule = f"{groups.linkage} linkage, {groups.max_distance_m:g} m"
-    if groups.velocity_weight_s > 0:
-        rule += f", {groups.velocity_weight_s:g} s x velocity"
-    return rule
+        if self.max_group_size is not None and not self.max_group_size >= 2:
+            raise GrouptronError("groups.max_group_size must be at least 2 (or None)")
 
 
 @dataclass(frozen=True)

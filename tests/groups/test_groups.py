@@ -10,7 +10,7 @@ from scipy.cluster.hierarchy import cut_tree, linkage
 from scipy.spatial.distance import directed_hausdorff as scipy_directed
 from scipy.spatial.distance import squareform
 
-from grouptron.config import DETECTION_GROUPS, DataConfig, GroupConfig, describe_group_rule
+from grouptron.config import DataConfig, GroupConfig
 from grouptron.data.samples import scene_samples
 from grouptron.errors import DataFormatError
 from grouptron.groups.assign import assign_groups
@@ -27,6 +27,7 @@ from grouptron.groups.labels import (
     read_group_labels,
     read_id_map,
 )
+from grouptron.presets import DETECTION_GROUPS, describe_group_rule
 from tests.data.test_samples import walking_scene
 
 LINE = np.stack([np.arange(4.0), np.zeros(4)], -1)  # (0,0) (1,0) (2,0) (3,0)
@@ -306,6 +307,32 @@ def test_threshold_groups_of_samples_count_their_own_groups(tmp_path: Path) -> N
 
 def test_group_rules_are_named_by_all_their_settings() -> None:
     assert describe_group_rule(GroupConfig()) == "C(N) rule"
-    assert describe_group_rule(DETECTION_GROUPS) == "single linkage, 1.5 m, 2 s x velocity"
+    assert (
+        describe_group_rule(DETECTION_GROUPS) == "single linkage, 1.5 m, 2 s x velocity, at most 6"
+    )
     positions_only = GroupConfig(linkage="complete", max_distance_m=0.8)
     assert describe_group_rule(positions_only) == "complete linkage, 0.8 m"
+
+
+@pytest.mark.parametrize("scipy_sized", [False, True])
+def test_a_largest_group_size_cuts_a_chain_of_close_people(scipy_sized: bool) -> None:
+    """People 1 m apart in a line: single linkage at 1.5 m chains them all; with a largest
+    size every group stays within it, neighbours along the line still group, and a limit
+    that no group reaches changes nothing."""
+    count = 40 if scipy_sized else 9  # large sets take SciPy's path when unlimited
+    x = np.arange(count, dtype=float) + np.linspace(0, 0.01, count)  # no ties
+    distances = np.abs(x[:, None] - x[None, :])
+    chained = agglomerative_groups(distances, "single", max_distance=1.5)
+    assert (chained == 0).all()
+    limited = agglomerative_groups(distances, "single", max_distance=1.5, max_size=4)
+    sizes = np.bincount(limited)
+    assert sizes.max() <= 4 and len(sizes) >= count // 4
+    for group in range(len(sizes)):  # each group is a run of neighbours along the line
+        members = np.flatnonzero(limited == group)
+        assert np.all(np.diff(members) == 1)
+    loose = agglomerative_groups(distances, "single", max_distance=1.5, max_size=count)
+    np.testing.assert_array_equal(loose, chained)
+    with pytest.raises(ValueError, match="max_distance"):
+        agglomerative_groups(distances, "single", max_size=4)
+    with pytest.raises(Exception, match="max_group_size"):
+        GroupConfig(max_group_size=1)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from grouptron import Predictor
-from grouptron.config import DETECTION_GROUPS
+from grouptron.presets import DETECTION_GROUPS
 from tests.test_bad_input import _walk
 
 MODELS = [

@@ -17,7 +17,6 @@ from grouptron.cli.common import (
     show_progress,
     warn_look_ahead,
 )
-from grouptron.config import describe_group_rule
 from grouptron.data.ndjson import write_forecast_ndjson
 from grouptron.data.reader import TrackTable
 from grouptron.data.ros_bag import BagTracks
@@ -34,6 +33,7 @@ from grouptron.io import (
 )
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.predict import default_point_forecast
+from grouptron.presets import describe_group_rule
 from grouptron.viz.files import check_picture_path
 from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tracks_around
 from grouptron.viz.foxglove import TOPIC, write_forecast_mcap

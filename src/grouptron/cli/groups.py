@@ -12,11 +12,7 @@ import numpy as np
 from grouptron.cli.common import (
     read_track_table,
 )
-from grouptron.config import (
-    DETECTION_GROUPS,
-    DataConfig,
-    GroupConfig,
-)
+from grouptron.config import DataConfig, GroupConfig
 from grouptron.data.scene import Scene, build_scene
 from grouptron.errors import GrouptronError
 from grouptron.groups.clustering import LINKAGES
@@ -29,6 +25,7 @@ from grouptron.groups.scene import (
     score_against_labels,
 )
 from grouptron.io import refuse_folder, write_csv_atomically
+from grouptron.presets import DETECTION_GROUPS
 from grouptron.viz.files import check_picture_path
 from grouptron.viz.groups import plot_step_groups
 
@@ -40,10 +37,11 @@ def _group_configs(args: argparse.Namespace) -> list[GroupConfig]:
     linkages = LINKAGES if args.linkage == "all" else (args.linkage or base.linkage,)
     distances = DISTANCE_KINDS if args.distance == "all" else (args.distance,)
     by_threshold = args.rule == "threshold"
-    if not by_threshold and (args.max_distance is not None or args.velocity_weight is not None):
+    threshold_options = (args.max_distance, args.velocity_weight, args.max_group_size)
+    if not by_threshold and any(o is not None for o in threshold_options):
         raise GrouptronError(
-            "--max-distance and --velocity-weight set the threshold rule; --rule count takes "
-            "neither"
+            "--max-distance, --velocity-weight and --max-group-size set the threshold rule; "
+            "--rule count takes none of them"
         )
     max_distance_m = (
         DETECTION_GROUPS.max_distance_m if args.max_distance is None else args.max_distance
@@ -51,6 +49,7 @@ def _group_configs(args: argparse.Namespace) -> list[GroupConfig]:
     weight_s = (
         DETECTION_GROUPS.velocity_weight_s if args.velocity_weight is None else args.velocity_weight
     )
+    size = DETECTION_GROUPS.max_group_size if args.max_group_size is None else args.max_group_size
     return [
         dataclasses.replace(
             base,
@@ -58,6 +57,7 @@ def _group_configs(args: argparse.Namespace) -> list[GroupConfig]:
             distance=dist,
             max_distance_m=max_distance_m if by_threshold else None,
             velocity_weight_s=weight_s if by_threshold else 0.0,
+            max_group_size=(size or None) if by_threshold else None,
         )
         for link in linkages
         for dist in distances
@@ -95,6 +95,7 @@ def cmd_groups_evaluate(args: argparse.Namespace) -> int:
                     "distance": config.distance,
                     "max_distance_m": config.max_distance_m,
                     "velocity_weight_s": config.velocity_weight_s,
+                    "max_group_size": config.max_group_size,
                     **values,
                 }
             )

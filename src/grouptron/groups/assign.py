@@ -84,7 +84,10 @@ def assign_groups(samples: SampleSet, config: GroupConfig, position_scale_m: flo
                 velocity_weight_s=config.velocity_weight_s, dt_s=DT_S,
             )  # fmt: skip
             labels = agglomerative_groups_batched(
-                distances, config.linkage, max_distance=config.max_distance_m
+                distances,
+                config.linkage,
+                max_distance=config.max_distance_m,
+                max_size=config.max_group_size,
             )  # (S, N)
             rows = node_start[index][:, None] + np.arange(num_nodes)  # (S, N)
             node_labels[rows] = labels
@@ -122,7 +125,11 @@ def assign_groups_at_step(
     block = distances[index[:, :, None], index[:, None, :]]  # (S, W, W)
     block[~(real[:, :, None] & real[:, None, :])] = np.inf
     labels = agglomerative_groups_batched(
-        block, config.linkage, num_nodes=counts, max_distance=config.max_distance_m
+        block,
+        config.linkage,
+        num_nodes=counts,
+        max_distance=config.max_distance_m,
+        max_size=config.max_group_size,
     )  # (S, W)
     node_labels = labels[real].astype(np.int16)  # row-major: sample by sample, ego first
     return _sample_groups(node_labels, node_start, is_ego, counts, config)

@@ -43,6 +43,7 @@ def agglomerative_groups(
     num_groups: int | None = None,
     *,
     max_distance: float | None = None,
+    max_size: int | None = None,
 ) -> np.ndarray:
     """Group labels of N nodes from their (N, N) distance matrix (symmetric, zero diagonal):
     :func:`agglomerative_groups_batched` on a stack of one. Deterministic, also with ties.
@@ -55,7 +56,7 @@ def agglomerative_groups(
     n = len(distances)
     if n < 1:
         raise ValueError("need at least one node")
-    if n >= SCIPY_FROM_NODES and method in LINKAGES:
+    if n >= SCIPY_FROM_NODES and method in LINKAGES and max_size is None:
         pairs = squareform(distances, checks=False)  # (n (n-1) / 2,) condensed
         if len(np.unique(pairs)) == len(pairs):  # no ties: the merge order is unique
             merges = linkage(pairs, method)  # heights ascending (these linkages are monotone)
@@ -65,7 +66,7 @@ def agglomerative_groups(
                 count = cluster_count(n) if num_groups is None else num_groups
             return _cut_dendrogram(merges, n, min(max(count, 1), n))
     return agglomerative_groups_batched(
-        distances[None], method, num_groups, max_distance=max_distance
+        distances[None], method, num_groups, max_distance=max_distance, max_size=max_size
     )[0]
 
 
@@ -88,15 +89,15 @@ def agglomerative_groups_batched(
     *,
     num_nodes: np.ndarray | None = None,
     max_distance: float | None = None,
+    max_size: int | None = None,
 ) -> np.ndarray:
     """Group labels of S independent sets of N nodes, merged in lockstep.
 
     The textbook algorithm vectorised over the stack: each round merges, in every matrix, the
     closest pair of live clusters and updates the merged cluster's distances by the
     Lance-Williams rule of the linkage (min, size-weighted mean, max). Without tied distances
-    the partition equals SciPy's (a test checks); with ties the lower pair index wins.
-    One NumPy pass per merge replaces one SciPy call per matrix, which dominates when
-    thousands of small matrices (one per sample) are clustered.
+    the partition equals SciPy's (a test checks); with ties the lower pair index wins. One
+    NumPy pass per merge replaces one SciPy call per matrix (thousands of small ones).
 
     Args:
         distances: (S, N, N) symmetric, zero diagonals.
@@ -108,6 +109,8 @@ def agglomerative_groups_batched(
         max_distance: instead of a group count, merge while the two closest clusters are at
             most this far apart (the dendrogram cut at a height; these linkages are monotone,
             so a set stops for good at its first closest pair beyond it).
+        max_size: with ``max_distance``, skip merges into clusters above this size (the
+            closest pair that fits merges instead): a chain of close people is cut in pieces.
 
     Returns:
         (S, N) labels in ``0..num_groups-1``, numbered by first member (padding nodes after
@@ -115,10 +118,11 @@ def agglomerative_groups_batched(
     """
     if method not in LINKAGES:
         raise ValueError(f"unknown linkage {method!r}; choose from {LINKAGES}")
-    S, n = distances.shape[:2]
+    if max_size is not None and max_distance is None:
+        raise ValueError("max_size limits a cut at max_distance; give both")
+    (S, n), below = distances.shape[:2], np.tril(np.ones(distances.shape[1:], dtype=bool))
     merges = _merges_per_set(S, n, num_groups, num_nodes, until_height=max_distance is not None)
     d = distances.astype(np.float64, copy=True)
-    below = np.tril(np.ones((n, n), dtype=bool))  # diagonal and lower triangle: not pairs
     d[:, np.arange(n), np.arange(n)] = np.inf
     size = np.ones((S, n))
     owner = np.broadcast_to(np.arange(n), (S, n)).copy()  # cluster of each node = its lowest
@@ -126,9 +130,9 @@ def agglomerative_groups_batched(
     for merge in range(int(merges.max(initial=0))):  # each merge vectorised over the sets
         rows = np.flatnonzero((merges > merge) & ~stopped)  # the sets still merging
         live = d if len(rows) == S else d[rows]
-        flat = np.where(below, np.inf, live).reshape(len(rows), n * n).argmin(axis=1)
+        flat, height = _closest_pairs(live, below, size[rows], max_size)
         if max_distance is not None:
-            close = live.reshape(len(rows), n * n)[np.arange(len(rows)), flat] <= max_distance
+            close = height <= max_distance
             stopped[rows[~close]] = True
             rows, flat = rows[close], flat[close]
             if not len(rows):
@@ -138,6 +142,20 @@ def agglomerative_groups_batched(
     is_lowest = owner == np.arange(n)
     number = np.cumsum(is_lowest, axis=1) - 1  # (S, n)
     return np.take_along_axis(number, owner, axis=1)
+
+
+def _closest_pairs(
+    live: np.ndarray, below: np.ndarray, size: np.ndarray, max_size: int | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """(R,) flat index and distance of every set's closest pair of (R, n, n) ``live``, among
+    the pairs (not ``below``: the diagonal and lower triangle) whose merged cluster would have
+    at most ``max_size`` members ((R, n) ``size``); inf where no pair is left."""
+    excluded = below
+    if max_size is not None:
+        excluded = below | (size[:, :, None] + size[:, None, :] > max_size)
+    candidates = np.where(excluded, np.inf, live).reshape(len(live), -1)
+    flat = candidates.argmin(axis=1)
+    return flat, candidates[np.arange(len(live)), flat]
 
 
 def _merges_per_set(

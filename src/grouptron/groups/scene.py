@@ -78,7 +78,12 @@ def _cluster_step(
         pos[tracks, window], present[tracks, window], kind=config.distance,
         quantile=config.quantile, velocity_weight_s=config.velocity_weight_s, dt_s=DT_S,
     )  # fmt: skip
-    labels = agglomerative_groups(distances, config.linkage, max_distance=config.max_distance_m)
+    labels = agglomerative_groups(
+        distances,
+        config.linkage,
+        max_distance=config.max_distance_m,
+        max_size=config.max_group_size,
+    )
     return StepGroups(step, tracks, labels, distances, pos[tracks, step + pad])
 
 
@@ -118,6 +123,7 @@ def score_against_labels(
                 found.distances[np.ix_(nodes, nodes)],
                 config.linkage,
                 max_distance=config.max_distance_m,
+                max_size=config.max_group_size,
             )
             labelled = truth[nodes]
             ego_counts.add_pairs(predicted[1:] == predicted[0], labelled[1:] == labelled[0])

@@ -22,7 +22,7 @@ from typing import Any, Literal
 import numpy as np
 import torch
 
-from grouptron.config import DETECTION_GROUPS, ExperimentConfig
+from grouptron.config import ExperimentConfig
 from grouptron.data import glitches
 from grouptron.data.gaps import bridge_gaps, filled_in_histories
 from grouptron.data.reader import table_from_values
@@ -58,6 +58,7 @@ from grouptron.model.predict import (
     predict_samples,
 )
 from grouptron.model.regions import RegionCalibration
+from grouptron.presets import DETECTION_GROUPS
 
 log = logging.getLogger(__name__)
 

@@ -10,11 +10,13 @@ from grouptron.cli.options import (
     add_gap_option,
     add_recording_options,
     non_negative_float,
+    non_negative_int,
     positive_float,
     positive_int,
 )
-from grouptron.config import DETECTION_GROUPS, GroupConfig
+from grouptron.config import GroupConfig
 from grouptron.constants import DISTANCE_KINDS, LINKAGES
+from grouptron.presets import DETECTION_GROUPS
 
 
 def _rule_options(parser: argparse.ArgumentParser, *, compare: bool) -> None:
@@ -50,6 +52,12 @@ def _rule_options(parser: argparse.ArgumentParser, *, compare: bool) -> None:
         type=non_negative_float,
         help="seconds: the threshold rule keeps people at least this times their velocity "
         f"difference apart (0: positions only; default {DETECTION_GROUPS.velocity_weight_s:g})",
+    )
+    parser.add_argument(
+        "--max-group-size",
+        type=non_negative_int,
+        help="the threshold rule makes no group larger than this, so that a dense crowd is not "
+        f"chained into one (0: no limit; default {DETECTION_GROUPS.max_group_size})",
     )
 
 
