@@ -182,7 +182,7 @@ def test_predict_command_writes_finite_forecasts_or_one_error_line(
         tracks.write_bytes(content)
         argv = ["predict", "--checkpoint", str(checkpoint), "--tracks", str(tracks)]
         code, stderr = _run_cli([*argv, "--out", str(out), "--quiet"])
-        _check_outcome(folder, tracks, out, code, stderr, _finite_csv(5))
+        _check_outcome(folder, tracks, out, code, stderr, _finite_csv(6))
 
 
 @given(content=track_files())

@@ -93,7 +93,7 @@ def test_the_readme_first_three_commands_run_as_written(
     for command in commands:
         assert main(shlex.split(command)[1:]) == 0, command
     header = (tmp_path / "forecasts.csv").read_text().splitlines()[0]
-    assert header == "frame,id,step,x,y"
+    assert header == "frame,id,step,x_m,y_m,t_s"
     assert (tmp_path / "forecasts.png").stat().st_size > 10_000
 
 

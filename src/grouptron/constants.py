@@ -53,9 +53,10 @@ EVALUATION_MODES: Final = (*POINT_FORECAST_NAMES, "best-of-20", "nll")
 """What ``evaluate`` scores: each point forecast, the best of 20 samples, the KDE NLL."""
 
 FORECAST_MODES: Final = (*POINT_FORECAST_NAMES, "samples")
+"""What ``predict`` writes: a point forecast, or sampled futures."""
+
 MAX_REGION_Q: Final = 0.99
 """The largest probability a prediction region may hold (``model/regions.py`` resolves it)."""
-"""What ``predict`` writes: a point forecast, or sampled futures."""
 
 PRECISIONS: Final = ("auto", "fp32", "bf16")
 """Arithmetic of training (``grouptron.training.precision``)."""

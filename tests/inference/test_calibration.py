@@ -68,8 +68,8 @@ def test_calibrate_writes_a_file_that_predict_and_the_api_apply(
     uncalibrated = np.loadtxt(out, delimiter=",", skiprows=1)
     assert main([*argv, "--calibration", str(calibration)]) == 0
     calibrated_rows = np.loadtxt(out, delimiter=",", skiprows=1)
-    np.testing.assert_array_equal(calibrated_rows[:, :5], uncalibrated[:, :5])
-    assert not np.allclose(calibrated_rows[:, 5], uncalibrated[:, 5])
+    np.testing.assert_array_equal(calibrated_rows[:, :6], uncalibrated[:, :6])
+    assert not np.allclose(calibrated_rows[:, 6], uncalibrated[:, 6])
 
 
 def test_a_calibration_of_another_model_or_no_calibration_is_refused(

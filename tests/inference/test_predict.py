@@ -77,7 +77,8 @@ def test_predict_command_writes_point_and_sample_rows(
     # Pedestrian 7 has 8 observed steps at frames 170 and 180; pedestrian 8 never does.
     assert [(r["frame"], r["id"]) for r in own[::12]] == [("170", "7"), ("180", "7")]
     assert [int(r["step"]) for r in own[:12]] == list(range(1, 13))
-    assert all(abs(float(r["x"])) < 60 and abs(float(r["y"]) + 2) < 30 for r in own)
+    assert all(abs(float(r["x_m"])) < 60 and abs(float(r["y_m"]) + 2) < 30 for r in own)
+    assert [float(r["t_s"]) for r in own[::12]] == [170 / 25, 180 / 25]  # its own seconds
     out = tmp_path / "samples.csv"
     assert main([*common, "--out", str(out), "--mode", "samples", "--samples", "3"]) == 0
     with out.open() as handle:
@@ -94,7 +95,7 @@ def test_predict_command_writes_point_and_sample_rows(
         assert [(r["frame"], r["id"], r["step"]) for r in point] == [
             (r["frame"], r["id"], r["step"]) for r in own
         ]
-        assert ([r["x"] for r in point] == [r["x"] for r in own]) == (mode == "ml-argmax")
+        assert ([r["x_m"] for r in point] == [r["x_m"] for r in own]) == (mode == "ml-argmax")
     assert main([*common, "--out", str(tmp_path / "default.csv")]) == 0
     assert "central derivatives, ml-argmax)" in capsys.readouterr().out
 
@@ -133,7 +134,7 @@ def test_shipped_checkpoint_csv_reproduces_the_evaluator_on_eth(
     # Score the CSV against the file itself, wherever the file has all 12 future positions.
     observed = np.loadtxt(tracks)
     truth = {(int(f), float(i)): (x, y) for f, i, x, y in observed}
-    rows = np.loadtxt(out, delimiter=",", skiprows=1)  # frame, id, step, x, y
+    rows = np.loadtxt(out, delimiter=",", skiprows=1)[:, :5]  # frame, id, step, x_m, y_m
     future = [truth.get((int(f + 10 * k), float(i))) for f, i, k, _, _ in rows]
     error = np.array([np.hypot(x - t[0], y - t[1]) if t else np.nan for (*_, x, y), t in
                       zip(rows, future, strict=True)]).reshape(-1, 12)  # fmt: skip
@@ -226,3 +227,45 @@ def test_without_a_checkpoint_the_default_model_forecasts(
     with out.open() as handle:
         assert len(list(csv.DictReader(handle))) == 2 * 2 * 12  # 2 walkers, 2 frames with 8 steps
     assert "look-ahead" not in capsys.readouterr().err
+
+
+def test_forecast_rows_carry_the_files_own_frames_and_seconds(
+    tiny_checkpoints: Path, tmp_path: Path
+) -> None:
+    """A 16 fps file (0.4 s is 6.4 frames) and the same tracks in Unix seconds: ``frame`` is
+    the file's nearest frame, ``t_s`` its own time, and plot takes either."""
+    rng = np.random.default_rng(0)
+    frames = np.arange(0, 16 * 12)  # 12 s at 16 fps
+    rows = [
+        (p, f, 0.8 * f / 16 + p, 0.5 * p + 0.01 * rng.normal()) for p in (1, 2, 3) for f in frames
+    ]
+    sixteen = tmp_path / "sixteen.txt"
+    np.savetxt(sixteen, rows, fmt="%.4f")
+    seconds = tmp_path / "seconds.csv"
+    start = 1_700_000_000.0
+    np.savetxt(seconds, [(start + f / 16, p, x, y) for p, f, x, y in rows], fmt="%.4f",
+               delimiter=",")  # fmt: skip
+    checkpoint = ["--checkpoint", str(tiny_checkpoints / "grouptron-eth-backward"), "--quiet"]
+    out = tmp_path / "f.csv"
+    assert main(["predict", "--tracks", str(sixteen), "--columns", "id,frame,x,y", "--fps",
+                 "16", "--out", str(out), *checkpoint]) == 0  # fmt: skip
+    with out.open() as handle:
+        by_frame = list(csv.DictReader(handle))
+    own_frames = np.array([float(r["frame"]) for r in by_frame])
+    t_s = np.array([float(r["t_s"]) for r in by_frame])
+    assert np.all(np.abs(own_frames / 16 - t_s) <= 1 / 32 + 1e-6)  # the nearest frame
+    assert np.allclose(np.diff(np.unique(t_s)), 0.4)
+    assert main(["predict", "--tracks", str(seconds), "--columns", "t,id,x,y",
+                 "--out", str(out), *checkpoint]) == 0  # fmt: skip
+    with out.open() as handle:
+        by_time = list(csv.DictReader(handle))
+    np.testing.assert_allclose([float(r["t_s"]) - start for r in by_time], t_s, atol=1e-3)
+    picture = tmp_path / "p.png"
+    plot = ["plot", "--out", str(picture), *checkpoint]
+    at = str(int(own_frames[len(own_frames) // 2]))
+    assert main([*plot, "--tracks", str(sixteen), "--columns", "id,frame,x,y", "--fps", "16",
+                 "--frame", at]) == 0  # fmt: skip
+    assert main([*plot, "--tracks", str(seconds), "--columns", "t,id,x,y",
+                 "--time", f"{start + t_s[0]:.3f}"]) == 0  # fmt: skip
+    assert main([*plot, "--tracks", str(seconds), "--columns", "t,id,x,y", "--time", "1",
+                 "--frame", "3"]) == 2  # fmt: skip

@@ -57,7 +57,7 @@ def test_predict_writes_region_columns_and_refuses_them_with_samples(
     assert main([*argv, "--regions", "0.5,0.9", "--quiet"]) == 0
     with out.open() as handle:
         rows = list(csv.DictReader(handle))
-    assert list(rows[0])[5:] == [
+    assert list(rows[0])[6:] == [
         f"q{q}_{part}" for q in (50, 90) for part in ("major_m", "minor_m", "angle_rad")
     ]
     assert all(float(r["q90_major_m"]) > float(r["q50_major_m"]) > 0 for r in rows)

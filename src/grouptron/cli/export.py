@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.evaluation.calibration import calibration_for, load_calibration
+from grouptron.evaluation.calibration import calibration_for
 from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.inference.export import (
     ForecastNetwork,
@@ -19,6 +19,7 @@ from grouptron.inference.export import (
 )
 from grouptron.io import refuse_folder
 from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.predict import default_point_forecast
 
 
 def cmd_export(args: argparse.Namespace) -> int:
@@ -31,7 +32,8 @@ def cmd_export(args: argparse.Namespace) -> int:
     model, config = load_trained_model(path)
     calibration = None
     if args.calibration:
-        forecast = load_calibration(args.calibration).point_forecast
+        # The file states the default point forecast; a calibration of another would not fit.
+        forecast = default_point_forecast(config.model)
         calibration = calibration_for(args.calibration, config, forecast, str(path))
     print(f"exporting {config.model_name} from {path} to ONNX (about half a minute)", flush=True)
     names = export_onnx(model, config, out, calibration)

@@ -76,8 +76,11 @@ def cmd_predict(args: argparse.Namespace) -> int:
     experiment = dataclasses.replace(experiment, data=data)
     scene = build_scene(table, data, name=str(args.tracks))
     mode = args.mode or default_point_forecast(experiment.model)
-    if args.regions and (mode == "samples" or Path(args.out).suffix == ".ndjson"):
-        raise GrouptronError("--regions goes with a point forecast (--mode) written as CSV or MCAP")
+    if (args.regions or args.calibration) and (mode == "samples" or args.out.endswith(".ndjson")):
+        raise GrouptronError(
+            "--regions and --calibration go with a point forecast (--mode) written as CSV or MCAP"
+        )
+    calibrated = calibration_for(args.calibration, experiment, mode, str(path))  # before work
     forecast = forecast_scene(
         model,
         experiment,
@@ -90,7 +93,6 @@ def cmd_predict(args: argparse.Namespace) -> int:
         device=args.device,
         keep_distribution=bool(args.regions),
     )
-    calibrated = calibration_for(args.calibration, experiment, mode, str(path))
     forecast = dataclasses.replace(forecast, calibration=calibrated)
     if Path(args.out).suffix == ".mcap":
         count = _write_mcap(args, forecast, table, None if bag is None else bag[1], data.dt_s)
@@ -118,7 +120,7 @@ def _write_rows(
     if Path(args.out).suffix == ".ndjson":
         _write_trajnet(Path(args.out), forecast, table, sampled=sampled)
         return len(forecast) * horizon * (args.samples if sampled else 1)
-    header, rows, formats = forecast.table(sampled=sampled, regions=args.regions)
+    header, rows, formats = forecast.table(sampled, args.regions, table.times)
     if args.out == "-":
         sys.stdout.write(",".join(header) + "\n")
         np.savetxt(sys.stdout, rows, fmt=list(formats), delimiter=",")
@@ -134,24 +136,18 @@ def _write_mcap(
     bag: BagTracks | None,
     dt_s: float,
 ) -> int:
-    """Foxglove scene updates of ``forecast`` on the bag's clock and frame (for another file:
-    seconds from its first step, frame ``map``)."""
+    """Foxglove scene updates of ``forecast`` on the input's clock (a bag's stamps) and in its
+    frame (``map`` for a file)."""
     # A person's pieces never overlap in time: (frame, id) names one row of the table.
     keys = zip(table.frame, table.ped_id, strict=True)
     index = {(int(f), int(i)): k for k, (f, i) in enumerate(keys)}
     wanted = zip(forecast.frames, forecast.ids, strict=True)
     origins = table.pos_m[[index[(int(f), int(i))] for f, i in wanted]]
-    start_s = 0.0 if bag is None else float(bag.time_s.min())
-    per_frame_s = dt_s / table.frames_per_step
 
     def time_of_frame(frame: int) -> float:
-        return start_s + (frame - table.first_frame) * per_frame_s
+        return float(table.times.seconds(np.array([frame]))[0])
 
-    names = (
-        (lambda i: str(i))
-        if bag is None or all(n.lstrip("-").isdigit() for n in bag.names)
-        else (lambda i: bag.names[int(i)])
-    )
+    names = (lambda i: f"{i:g}") if bag is None else bag.name
     return write_forecast_mcap(
         Path(args.out),
         forecast,
@@ -180,6 +176,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     for predictor in predictors:
         warn_look_ahead(predictor.source, predictor.config.data.derivatives)
     table = read_track_table(args, predictors[0].config.data.frames_per_step)
+    _to_table_frames(args, table)
     if args.frame is None:  # the busiest frame (the middle one of equals): a telling picture
         frames, people = np.unique(table.frame, return_counts=True)
         busiest = frames[people == people.max()]
@@ -194,7 +191,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     rows = table_rows(table)
     if args.until is None:
         plot_forecasts(_plot_panels(args, predictors, rows, args.frame), args.frame, out)
-        print(f"wrote {out}: forecasts at frame {args.frame}")
+        print(f"wrote {out}: forecasts at {_file_time(table, args.frame)}")
         return 0
     step = data.frames_per_step
     wanted = range(args.frame, args.until + 1, step)
@@ -245,6 +242,27 @@ def table_rows(table: TrackTable) -> np.ndarray:
     fresh = float(ids.max()) + 1 + table.track
     ids = np.where(last_track[table.track], ids, fresh)
     return np.column_stack([table.frame, ids, table.pos_m]).astype(np.float64)
+
+
+def _to_table_frames(args: argparse.Namespace, table: TrackTable) -> None:
+    """``--time`` (the file's seconds) and ``--frame``/``--until`` (the file's own frame
+    numbers, as ``predict`` writes them) as the table's frames (in place)."""
+    times = table.times
+    if args.time is not None:
+        if args.frame is not None or args.until is not None:
+            raise GrouptronError("--time picks the frame: give --time or --frame (and --until)")
+        args.frame = times.table_frame(args.time)
+    elif times.file_fps is not None:  # a file in seconds has no frames: its --frame are steps
+        for name in ("frame", "until"):
+            if getattr(args, name) is not None:
+                setattr(args, name, times.table_frame(getattr(args, name) / times.file_fps))
+
+
+def _file_time(table: TrackTable, frame: int) -> str:
+    """``frame F (t = T s)`` in the file's own terms, for messages."""
+    own = table.times.file_frames(np.array([frame]))
+    seconds = float(table.times.seconds(np.array([frame]))[0])
+    return f"frame {frame if own is None else int(own[0])} (t = {seconds:.2f} s)"
 
 
 def _check_plot_frame(args: argparse.Namespace, table: TrackTable) -> None:

@@ -24,6 +24,7 @@ from grouptron.data.fields import (
     split_fields,
 )
 from grouptron.data.glitches import repair_observations
+from grouptron.data.time_base import TimeBase, frames_time_base
 from grouptron.errors import DataFormatError
 
 log = logging.getLogger(__name__)
@@ -52,6 +53,8 @@ class TrackTable:
             gap-free piece.
         step: (R,) step index, ``(frame - first_frame) // frames_per_step``.
         pos_m: (R, 2) x, y in metres, in the file's world frame.
+        time_base: how ``frame`` maps to the file's own time (None: an ETH/UCY-style file's
+            frame numbers, ``frames_time_base``).
     """
 
     path: Path
@@ -61,6 +64,12 @@ class TrackTable:
     track: np.ndarray
     step: np.ndarray
     pos_m: np.ndarray
+    time_base: TimeBase | None = None
+
+    @property
+    def times(self) -> TimeBase:
+        """The table's time base (an ETH/UCY-style file's when none was set)."""
+        return self.time_base or frames_time_base(self.frames_per_step)
 
     @property
     def num_tracks(self) -> int:

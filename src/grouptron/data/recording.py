@@ -12,6 +12,7 @@ walks, with a hint about units and frame rate.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import logging
 import math
@@ -46,6 +47,7 @@ from grouptron.data.reader import (
     table_from_values,
 )
 from grouptron.data.spelling import KEYWORDS, OptionSpelling
+from grouptron.data.time_base import resampled_time_base
 from grouptron.errors import DataFormatError, GrouptronError
 
 log = logging.getLogger(__name__)
@@ -334,9 +336,14 @@ def resample(
     first_frame, per_step = _frame_base(recording, dt_s)
     frame = first_frame + all_step[keep] * per_step
     values = np.column_stack([frame, all_id[keep], all_pos[keep]])
-    return table_from_values(
+    table = table_from_values(
         recording.path, values, all_line[keep], per_step, warn_on_gap=False, pieces=all_piece[keep]
     )
+    per_frame = recording.seconds_per_frame  # own frames: as _frame_base keeps them
+    one_per_step = per_frame is not None and math.isclose(per_frame, dt_s)
+    own = (first_frame, per_step) != (0, 1) or one_per_step
+    base = resampled_time_base(float(time_s.min()), per_frame, own, dt_s)  # the grid's origin
+    return dataclasses.replace(table, time_base=base)
 
 
 def _warn_gaps(

@@ -73,6 +73,20 @@ class BagTracks:
     names: tuple[str, ...]
     frame_id: str
 
+    def name(self, ped_id: int) -> str:
+        """The bag's own name of an id (numeric ids are their own names)."""
+        if all(_whole_number(label) for label in self.names):
+            return str(int(ped_id))
+        return self.names[int(ped_id)]
+
+
+def _whole_number(label: str) -> bool:
+    """An id written as a whole number that float64 tables keep exactly ("01" is a name)."""
+    try:
+        return str(int(label)) == label and abs(int(label)) < 2**53
+    except ValueError:
+        return False
+
 
 def _attribute(value: Any, path: str) -> Any:
     for name in path.split("."):
@@ -155,15 +169,15 @@ def read_bag(
                 rows.append((names.setdefault(name, len(names)), time_s, x, y, number))
         except AttributeError as error:
             raise GrouptronError(f"{path}: {topic} ({kind}): {error}; check --ros-fields") from None
-    if len(frame_ids) > 1:
-        raise GrouptronError(f"{path}: {topic} mixes frames {sorted(frame_ids)}; use one")
-    frame_id = frame_ids.pop() if frame_ids else ""
-    check_fixed_frame(path, frame_id, fixed)
     if not rows:
         raise GrouptronError(f"{path}: {topic} holds no people")
+    if len(frame_ids) > 1:
+        raise GrouptronError(f"{path}: {topic} mixes frames {sorted(frame_ids)}; use one")
+    frame_id = frame_ids.pop()
+    check_fixed_frame(path, frame_id, fixed)
     table = np.array(rows, dtype=np.float64)
     labels = tuple(names)
-    if all(label.lstrip("-").isdigit() for label in labels):  # numeric ids keep their numbers
+    if all(_whole_number(label) for label in labels):  # numeric ids keep their numbers
         ids = np.array([int(label) for label in labels])[table[:, 0].astype(np.int64)]
     else:
         ids = table[:, 0].astype(np.int64)

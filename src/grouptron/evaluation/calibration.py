@@ -135,6 +135,8 @@ def load_calibration(path: str | Path) -> RegionCalibration:
             [[np.inf if r is None else r for r in row] for row in document["radius_per_step"]],
             dtype=np.float64,
         )
+        if radii.ndim != 2 or len(radii) != len(document["q"]):
+            raise ValueError("radius_per_step needs one row of radii per q")
         return RegionCalibration(
             checkpoint=str(document["checkpoint"]),
             point_forecast=str(document["point_forecast"]),
@@ -171,7 +173,12 @@ def calibration_for(
     loaded = (
         calibration if isinstance(calibration, RegionCalibration) else load_calibration(calibration)
     )
-    if (loaded.checkpoint, loaded.point_forecast) != (config.model_name, point_forecast):
+
+    def same(name: str) -> str:  # ml-top10 of a model with at most 10 latent values is its ml
+        return "ml" if name == "ml-top10" and config.model.latent_modes <= 10 else name
+
+    forecast = same(loaded.point_forecast)
+    if (loaded.checkpoint, forecast) != (config.model_name, same(point_forecast)):
         raise GrouptronError(
             f"{named}calibrated for {loaded.checkpoint} with its {loaded.point_forecast} "
             f"forecast, not {config.model_name} with {point_forecast}; calibrate this one"

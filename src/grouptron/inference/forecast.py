@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from grouptron.data.time_base import TimeBase
 from grouptron.errors import GrouptronError
 from grouptron.model.regions import (
     MAX_COVERAGE,
@@ -71,21 +72,36 @@ class Forecast:
         return len(self.ids)
 
     def table(
-        self, sampled: bool = False, regions: tuple[float, ...] = ()
+        self,
+        sampled: bool = False,
+        regions: tuple[float, ...] = (),
+        time_base: TimeBase | None = None,
     ) -> tuple[list[str], np.ndarray, list[str]]:
-        """CSV header, rows ``frame, id, step, x, y`` of the most likely forecasts (or of the
-        samples, with a ``sample`` column) and their number formats; ``step`` k is the
-        position k steps after ``frame``. Each probability of ``regions`` adds its ellipse's
-        ``qQ_major_m, qQ_minor_m, qQ_angle_rad`` (point forecasts only)."""
+        """CSV header, rows and number formats of the forecasts, layout 2 (docs/guide.md,
+        "Forecast files"): ``frame, id, step, x_m, y_m`` of the point forecasts (or of the
+        samples, with a ``sample`` column); ``step`` k is the position k steps of 0.4 s after
+        the forecast time. With the input's ``time_base``, ``frame`` is the input's own frame
+        number (the nearest one where 0.4 s is not a whole number of frames; 0.4 s steps from
+        its first time for a file in seconds) and ``t_s`` its own time in seconds. Each
+        probability of ``regions`` adds its ellipse's ``qQ_major_m, qQ_minor_m,
+        qQ_angle_rad`` (point forecasts only)."""
         if sampled and self.samples is None:
             raise GrouptronError("this forecast holds no samples")
         positions = self.samples if sampled else self.most_likely[:, None]
         assert positions is not None
         S, K, H, _ = positions.shape  # (N, K, H, 2)
         s, k, h = (a.ravel() for a in np.indices((S, K, H)))
-        columns = [self.frames[s], self.ids[s], h + 1, *positions[s, k, h].T]
-        header = ["frame", "id", "step", "x", "y"]
+        frames = self.frames
+        if time_base is not None:
+            own = time_base.file_frames(self.frames)
+            frames = self.frames if own is None else own
+        columns = [frames[s], self.ids[s], h + 1, *positions[s, k, h].T]
+        header = ["frame", "id", "step", "x_m", "y_m"]
         formats = ["%d", "%.10g", "%d", "%.4f", "%.4f"]
+        if time_base is not None:
+            columns.append(time_base.seconds(self.frames)[s])
+            header.append("t_s")
+            formats.append("%.3f")
         if sampled:
             columns.append(k)
             header.append("sample")

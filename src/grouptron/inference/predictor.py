@@ -201,11 +201,12 @@ class Predictor:
 
     @property
     def point_forecast_name(self) -> str:
-        """The point forecast by its command-line name (``ml-top10`` rather than ``ml`` of 10)."""
-        Z = self.config.model.latent_modes
-        if self.most_likely == "ml" and self.latent_values == min(TOP_LATENT_VALUES, Z) < Z:
-            return "ml-top10"
-        return self.most_likely
+        """The point forecast by its command-line name (``ml-top10`` rather than ``ml`` of 10;
+        ``ml-topK`` for another number, which no calibration file names)."""
+        Z, M = self.config.model.latent_modes, self.latent_values
+        if self.most_likely != "ml" or M is None or M >= Z:
+            return self.most_likely
+        return "ml-top10" if M == TOP_LATENT_VALUES else f"ml-top{M}"
 
     @property
     def decoded_latent_values(self) -> int:

@@ -147,7 +147,8 @@ def predict_most_likely_of_top(
     top_logits, top = encoding.p_logits.topk(latent_values, dim=-1)  # (B, M)
     velocity = model.decode(encoding.x, batch.state_now_st, top, horizon, feedback="mean")
     trimmed = Encoding(x=encoding.x, p_logits=top_logits, q_logits=None)
-    return most_likely_positions(trimmed, velocity, horizon, dt_s, TOP_MODE_STARTS)
+    starts = TOP_MODE_STARTS if latent_values < model.config.latent_modes else MODE_STARTS
+    return most_likely_positions(trimmed, velocity, horizon, dt_s, starts)
 
 
 def top_latent_values(

@@ -195,7 +195,7 @@ def conformal_radii(scores: np.ndarray, qs: np.ndarray) -> np.ndarray:
     probability at least q (Vovk et al. 2005; Lei et al. 2018)."""
     n = len(scores)
     ranked = np.sort(scores, axis=0)  # (n, H)
-    rank = np.ceil((n + 1) * qs).astype(np.int64)  # 1-based
+    rank = np.ceil((n + 1) * qs - 1e-9).astype(np.int64)  # 1-based; float error never adds one
     radii = np.full((len(qs), scores.shape[1]), np.inf)
     finite = rank <= n
     radii[finite] = ranked[rank[finite] - 1]
@@ -236,7 +236,7 @@ class RegionCalibration:
         if not np.isfinite(radius).all():
             raise GrouptronError(
                 f"{self.samples} calibration samples cannot support q = {q:g}: it needs at "
-                f"least {int(np.ceil(q / (1 - q)))}; calibrate on a longer recording"
+                f"least {int(np.ceil(q / (1 - q) - 1e-9))}; calibrate on a longer recording"
             )
         return radius
 

@@ -93,7 +93,7 @@ def _draw_panel(ax: plt.Axes, panel: Panel, frame: int) -> None:
         colour = group_colour(group)
         origin = panel.history[k, -1]
         if regions is not None:
-            for step in REGION_STEPS:
+            for step in (s for s in REGION_STEPS if s <= regions.major_m.shape[1]):
                 h = step - 1
                 ellipse = Ellipse(
                     tuple(regions.centre[k, h]),

@@ -26,11 +26,12 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         help="forecast every pedestrian of a track file with a trained checkpoint",
         description="For every pedestrian and frame with 8 observed steps (the last at that "
         "frame; --min-points 2 forecasts from as few as 2), write the 12 predicted positions "
-        "as CSV rows 'frame,id,step,x,y': frame is "
-        "the last observed frame, step k (1..12) the position k steps (k * frames-per-step "
-        "frames) later, x/y in metres in the file's frame of reference (converted from "
-        "--units). A recording resampled to 0.4 s steps that are no whole number of its "
-        "frames (e.g. 16 fps) is numbered in steps from its first time instead of frames. "
+        "as CSV rows 'frame,id,step,x_m,y_m,t_s' (layout 2, docs/guide.md): frame is the "
+        "forecast time as the file's own frame number (the nearest one where 0.4 s is not a "
+        "whole number of frames; 0.4 s steps from the first time for a file in seconds), t_s "
+        "the same time in the file's own seconds, step k (1..12) the position k steps of "
+        "0.4 s later, x_m/y_m in metres in the file's frame of reference (converted from "
+        "--units). "
         "--mode samples adds a 'sample' column "
         "and writes --samples futures per pedestrian and frame. The most likely (ml) output "
         "equals what `grouptron evaluate --mode ml` scores.",
@@ -180,14 +181,20 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
         "--tracks",
         required=True,
         help="a track file: 'frame id x y' (ETH/UCY), another layout (--columns, --fps, "
-        "--units; resampled to 0.4 s steps, --frame then in the file's frames where a step is a "
-        "whole number of them, else in steps) or TrajNet++ .ndjson",
+        "--units; resampled to 0.4 s steps; --frame in the file's own frame numbers, --time in "
+        "its seconds) or TrajNet++ .ndjson",
     )
     plot.add_argument(
         "--frame",
         type=int,
         help="the frame to forecast from, in the frame numbers predict writes (default: the "
         "frame with the most people, the middle one of several)",
+    )
+    plot.add_argument(
+        "--time",
+        type=float,
+        help="the time to forecast from, in the file's own seconds (its t values; frame / fps "
+        "for frame numbers): the nearest 0.4 s step",
     )
     plot.add_argument(
         "--until",
