@@ -82,7 +82,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "forecast's distribution: columns qQ_major_m, qQ_minor_m (semi-axes, metres) and "
         "qQ_angle_rad (the major axis from +x), e.g. --regions 0.5,0.9 gives q50_* and q90_*. "
         "Their coverage on recordings is measured, not promised: benchmarks/RESULTS.md; "
-        "--calibration sizes them for a site",
+        "--calibration sizes them for a site. An .mcap --out draws the first Q",
     )
     add_calibration_option(predict)
     predict.add_argument(
