@@ -1,6 +1,7 @@
 """The documentation runs: every ``grouptron`` command in README.md and docs/ parses as
 written, the README's first three commands run end to end on a seconds CSV with a header, and
-every Python block runs (with tiny checkpoints under the shipped names)."""
+every Python block runs (with tiny checkpoints under the shipped names); the commands of docs/
+run in tests/test_doc_commands.py."""
 
 from __future__ import annotations
 

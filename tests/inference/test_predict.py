@@ -260,6 +260,19 @@ def test_forecast_rows_carry_the_files_own_frames_and_seconds(
     with out.open() as handle:
         by_time = list(csv.DictReader(handle))
     np.testing.assert_allclose([float(r["t_s"]) - start for r in by_time], t_s, atol=1e-3)
+    # Each forecast joins back to the input row it was made from: by (id, frame) in the 16 fps
+    # file (its nearest frame), by (id, t_s) in a 10 Hz tracker file in seconds (exactly).
+    inputs_f = {(int(p), int(f)) for p, f, _, _ in rows}
+    assert all((int(r["id"]), int(r["frame"])) in inputs_f for r in by_frame)
+    tracker = tmp_path / "tracker.csv"
+    ten_hz = [(start + j / 10, p, 0.8 * j / 10 + p, 0.5 * p) for p in (1, 2, 3) for j in range(120)]
+    np.savetxt(tracker, ten_hz, fmt="%.4f", delimiter=",")
+    assert main(["predict", "--tracks", str(tracker), "--columns", "t,id,x,y",
+                 "--out", str(out), *checkpoint]) == 0  # fmt: skip
+    with out.open() as handle:
+        joined = list(csv.DictReader(handle))
+    inputs_t = {(int(p), round(t, 3)) for t, p, _, _ in ten_hz}
+    assert joined and all((int(r["id"]), round(float(r["t_s"]), 3)) in inputs_t for r in joined)
     picture = tmp_path / "p.png"
     plot = ["plot", "--out", str(picture), *checkpoint]
     at = str(int(own_frames[len(own_frames) // 2]))
