@@ -114,3 +114,17 @@ def test_export_stores_a_calibration_of_its_checkpoint(
     other = str(tiny_checkpoints / "grouptron-eth-central")  # other weights: refused
     assert main(["export", "--checkpoint", other, "--out", str(tmp_path / "o.onnx"),
                  "--calibration", str(calibration)]) == 2  # fmt: skip
+
+
+def test_a_calibration_of_all_latent_values_does_not_fit_a_few(
+    tiny_checkpoints: Path, site: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """``ml`` of all Z latent values and ``ml`` of the 3 most probable are other forecasts with
+    other regions: a file made for one is refused for the other."""
+    checkpoint = str(tiny_checkpoints / "grouptron-eth-backward")
+    calibration = tmp_path / "ml.json"
+    assert main(["calibrate", "--checkpoint", checkpoint, "--tracks", str(site[0]),
+                 "--mode", "ml", "--out", str(calibration)]) == 0  # fmt: skip
+    Predictor.from_checkpoint(checkpoint, most_likely="ml", calibration=calibration)
+    with pytest.raises(GrouptronError, match="not grouptron with ml-top3"):
+        Predictor.from_checkpoint(checkpoint, latent_values=3, calibration=calibration)
