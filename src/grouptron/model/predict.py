@@ -147,8 +147,29 @@ def predict_most_likely_of_top(
     top_logits, top = encoding.p_logits.topk(latent_values, dim=-1)  # (B, M)
     velocity = model.decode(encoding.x, batch.state_now_st, top, horizon, feedback="mean")
     trimmed = Encoding(x=encoding.x, p_logits=top_logits, q_logits=None)
-    starts = TOP_MODE_STARTS if latent_values < model.config.latent_modes else MODE_STARTS
+    starts = mode_starts(latent_values, model.config.latent_modes)
     return most_likely_positions(trimmed, velocity, horizon, dt_s, starts)
+
+
+def mode_starts(decoded: int, latent_modes: int) -> int:
+    """Climbs per mixture for the mode of ``decoded`` of the ``latent_modes`` latent values:
+    the benchmark's :data:`MODE_STARTS` for all of them, :data:`TOP_MODE_STARTS` for fewer."""
+    return TOP_MODE_STARTS if decoded < latent_modes else MODE_STARTS
+
+
+def decoded_latent_values(
+    mode: str, latent_values: int | None, latent_modes: int
+) -> tuple[str, int]:
+    """``(kind, M)``: the point forecast ``mode`` as ``ml``, ``ml-argmax`` or ``mean``, and how
+    many of the most probable latent values it reads (``ml-top10``: ``ml`` of 10, or of all
+    when the model has fewer; ``ml`` of ``latent_values`` when given)."""
+    if mode == "ml-top10":
+        return "ml", min(TOP_LATENT_VALUES, latent_modes)
+    if mode == "ml-argmax":
+        return mode, 1
+    if mode == "mean":
+        return mode, latent_modes
+    return "ml", latent_values or latent_modes
 
 
 def top_latent_values(
@@ -172,9 +193,8 @@ def most_likely_of_decoded_top(
     """(B, H, 2): the most likely forecast of the ``latent_values`` most probable of all Z
     decoded latent values, as :func:`predict_most_likely_of_top` makes it (all Z: ``ml``)."""
     Z, horizon = velocity.mean.shape[1], velocity.mean.shape[2]
-    starts = TOP_MODE_STARTS if latent_values < Z else MODE_STARTS
     top = top_latent_values(encoding, velocity, latent_values)
-    return most_likely_positions(*top, horizon, dt_s, starts)
+    return most_likely_positions(*top, horizon, dt_s, mode_starts(latent_values, Z))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -212,21 +232,17 @@ def point_forecast_and_gaussians(
     """(B, H, 2) point forecast ``mode`` (``ml`` of the ``latent_values`` most probable latent
     values when given) and the Gaussians it was made from, decoding only those."""
     Z = model.config.latent_modes
-    if mode == "ml-top10":
-        mode, latent_values = "ml", min(TOP_LATENT_VALUES, Z)
+    kind, M = decoded_latent_values(mode, latent_values, Z)
     encoding = encode_prior(model, batch)
-    if mode == "ml-argmax" or (latent_values or Z) < Z:
-        M = 1 if mode == "ml-argmax" else latent_values
-        logits, top = encoding.p_logits.topk(M or 1, dim=-1)  # (B, M)
+    z_index = None  # all of them
+    if M < Z:
+        logits, z_index = encoding.p_logits.topk(M, dim=-1)  # (B, M)
         encoding = Encoding(x=encoding.x, p_logits=logits, q_logits=None)
-        velocity = model.decode(encoding.x, batch.state_now_st, top, horizon, feedback="mean")
-    else:
-        velocity = model.decode(encoding.x, batch.state_now_st, None, horizon, feedback="mean")
-    if mode == "mean":
+    velocity = model.decode(encoding.x, batch.state_now_st, z_index, horizon, feedback="mean")
+    if kind == "mean":
         point = mixture_mean_positions(encoding, velocity, dt_s)
     else:
-        starts = TOP_MODE_STARTS if velocity.mean.shape[1] < Z else MODE_STARTS
-        point = most_likely_positions(encoding, velocity, horizon, dt_s, starts)
+        point = most_likely_positions(encoding, velocity, horizon, dt_s, mode_starts(M, Z))
     return point, forecast_gaussians(encoding, velocity, dt_s)
 
 
@@ -241,17 +257,14 @@ def point_forecast_and_mixture(
     """:func:`point_forecast_and_gaussians` and the Gaussians of all Z latent values, from one
     decoding of all of them (the forecast is the same)."""
     Z = model.config.latent_modes
-    if mode == "ml-top10":
-        mode, latent_values = "ml", min(TOP_LATENT_VALUES, Z)
-    M = 1 if mode == "ml-argmax" else (latent_values or Z)
+    kind, M = decoded_latent_values(mode, latent_values, Z)
     encoding, velocity = decode_every_latent(model, batch, horizon)
-    if mode == "mean":
-        point = mixture_mean_positions(encoding, velocity, dt_s)
-        own = forecast_gaussians(encoding, velocity, dt_s)
-    else:
-        point = most_likely_of_decoded_top(encoding, velocity, M, dt_s)
-        own = forecast_gaussians(*top_latent_values(encoding, velocity, M), dt_s)
-    return point, own, forecast_gaussians(encoding, velocity, dt_s)
+    every = forecast_gaussians(encoding, velocity, dt_s)
+    if kind == "mean":
+        return mixture_mean_positions(encoding, velocity, dt_s), every, every
+    top = top_latent_values(encoding, velocity, M)
+    point = most_likely_positions(*top, horizon, dt_s, mode_starts(M, Z))
+    return point, forecast_gaussians(*top, dt_s), every
 
 
 def forecast_gaussians(
@@ -304,7 +317,7 @@ def predict_most_likely_of_top10(
 ) -> torch.Tensor:
     """(B, H, 2): :func:`predict_most_likely_of_top` of the 10 most probable latent values
     (all of them in a model with fewer)."""
-    top = min(TOP_LATENT_VALUES, model.config.latent_modes)
+    _, top = decoded_latent_values("ml-top10", None, model.config.latent_modes)
     return predict_most_likely_of_top(model, batch, horizon, dt_s, ablate, latent_values=top)
 
 
