@@ -26,14 +26,12 @@ import torch
 from grouptron.config import ExperimentConfig
 from grouptron.data.custom import read_dataset
 from grouptron.data.samples import SampleSet
-from grouptron.evaluation.calibration import calibrate
+from grouptron.evaluation.calibration import calibrate, forecast_distributions
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
-from grouptron.model.batch import batches
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
-from grouptron.model.factory import groups_for_model
-from grouptron.model.predict import default_point_forecast, point_forecast_and_gaussians
+from grouptron.model.predict import default_point_forecast
 from grouptron.model.regions import RegionCalibration, calibrated_regions, prediction_regions
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -51,17 +49,10 @@ def held_back_inside(
     q: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(S, H) truths inside the model's own q-regions and inside the calibrated ones."""
-    H, dt = config.data.horizon_steps, config.data.dt_s
-    groups = groups_for_model(samples, config)
     own, calibrated = [], []
-    with torch.inference_mode():
-        for _, batch in batches(samples, config, 512, groups):
-            point, gaussians = point_forecast_and_gaussians(model, batch, H, dt, mode)
-            arrays = (point.double().numpy(), *gaussians.as_arrays(np.zeros((len(point), 2))))
-            truth = batch.fut_rel_m.double().numpy()
-            own.append(prediction_regions(*arrays, q).contains(truth))
-            sized = calibrated_regions(*arrays, q, calibration.radius(q))
-            calibrated.append(sized.contains(truth))
+    for arrays, truth in forecast_distributions(model, config, samples, mode):
+        own.append(prediction_regions(*arrays, q).contains(truth))
+        calibrated.append(calibrated_regions(*arrays, q, calibration.radius(q)).contains(truth))
     return np.concatenate(own), np.concatenate(calibrated)
 
 

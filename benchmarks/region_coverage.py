@@ -29,13 +29,12 @@ from grouptron.data.custom import read_dataset
 from grouptron.data.locate import resolve_data_dir, split_files
 from grouptron.data.recording import RecordingFormat
 from grouptron.data.samples import SampleSet
+from grouptron.evaluation.calibration import forecast_distributions
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
-from grouptron.model.batch import batches
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
-from grouptron.model.factory import groups_for_model
-from grouptron.model.predict import default_point_forecast, point_forecast_and_gaussians
+from grouptron.model.predict import default_point_forecast
 from grouptron.model.regions import prediction_regions
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -48,19 +47,11 @@ def inside_per_step(
     model: TrajectronCVAE, config: ExperimentConfig, samples: SampleSet, qs: list[float]
 ) -> dict[float, np.ndarray]:
     """Per q, (S, H) whether each truth is inside its region."""
-    H, dt = config.data.horizon_steps, config.data.dt_s
     mode = default_point_forecast(config.model)
-    groups = groups_for_model(samples, config)
     inside: dict[float, list[np.ndarray]] = {q: [] for q in qs}
-    with torch.inference_mode():
-        for _, batch in batches(samples, config, 512, groups):
-            point, own = point_forecast_and_gaussians(model, batch, H, dt, mode)
-            log_weights, means, covs = own.as_arrays(np.zeros((len(point), 2)))
-            centre = point.double().numpy()
-            truth = batch.fut_rel_m.double().numpy()
-            for q in qs:
-                region = prediction_regions(centre, log_weights, means, covs, q)
-                inside[q].append(region.contains(truth))
+    for arrays, truth in forecast_distributions(model, config, samples, mode):
+        for q in qs:
+            inside[q].append(prediction_regions(*arrays, q).contains(truth))
     return {q: np.concatenate(v) for q, v in inside.items()}
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +39,30 @@ QS = np.round(np.arange(1, 100) / 100, 2)
 """The probabilities a calibration file holds radii for."""
 
 
-@torch.inference_mode()
+RegionInputs = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+"""(B, H, 2) point forecasts, (B, M) log weights, (B, M, H, 2) means and (B, M, H, 2, 2)
+covariances, relative to now: what ``model.regions`` draws regions from."""
+
+
+def forecast_distributions(
+    model: TrajectronCVAE,
+    config: ExperimentConfig,
+    samples: SampleSet,
+    point_forecast: str,
+    batch_size: int = 512,
+) -> Iterator[tuple[RegionInputs, np.ndarray]]:
+    """Per batch of samples (with a full future): the point forecast with the Gaussians it was
+    made from, and the (B, H, 2) truths, float64 NumPy, all relative to now."""
+    H, dt = config.data.horizon_steps, config.data.dt_s
+    groups = groups_for_model(samples, config)
+    for _, batch in batches(samples, config, batch_size, groups):
+        with torch.inference_mode():
+            point, own = point_forecast_and_gaussians(model.eval(), batch, H, dt, point_forecast)
+        centre = point.double().cpu().numpy()
+        truth = batch.fut_rel_m.double().cpu().numpy()
+        yield (centre, *own.as_arrays(np.zeros((len(centre), 2)))), truth
+
+
 def calibration_scores(
     model: TrajectronCVAE,
     config: ExperimentConfig,
@@ -48,18 +72,12 @@ def calibration_scores(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(n, H) every sample's score per forecast step (samples with a full future), and (n, H)
     whether its truth lies in the model's own (uncalibrated) 90% region."""
-    H, dt = config.data.horizon_steps, config.data.dt_s
-    groups = groups_for_model(samples, config)
     scores, inside = [], []
-    for _, batch in batches(samples, config, batch_size, groups):
-        point, own = point_forecast_and_gaussians(model.eval(), batch, H, dt, point_forecast)
-        log_weights, means, covs = own.as_arrays(np.zeros((len(point), 2)))
-        truth = batch.fut_rel_m.double().cpu().numpy()
-        centre = point.double().cpu().numpy()
-        scores.append(shape_distances(centre, log_weights, means, covs, truth))
-        own_region = prediction_regions(centre, log_weights, means, covs, 0.9)
-        inside.append(own_region.contains(truth))
+    for arrays, truth in forecast_distributions(model, config, samples, point_forecast, batch_size):
+        scores.append(shape_distances(*arrays, truth))
+        inside.append(prediction_regions(*arrays, 0.9).contains(truth))
     if not scores:
+        H = config.data.horizon_steps
         return np.zeros((0, H)), np.zeros((0, H), dtype=bool)
     return np.concatenate(scores), np.concatenate(inside)
 
