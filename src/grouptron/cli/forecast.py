@@ -139,10 +139,12 @@ def _write_mcap(
     """Foxglove scene updates of ``forecast`` on the input's clock (a bag's stamps) and in its
     frame (``map`` for a file)."""
     # A person's pieces never overlap in time: (frame, id) names one row of the table.
-    keys = zip(table.frame, table.ped_id, strict=True)
-    index = {(int(f), int(i)): k for k, (f, i) in enumerate(keys)}
-    wanted = zip(forecast.frames, forecast.ids, strict=True)
-    origins = table.pos_m[[index[(int(f), int(i))] for f, i in wanted]]
+    _, person = np.unique(np.concatenate([table.ped_id, forecast.ids]), return_inverse=True)
+    people = int(person.max()) + 1
+    row_key = table.frame.astype(np.int64) * people + person[: len(table.ped_id)]
+    wanted = forecast.frames.astype(np.int64) * people + person[len(table.ped_id) :]
+    order = np.argsort(row_key)
+    origins = table.pos_m[order[np.searchsorted(row_key[order], wanted)]]
 
     def time_of_frame(frame: int) -> float:
         return float(table.times.seconds(np.array([frame]))[0])

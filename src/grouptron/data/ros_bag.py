@@ -72,12 +72,12 @@ class BagTracks:
     message: np.ndarray
     names: tuple[str, ...]
     frame_id: str
+    numeric: bool
+    """Whether every id was a whole number (kept as it was) rather than a name."""
 
     def name(self, ped_id: int) -> str:
         """The bag's own name of an id (numeric ids are their own names)."""
-        if all(_whole_number(label) for label in self.names):
-            return str(int(ped_id))
-        return self.names[int(ped_id)]
+        return str(int(ped_id)) if self.numeric else self.names[int(ped_id)]
 
 
 def _whole_number(label: str) -> bool:
@@ -177,12 +177,13 @@ def read_bag(
     check_fixed_frame(path, frame_id, fixed)
     table = np.array(rows, dtype=np.float64)
     labels = tuple(names)
-    if all(_whole_number(label) for label in labels):  # numeric ids keep their numbers
+    numeric = all(_whole_number(label) for label in labels)
+    if numeric:  # numeric ids keep their numbers
         ids = np.array([int(label) for label in labels])[table[:, 0].astype(np.int64)]
     else:
         ids = table[:, 0].astype(np.int64)
     return BagTracks(
-        ids, table[:, 1], table[:, 2:4], table[:, 4].astype(np.int64), labels, frame_id
+        ids, table[:, 1], table[:, 2:4], table[:, 4].astype(np.int64), labels, frame_id, numeric
     )
 
 

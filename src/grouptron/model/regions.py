@@ -73,6 +73,13 @@ def _cholesky_2x2(cov: np.ndarray) -> np.ndarray:
     return np.stack([l00, l10, l11], -1)
 
 
+def _weights(log_weights: np.ndarray) -> np.ndarray:
+    """(N, M) log weights of the components -> (N, M) weights summing to 1."""
+    weights = np.exp(log_weights - log_weights.max(axis=1, keepdims=True))
+    normalised: np.ndarray = weights / weights.sum(axis=1, keepdims=True)
+    return normalised
+
+
 def _shape_about(
     centre: np.ndarray, weights: np.ndarray, means: np.ndarray, covs: np.ndarray
 ) -> np.ndarray:
@@ -154,8 +161,7 @@ def prediction_regions(
         covs: (N, M, H, 2, 2) their covariances.
         q: the probability each ellipse holds, in (0, MAX_COVERAGE].
     """
-    weights = np.exp(log_weights - log_weights.max(axis=1, keepdims=True))
-    weights = weights / weights.sum(axis=1, keepdims=True)
+    weights = _weights(log_weights)
     parts = []
     for start in range(0, len(centre), CHUNK):
         block = slice(start, start + CHUNK)
@@ -179,8 +185,7 @@ def shape_distances(
     """(N, H) each (N, H, 2) point's Mahalanobis distance from the point forecast under its
     region's shape (the score a calibration ranks): a point is inside the region of radius r
     when this is at most r."""
-    weights = np.exp(log_weights - log_weights.max(axis=1, keepdims=True))
-    weights = weights / weights.sum(axis=1, keepdims=True)
+    weights = _weights(log_weights)
     shape = _shape_about(centre, weights, means, covs)
     offset = points - centre
     solved = np.linalg.solve(shape, offset[..., None])[..., 0]
@@ -251,8 +256,7 @@ def calibrated_regions(
 ) -> Regions:
     """Regions of the same shape as :func:`prediction_regions`', of the (H,) calibrated
     ``radius`` per step instead of the mixture's own."""
-    weights = np.exp(log_weights - log_weights.max(axis=1, keepdims=True))
-    weights = weights / weights.sum(axis=1, keepdims=True)
+    weights = _weights(log_weights)
     shape = _shape_about(centre, weights, means, covs)
     major, minor, angle = ellipse_axes(shape, np.broadcast_to(radius, shape.shape[:2]))
     return Regions(q, centre, major, minor, angle)
