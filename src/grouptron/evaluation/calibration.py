@@ -26,7 +26,7 @@ from grouptron.io import write_text_atomically
 from grouptron.model.batch import batches
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model
-from grouptron.model.predict import point_forecast_and_gaussians
+from grouptron.model.predict import forecast_name, point_forecast_and_gaussians
 from grouptron.model.regions import (
     RegionCalibration,
     conformal_radii,
@@ -192,11 +192,9 @@ def calibration_for(
         calibration if isinstance(calibration, RegionCalibration) else load_calibration(calibration)
     )
 
-    def same(name: str) -> str:  # ml-top10 of a model with at most 10 latent values is its ml
-        return "ml" if name == "ml-top10" and config.model.latent_modes <= 10 else name
-
-    forecast = same(loaded.point_forecast)
-    if (loaded.checkpoint, forecast) != (config.model_name, same(point_forecast)):
+    Z = config.model.latent_modes
+    forecast = forecast_name(loaded.point_forecast, None, Z)
+    if (loaded.checkpoint, forecast) != (config.model_name, forecast_name(point_forecast, None, Z)):
         raise GrouptronError(
             f"{named}calibrated for {loaded.checkpoint} with its {loaded.point_forecast} "
             f"forecast, not {config.model_name} with {point_forecast}; calibrate this one"

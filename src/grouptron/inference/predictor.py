@@ -53,6 +53,7 @@ from grouptron.model.predict import (
     TOP_LATENT_VALUES,
     ForecastGaussians,
     default_point_forecast,
+    forecast_name,
     point_forecast_and_gaussians,
     point_forecast_and_mixture,
     predict_samples,
@@ -201,12 +202,9 @@ class Predictor:
 
     @property
     def point_forecast_name(self) -> str:
-        """The point forecast by its command-line name (``ml-top10`` rather than ``ml`` of 10;
-        ``ml-topK`` for another number, which no calibration file names)."""
-        Z, M = self.config.model.latent_modes, self.latent_values
-        if self.most_likely != "ml" or M is None or M >= Z:
-            return self.most_likely
-        return "ml-top10" if M == TOP_LATENT_VALUES else f"ml-top{M}"
+        """The point forecast by its one name (``forecast_name``: ``ml-top10`` rather than
+        ``ml`` of 10; ``ml-topK`` for another number, which no calibration file names)."""
+        return forecast_name(self.most_likely, self.latent_values, self.config.model.latent_modes)
 
     @property
     def decoded_latent_values(self) -> int:

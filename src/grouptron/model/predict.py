@@ -151,6 +151,16 @@ def predict_most_likely_of_top(
     return most_likely_positions(trimmed, velocity, horizon, dt_s, starts)
 
 
+def forecast_name(mode: str, latent_values: int | None, latent_modes: int) -> str:
+    """The one name of a point forecast for a model of ``latent_modes`` latent values: ``ml``
+    of all of them is ``ml`` (so is ``ml-top10`` of a model with at most 10), ``ml`` of the 10
+    most probable ``ml-top10``, of another number K ``ml-topK``."""
+    kind, M = decoded_latent_values(mode, latent_values, latent_modes)
+    if kind != "ml" or latent_modes == M:
+        return kind
+    return "ml-top10" if M == TOP_LATENT_VALUES else f"ml-top{M}"
+
+
 def mode_starts(decoded: int, latent_modes: int) -> int:
     """Climbs per mixture for the mode of ``decoded`` of the ``latent_modes`` latent values:
     the benchmark's :data:`MODE_STARTS` for all of them, :data:`TOP_MODE_STARTS` for fewer."""
@@ -162,9 +172,9 @@ def decoded_latent_values(
 ) -> tuple[str, int]:
     """``(kind, M)``: the point forecast ``mode`` as ``ml``, ``ml-argmax`` or ``mean``, and how
     many of the most probable latent values it reads (``ml-top10``: ``ml`` of 10, or of all
-    when the model has fewer; ``ml`` of ``latent_values`` when given)."""
-    if mode == "ml-top10":
-        return "ml", min(TOP_LATENT_VALUES, latent_modes)
+    when the model has fewer; ``ml-topK`` likewise; ``ml`` of ``latent_values`` when given)."""
+    if mode.startswith("ml-top"):  # ml-top10, or ml-topK as forecast_name writes it
+        return "ml", min(int(mode.removeprefix("ml-top")), latent_modes)
     if mode == "ml-argmax":
         return mode, 1
     if mode == "mean":
