@@ -246,6 +246,9 @@ class TrainConfig:
     """Warm start: a full training checkpoint (``last.safetensors``) of the same model whose
     weights, optimiser state and step count start this run; its schedules continue from there.
     Empty: start from the seed."""
+    epoch_samples: int = 0
+    """Samples an epoch draws (with replacement) by the training samples' weights, where a
+    dataset names its train sources; 0: one pass over the training samples (or as many draws)."""
     max_nonfinite_steps: int = 10
     """Optimiser steps whose loss or gradients are NaN/inf are skipped (the weights are left as
     they were) and counted; after this many in a run, training stops with an error."""
@@ -253,8 +256,8 @@ class TrainConfig:
     def __post_init__(self) -> None:
         if self.val_subset < 0:
             raise GrouptronError("train.val_subset must be >= 0 (0: the whole validation part)")
-        if self.max_nonfinite_steps < 0:
-            raise GrouptronError("train.max_nonfinite_steps must be >= 0")
+        if self.max_nonfinite_steps < 0 or self.epoch_samples < 0:
+            raise GrouptronError("train.max_nonfinite_steps and epoch_samples must be >= 0")
         if self.epochs < 1 or self.batch_size < 1 or self.eval_batch_size < 1:
             raise GrouptronError("train.epochs, batch_size and eval_batch_size must be >= 1")
         if self.threads < 1:

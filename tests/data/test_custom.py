@@ -11,8 +11,9 @@ import pytest
 
 from grouptron.cli import main
 from grouptron.config import DataConfig
-from grouptron.data.custom import load_dataset_part, read_dataset
+from grouptron.data.custom import load_dataset_part, read_dataset, train_sample_weights
 from grouptron.errors import GrouptronError
+from grouptron.training.trainer import epoch_order
 
 
 def walkers_file(path: Path, seed: int, people: int = 10, seconds: float = 18.0) -> Path:
@@ -146,3 +147,53 @@ def test_a_description_can_name_its_data_folder_by_an_environment_variable(
     monkeypatch.delenv("WALKERS_DIR")
     with pytest.raises(GrouptronError, match=r"names \$WALKERS_DIR, which is not set"):
         read_dataset(described)
+
+
+def _sourced(folder: Path, shares: str = "") -> Path:
+    write_dataset(folder)
+    described = folder / "sourced.toml"
+    described.write_text(
+        'name = "sourced"\n[format]\ncolumns = "id,t,x,y"\nunits = "cm"\n'
+        '[parts.train]\nbig = ["walk0.csv", "walk1.csv", "walk2.csv"]\nsmall = "walk3.csv"\n'
+        + shares
+    )
+    return described
+
+
+def test_named_train_sources_get_their_share_of_each_epoch(tmp_path: Path) -> None:
+    """Three files of one source and one of another: drawn by the weights, each source makes
+    half of an epoch, however many samples it holds."""
+    dataset = read_dataset(_sourced(tmp_path))
+    assert list(dataset.sources) == ["big", "small"] and dataset.shares == {
+        "big": 0.5,
+        "small": 0.5,
+    }
+    part = load_dataset_part(dataset, "train", DataConfig(), use_cache=False)
+    # The samples' scene is their file: walk3.csv's samples are scene 3.
+    assert sorted(set(part.samples.scene_index.tolist())) == [0, 1, 2, 3]
+    weights = train_sample_weights(dataset, part.samples)
+    assert weights is not None
+    small = part.samples.scene_index == 3
+    assert small.sum() * 2 < (~small).sum()  # the small source really is smaller
+    assert weights[small].sum() == pytest.approx(0.5) and weights.sum() == pytest.approx(1.0)
+    order = epoch_order(np.random.default_rng(0), len(weights), weights, 4000)
+    assert len(order) == 4000 and abs(small[order].mean() - 0.5) < 0.05
+    uneven = read_dataset(_sourced(tmp_path, "[shares]\nbig = 3\nsmall = 1\n"))
+    assert uneven.shares == {"big": 0.75, "small": 0.25}
+    # Without named sources an epoch is one shuffled pass, as always.
+    plain = read_dataset(write_dataset(tmp_path))
+    assert plain.shares == {} and train_sample_weights(plain, part.samples) is None
+    assert sorted(epoch_order(np.random.default_rng(0), 7, None, 0).tolist()) == list(range(7))
+
+
+@pytest.mark.parametrize(
+    ("shares", "message"),
+    [
+        ("[shares]\nbig = 1\n", "must name exactly the train sources"),
+        ("[shares]\nbig = 1\nsmall = -1\n", "shares are numbers >= 0"),
+        ("[shares]\nbig = 0\nsmall = 0\n", "not all 0"),
+    ],
+)
+def test_bad_shares_are_refused_in_one_line(tmp_path: Path, shares: str, message: str) -> None:
+    with pytest.raises(GrouptronError, match=message):
+        read_dataset(_sourced(tmp_path, shares))

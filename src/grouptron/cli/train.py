@@ -8,7 +8,6 @@ import json
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import torch
 
 from grouptron.cli.common import (
@@ -22,20 +21,15 @@ from grouptron.config import (
     config_to_dict,
     merge_settings,
 )
-from grouptron.constants import ALL_LOCATIONS
-from grouptron.data.custom import load_dataset_part, read_dataset
-from grouptron.data.dataset import PartData, load_part
-from grouptron.data.locate import resolve_data_dir
+from grouptron.data.custom import read_dataset
 from grouptron.errors import GrouptronError
-from grouptron.groups.assign import SampleGroups, assign_groups
-from grouptron.groups.cache import load_groups
 from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.model.checkpoint import load_checkpoint
-from grouptron.model.factory import uses_groups
 from grouptron.presets import preset_values
 from grouptron.training import distributed
 from grouptron.training.metrics_log import MetricsWriter
 from grouptron.training.precision import native_bf16, precision_name, resolve_precision
+from grouptron.training.prepare import prepare_training_data
 from grouptron.training.selection import SELECTION
 from grouptron.training.trainer import LAST, train
 from grouptron.viz.training import plot_training_curves
@@ -76,47 +70,6 @@ def _split_or_dataset(args: argparse.Namespace) -> tuple[str, str]:
         return args.split, ""
     description = read_dataset(dataset)
     return description.name, str(description.source)
-
-
-def _parts(
-    args: argparse.Namespace, experiment: ExperimentConfig
-) -> tuple[PartData, PartData, SampleGroups | None, SampleGroups | None]:
-    """Training and validation samples (and their groups for Grouptron)."""
-    data, cached = experiment.data, not args.no_cache
-    if experiment.dataset:
-        dataset = read_dataset(experiment.dataset)
-        parts = [load_dataset_part(dataset, p, data, use_cache=cached) for p in ("train", "val")]
-    else:
-        data_dir = resolve_data_dir(args.data_dir)
-        split = experiment.split
-        names = ("train",) if split == ALL_LOCATIONS else ("train", "val")
-        parts = [load_part(data_dir, split, p, data, use_cache=cached) for p in names]
-    if len(parts) == 1:  # nothing held out: an empty validation part
-        nothing = np.zeros(len(parts[0].samples), dtype=bool)
-        parts.append(dataclasses.replace(parts[0], samples=parts[0].samples.subset(nothing)))
-    if not uses_groups(experiment):
-        return parts[0], parts[1], None, None
-    print("clustering every sample's neighbours into groups (cached after the first run)")
-    if experiment.dataset:
-        found = [assign_groups(p.samples, experiment.groups, data.position_scale_m) for p in parts]
-    else:
-        found = [
-            load_groups(
-                data_dir,
-                experiment.split,
-                name,
-                data,
-                groups=experiment.groups,
-                samples=part.samples,
-                use_cache=cached,
-            )
-            for name, part in zip(names, parts, strict=False)
-        ]
-        if len(found) == 1:
-            found.append(
-                found[0].subset(np.zeros(len(parts[0].samples), dtype=bool), parts[0].samples)
-            )
-    return parts[0], parts[1], found[0], found[1]
 
 
 INHERITED_DATA = ("frames_per_step", "on_gap", "min_history_train")
@@ -265,7 +218,10 @@ def cmd_train(args: argparse.Namespace) -> int:
     then plot its training curves and say which checkpoint was chosen."""
     experiment, out = _experiment_and_folder(args)
     data = experiment.data
-    train_part, val_part, train_groups, val_groups = _parts(args, experiment)
+    prepared = prepare_training_data(
+        experiment, args.data_dir, use_cache=not args.no_cache, announce=True
+    )
+    train_part, val_part = prepared.train, prepared.val
     cluster = distributed.start(torch.device(args.device))
     if cluster.is_main:
         processes = f", {cluster.world_size} processes" if cluster.distributed else ""
@@ -283,10 +239,11 @@ def cmd_train(args: argparse.Namespace) -> int:
             out,
             resume=args.resume,
             progress=show_progress(args),
-            train_groups=train_groups,
-            val_groups=val_groups,
+            train_groups=prepared.train_groups,
+            val_groups=prepared.val_groups,
             device=args.device,
             cluster=cluster,
+            train_weights=prepared.train_weights,
         )
     finally:
         distributed.stop(cluster)

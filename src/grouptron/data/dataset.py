@@ -18,7 +18,8 @@ from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
 from grouptron.data.scene import Scene, build_scene
 from grouptron.io import keep_cache_npz, read_cache_npz
 
-CACHE_FORMAT_VERSION = 4  # 3: causal backward derivatives; 4: one-point tracks kept there
+CACHE_FORMAT_VERSION = 5  # 3: causal backward derivatives; 4: one-point tracks kept there;
+# 5: scene_index counts files once (it was doubled)
 """Bump when the content of cached sample sets changes."""
 
 
@@ -66,7 +67,7 @@ def build_part(
     """Samples of several scene files, uncached."""
     scenes = load_scenes(files, config, recording)
     samples = concatenate_samples(
-        [scene_samples(s, config, min_history, index) for index, s in enumerate(scenes)]
+        [scene_samples(s, config, min_history) for s in scenes]  # renumbered by concatenating
     )
     summaries = tuple(
         SceneSummary(s.name, s.num_tracks, s.num_steps, int(s.present_per_step().max()))

@@ -74,16 +74,18 @@ def train_epoch(
     groups: SampleGroups | None = None,
     cluster: Cluster = SINGLE,
     network: torch.nn.Module | None = None,
+    weights: np.ndarray | None = None,
 ) -> tuple[dict[str, float], bool]:
-    """One pass over the shuffled training samples; returns mean loss terms and speed, and
-    whether the pass was finished (False when stopped at ``max_iterations``).
+    """One pass over the shuffled training samples (or, with ``weights``, (S,) probabilities,
+    ``epoch_length`` draws by them); returns mean loss terms and speed, and whether the pass
+    was finished (False when stopped at ``max_iterations``).
 
     With several processes (``cluster``), each runs its share of every global batch through
     ``network`` (the model wrapped in DDP); the order, angles and noise are the same everywhere.
     """
     network = state.model if network is None else network
     state.model.train()
-    order = state.rng.permutation(len(samples))
+    order = epoch_order(state.rng, len(samples), weights, config.train.epoch_samples)
     size = config.train.batch_size
     starts = range(0, len(order), size)
     totals: dict[str, float] = {}
@@ -114,6 +116,19 @@ def train_epoch(
     means["train_samples_per_s"] = seen / elapsed if elapsed > 0 else 0.0
     means["nonfinite_steps"] = state.nonfinite_steps - skipped_before
     return means, finished
+
+
+def epoch_order(
+    rng: np.random.Generator, num_samples: int, weights: np.ndarray | None, epoch_samples: int
+) -> np.ndarray:
+    """(L,) the samples of one epoch in order: a shuffled pass over all ``num_samples``, or
+    ``epoch_samples`` (default ``num_samples``) draws with replacement by ``weights``."""
+    if weights is None and epoch_samples in (0, num_samples):
+        return rng.permutation(num_samples)
+    length = epoch_samples or num_samples
+    if weights is None:
+        return rng.choice(num_samples, size=length, replace=True)
+    return rng.choice(num_samples, size=length, replace=True, p=weights / weights.sum())
 
 
 def _train_step(
@@ -287,7 +302,7 @@ def _check_inputs(
         raise GrouptronError("no training samples")
     if uses_groups(config) and (train_groups is None or val_groups is None):
         raise GrouptronError(f"{config.model_name} needs the samples' groups")
-    last_batch = len(train_samples) % config.train.batch_size
+    last_batch = (config.train.epoch_samples or len(train_samples)) % config.train.batch_size
     if 0 < last_batch < cluster.world_size:
         raise GrouptronError(
             f"the last batch of each epoch holds {last_batch} samples, fewer than the "
@@ -308,11 +323,12 @@ def train(
     val_groups: SampleGroups | None = None,
     device: torch.device | str = "cpu",
     cluster: Cluster = SINGLE,
+    train_weights: np.ndarray | None = None,
 ) -> TrainState:
-    """Train for ``config.train.epochs`` epochs (see the module docstring for what each epoch
-    writes). Grouptron needs ``train_groups`` and ``val_groups``. ``max_iterations`` stops
-    after that many optimiser steps as if the process were killed there (to test ``resume``).
-    """
+    """Train for ``config.train.epochs`` epochs (the module docstring says what each epoch
+    writes); Grouptron needs ``train_groups`` and ``val_groups``; ``train_weights`` (S,) draw
+    an epoch's samples (:func:`epoch_order`). ``max_iterations`` stops after that many
+    optimiser steps as if the process were killed there (to test ``resume``)."""
     _check_inputs(config, train_samples, train_groups, val_groups, cluster=cluster)
     out_dir.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(config.train.threads)
@@ -325,6 +341,7 @@ def train(
         groups=train_groups,
         cluster=cluster,
         network=_wrapped(state.model, cluster, dev),
+        weights=train_weights,
     )
     writer = MetricsWriter(out_dir)
     validation = Validation.of(val_samples, val_groups, config.train.val_subset)
