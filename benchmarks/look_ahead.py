@@ -25,7 +25,7 @@ import torch
 
 from grouptron.data.locate import resolve_data_dir
 from grouptron.data.subsets import time_step_ids
-from grouptron.evaluation.report import subset_masks
+from grouptron.reporting.report import subset_masks
 from grouptron.evaluation.uncertainty import mean_interval
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

@@ -25,7 +25,7 @@ from pathlib import Path
 import torch
 
 from grouptron.data.custom import read_dataset
-from grouptron.evaluation.out_of_domain import (
+from grouptron.reporting.out_of_domain import (
     out_of_domain_markdown,
     prepare_out_of_domain,
     score_out_of_domain,

@@ -78,7 +78,7 @@ def tiny_checkpoints(synthetic_data_dir: Path, tmp_path_factory: pytest.TempPath
     from grouptron.data.dataset import load_part
     from grouptron.groups.cache import load_groups
     from grouptron.training.trainer import train
-    from tests.model.test_cvae import SMALL
+    from tests.helpers.models import SMALL
 
     root = tmp_path_factory.mktemp("checkpoints")
     runs = [("trajectron++", "central"), ("grouptron", "central"), ("grouptron", "backward")]

@@ -23,25 +23,13 @@ from grouptron import Predictor
 from grouptron.cli import main
 from grouptron.data.reader import read_tracks
 from grouptron.errors import GrouptronError
+from tests.helpers.data import walking_tracks
 
 SETTINGS = settings(
     max_examples=80,
     deadline=None,
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
-
-
-def _walk(pedestrians: int, steps: int, seed: int, speed: float, offset: float) -> np.ndarray:
-    """(R, 4) rows frame, id, x, y of people walking straight from random starts."""
-    rng = np.random.default_rng(seed)
-    start = rng.uniform(0, 8, (pedestrians, 2)) + offset
-    heading = rng.uniform(0, 2 * np.pi, pedestrians)
-    velocity = speed * np.stack([np.cos(heading), np.sin(heading)], 1)
-    k = np.arange(steps)
-    xy = start[:, None] + velocity[:, None] * 0.4 * k[None, :, None]  # (P, K, 2)
-    frame = np.broadcast_to(k * 10, (pedestrians, steps))
-    ids = np.broadcast_to(np.arange(pedestrians)[:, None], (pedestrians, steps))
-    return np.column_stack([frame.ravel(), ids.ravel(), xy.reshape(-1, 2)])
 
 
 def _text(rows: np.ndarray) -> str:
@@ -51,7 +39,7 @@ def _text(rows: np.ndarray) -> str:
 @st.composite
 def track_files(draw: st.DrawFn) -> bytes:
     """The bytes of a track file: a valid walk, then one kind of damage (or none)."""
-    rows = _walk(
+    rows = walking_tracks(
         pedestrians=draw(st.integers(1, 5)),
         steps=draw(st.sampled_from([1, 2, 8, 9, 12, 14])),
         seed=draw(st.integers(0, 10_000)),
@@ -200,7 +188,7 @@ def test_groups_detect_writes_groups_or_one_error_line(content: bytes) -> None:
 @st.composite
 def track_arrays(draw: st.DrawFn) -> object:
     """What a caller might hand ``Predictor.predict``: arrays of any shape and content."""
-    rows = _walk(
+    rows = walking_tracks(
         draw(st.integers(1, 5)),
         draw(st.sampled_from([1, 3, 9, 12])),
         draw(st.integers(0, 1000)),
@@ -257,7 +245,7 @@ def test_ten_thousand_pedestrians_in_one_frame(
     frames: int, tiny_checkpoints: Path, tmp_path: Path
 ) -> None:
     tracks, out = tmp_path / "crowd.txt", tmp_path / "forecast.csv"
-    rows = _walk(10_000, frames, seed=0, speed=1.0, offset=0.0)
+    rows = walking_tracks(10_000, frames, seed=0, speed=1.0, offset=0.0)
     rows[:, 2:] *= 60  # spread over ~500 m x 500 m
     tracks.write_text(_text(rows))
     checkpoint = tiny_checkpoints / "grouptron-eth-backward" / "best.safetensors"

@@ -20,7 +20,7 @@ from grouptron.model.checkpoint import Checkpoint, load_checkpoint, save_checkpo
 from grouptron.model.factory import build_model
 from grouptron.presets import experiment_preset
 from tests.conftest import REPO
-from tests.model.test_cvae import SMALL
+from tests.helpers.models import SMALL
 
 SMALL_ROBUST = dataclasses.replace(SMALL, edge_aggregation="mean", edge_count_feature=True)
 ROBUST = dataclasses.replace(experiment_preset("univ", "grouptron-robust"), model=SMALL_ROBUST)

@@ -12,6 +12,7 @@ import pytest
 
 from grouptron.cli import main
 from tests.conftest import write_tracks
+from tests.helpers.models import TINY_MODEL
 
 COMMANDS = [
     [],
@@ -102,10 +103,6 @@ def test_gap_policy_flag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> 
 def test_no_test_samples_is_an_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     write_tracks(tmp_path / "eth/test/short.txt", [(s * 10, 1, 0.4 * s, 0.0) for s in range(5)])
     assert "no test samples" in run_error([*CV_ETH, "--data-dir", str(tmp_path)], capsys)
-
-
-TINY_MODEL = {"history_hidden": 8, "edge_hidden": 8, "future_hidden": 8, "latent_modes": 5,
-              "p_z_hidden": 8, "decoder_hidden": 16}  # fmt: skip
 
 
 def json_rows(argv: list[str], capsys: pytest.CaptureFixture[str]) -> list[dict]:

@@ -6,6 +6,7 @@ import ast
 from pathlib import Path
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "grouptron"
+TESTS = Path(__file__).resolve().parent
 MAX_MODULE_LINES = 450
 MAX_FUNCTION_LINES = 60
 
@@ -32,3 +33,30 @@ def test_long_functions_say_why() -> None:
                 if length > MAX_FUNCTION_LINES and not above.startswith("#"):
                     unexplained.append(f"{path.relative_to(SRC)}:{node.lineno} {node.name}")
     assert not unexplained
+
+
+def _imported_modules(tree: ast.Module, package: list[str]) -> list[str]:
+    """Every dotted name an ``import`` or ``from ... import`` of the module names: the module
+    itself and, for ``from``, each name under it (it may be a module too)."""
+    names = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names += [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = package[: len(package) - node.level + 1] if node.level else []
+            module = ".".join([*base, *([node.module] if node.module else [])])
+            names += [module, *(f"{module}.{alias.name}" for alias in node.names)]
+    return names
+
+
+def test_test_modules_never_import_each_other() -> None:
+    """What several test modules share lives in tests/helpers/ (or tests/conftest.py,
+    tests/golden/), never in a ``test_*`` module that others import."""
+    crossing = []
+    for path in TESTS.rglob("*.py"):
+        package = ["tests", *path.relative_to(TESTS).parent.parts]
+        for name in _imported_modules(ast.parse(path.read_text()), package):
+            parts = name.split(".")
+            if parts[0] == "tests" and any(part.startswith("test_") for part in parts[1:]):
+                crossing.append(f"{path.relative_to(TESTS)}: {name}")
+    assert not crossing

@@ -18,8 +18,10 @@ import pytest
 from grouptron.cli import main
 from grouptron.constants import DEFAULT_CHECKPOINT, SPLITS
 from tests.conftest import REPO, synthetic_recording
-from tests.data.test_ros_bag import PEOPLE_MSGDEF
-from tests.test_docs import shell_commands
+from tests.helpers.docs import shell_commands
+from tests.helpers.ros import PEOPLE_MSGDEF
+
+pytest.importorskip("mcap_ros2")  # the docs' ROS 2 bag commands need the ros extra
 
 DOCS = sorted((REPO / "docs").glob("*.md"))
 HOURS = "the full 100-epoch schedule: hours on the benchmark and minutes even on tiny data"

@@ -16,25 +16,11 @@ import pytest
 from grouptron.cli import build_parser, main
 from grouptron.constants import DEFAULT_CHECKPOINT
 from tests.conftest import REPO
+from tests.helpers.docs import shell_commands
 
 DOCS = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
-SHELL_OPERATORS = {">", ">>", "2>", "|", "&&", ";", "&"}
 PYTHON_SKIPPED: dict[str, str] = {}
 """Python blocks (by file) not run here, each with why."""
-
-
-def shell_commands(path: Path) -> list[str]:
-    """The ``grouptron`` commands of a file's bash blocks, continuation lines joined and
-    trailing comments cut."""
-    commands = []
-    for block in re.findall(r"```bash\n(.*?)```", path.read_text(), re.S):
-        for line in block.replace("\\\n", " ").splitlines():
-            if line.startswith("grouptron "):
-                words = shlex.split(line, comments=True)
-                cut = [i for i, w in enumerate(words) if w in SHELL_OPERATORS]
-                words = words[: cut[0]] if cut else words  # redirections, pipes, chains
-                commands.append(" ".join(shlex.quote(w) for w in words))
-    return commands
 
 
 DOC_COMMANDS = [(p.name, c) for p in DOCS for c in shell_commands(p)]

@@ -17,7 +17,7 @@ from grouptron.data.scene import build_scene
 from grouptron.errors import GrouptronError
 from grouptron.inference.predictor import Predictor
 from grouptron.model.factory import build_model
-from tests.model.test_cvae import SMALL
+from tests.helpers.models import SMALL
 
 
 def _approaching_pair(data: DataConfig):

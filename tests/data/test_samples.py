@@ -14,22 +14,9 @@ from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
 from grouptron.data.scene import Scene, build_scene
 from grouptron.geometry import rotate_xy_pairs, rotation_matrix
 from tests.conftest import write_tracks
+from tests.helpers.data import walking_scene
 
 CONFIG = DataConfig()
-
-
-def walking_scene(tmp_path: Path, config: DataConfig = CONFIG) -> Scene:
-    """Pedestrian 1 walks along y=0 at 1 m/s over steps 0..24; pedestrian 2 walks beside it at
-    y=1 from step 3; pedestrian 3 is 10 m away; pedestrian 4 is seen once (dropped)."""
-    rows = []
-    for step in range(25):
-        rows.append((step * 10, 1, 0.4 * step, 0.0))
-        rows.append((step * 10, 3, 0.4 * step, 10.0))
-        if step >= 3:
-            rows.append((step * 10, 2, 0.4 * step, 1.0))
-    rows.append((50, 4, 0.0, 5.0))
-    table = read_tracks(write_tracks(tmp_path / "walk.txt", rows))
-    return build_scene(table, config)
 
 
 def sample_at(samples: SampleSet, scene: Scene, ped_id: int, step: int) -> int:

@@ -17,12 +17,12 @@ from grouptron.data.dataset import load_part
 from grouptron.data.samples import SampleSet
 from grouptron.evaluation import score_cache
 from grouptron.evaluation.evaluate import score_samples
-from grouptron.evaluation.report import ReportCheckpoint, ReportSettings, score_checkpoint
 from grouptron.evaluation.score_cache import cached_score_samples, scoring_sources
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import build_model, groups_for_model, load_weights
-from tests.evaluation.test_report import _eth_test
+from grouptron.reporting.report import ReportCheckpoint, ReportSettings, score_checkpoint
+from tests.helpers.data import eth_test_samples
 
 MODES = ("ml", "best-of-20")
 MODES_ALL = ("ml", "mean", "ml-argmax", "ml-top10", "best-of-20", "nll")
@@ -32,7 +32,7 @@ EthTest = tuple[TrajectronCVAE, ExperimentConfig, SampleSet]
 @pytest.fixture
 def eth(tiny_checkpoints: Path, synthetic_data_dir: Path) -> EthTest:
     """A fresh copy of the tiny eth model (one test changes its weights) and its test set."""
-    return _eth_test(tiny_checkpoints, synthetic_data_dir)
+    return eth_test_samples(tiny_checkpoints, synthetic_data_dir)
 
 
 def _count_scored(monkeypatch: pytest.MonkeyPatch) -> list[tuple[str, ...]]:

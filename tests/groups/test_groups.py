@@ -28,7 +28,7 @@ from grouptron.groups.labels import (
     read_id_map,
 )
 from grouptron.presets import DETECTION_GROUPS, describe_group_rule
-from tests.data.test_samples import walking_scene
+from tests.helpers.data import walking_scene
 
 LINE = np.stack([np.arange(4.0), np.zeros(4)], -1)  # (0,0) (1,0) (2,0) (3,0)
 

@@ -29,7 +29,7 @@ from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import build_model, groups_for_model
 from tests.golden.compute import synthetic_tracks
-from tests.model.test_cvae import SMALL
+from tests.helpers.models import SMALL
 
 onnx = pytest.importorskip("onnx")
 pytest.importorskip("onnxruntime")

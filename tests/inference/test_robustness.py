@@ -8,7 +8,7 @@ import pytest
 
 from grouptron import Predictor
 from grouptron.presets import DETECTION_GROUPS
-from tests.test_bad_input import _walk
+from tests.helpers.data import walking_tracks
 
 MODELS = [
     "grouptron-univ-backward",
@@ -27,11 +27,11 @@ def predictor(request: pytest.FixtureRequest) -> Predictor:
 def _scene(kind: str) -> np.ndarray:
     """(R, 4) rows of 6 people over 12 steps."""
     if kind == "standing still":
-        return _walk(6, 12, seed=3, speed=0.0, offset=0.0)
+        return walking_tracks(6, 12, seed=3, speed=0.0, offset=0.0)
     if kind == "10 m/s":
-        return _walk(6, 12, seed=3, speed=10.0, offset=0.0)
+        return walking_tracks(6, 12, seed=3, speed=10.0, offset=0.0)
     if kind == "coincident":  # everyone at the same point at every step, walking together
-        rows = _walk(6, 12, seed=3, speed=1.3, offset=0.0)
+        rows = walking_tracks(6, 12, seed=3, speed=1.3, offset=0.0)
         leader = rows[rows[:, 1] == 0]
         rows[:, 2:] = np.tile(leader[:, 2:], (6, 1))
         return rows
@@ -64,7 +64,7 @@ def test_forecasts_are_finite_at_the_edges(predictor: Predictor, kind: str) -> N
 def test_geo_referenced_coordinates_shift_the_forecast_exactly(
     predictor: Predictor, offset: float
 ) -> None:
-    rows = _walk(6, 12, seed=5, speed=1.3, offset=0.0)
+    rows = walking_tracks(6, 12, seed=5, speed=1.3, offset=0.0)
     shifted = rows.copy()
     shifted[:, 2:] += offset
     near, far = predictor.predict(rows, num_samples=3), predictor.predict(shifted, num_samples=3)

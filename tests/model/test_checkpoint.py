@@ -14,7 +14,7 @@ from grouptron.config import ExperimentConfig
 from grouptron.errors import GrouptronError
 from grouptron.model.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from grouptron.model.factory import build_model, load_weights
-from tests.model.test_cvae import SMALL, random_batch
+from tests.helpers.models import SMALL, random_batch
 
 CONFIG = ExperimentConfig(model=SMALL)
 

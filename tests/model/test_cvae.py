@@ -7,35 +7,9 @@ import dataclasses
 import numpy as np
 import torch
 
-from grouptron.config import DataConfig, ModelConfig
-from grouptron.model.batch import Batch
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.layers import HoistedGRUDecoder
-
-SMALL = ModelConfig(
-    history_hidden=8,
-    edge_hidden=8,
-    future_hidden=8,
-    latent_modes=5,
-    p_z_hidden=8,
-    decoder_hidden=16,
-)
-
-
-def random_batch(size: int = 6, seed: int = 0, history: int = 8, horizon: int = 12) -> Batch:
-    g = torch.Generator().manual_seed(seed)
-    mask = torch.ones(size, history, dtype=torch.bool)
-    mask[0, :5] = False  # a short history (left padding)
-    hist = torch.randn(size, history, 6, generator=g) * mask[..., None]
-    fut = torch.randn(size, horizon, 2, generator=g).cumsum(1)
-    return Batch(
-        hist_st=hist,
-        hist_mask=mask,
-        nbr_sum_st=torch.randn(size, history, 6, generator=g) * mask[..., None],
-        edge_scale=torch.rand(size, generator=g),
-        fut_rel_m=fut,
-        fut_st=fut / DataConfig().position_scale_m,
-    )
+from tests.helpers.models import SMALL, random_batch
 
 
 def test_forward_shapes() -> None:

@@ -20,7 +20,7 @@ from grouptron.model.batch import Batch, make_batch
 from grouptron.model.factory import build_model
 from grouptron.model.predict import encode_prior
 from tests.golden.compute import synthetic_tracks
-from tests.model.test_cvae import SMALL
+from tests.helpers.models import SMALL
 
 
 def _config(**switches: object) -> ExperimentConfig:

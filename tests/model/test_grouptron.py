@@ -23,7 +23,7 @@ from grouptron.model.batch import make_batch
 from grouptron.model.factory import build_model
 from grouptron.model.stgcn import STGCNBlock, segment_graph_conv, segment_mean
 from grouptron.presets import experiment_preset
-from tests.model.test_cvae import SMALL
+from tests.helpers.models import SMALL
 
 # Two samples: sample 0 has groups {0, 1} and {2}; sample 1 has group {3} alone.
 SEGMENT = torch.tensor([0, 0, 1, 2])

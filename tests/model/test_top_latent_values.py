@@ -15,7 +15,7 @@ from grouptron.model.predict import (
     predict_most_likely,
     top_latent_values,
 )
-from tests.model.test_cvae import SMALL, random_batch
+from tests.helpers.models import SMALL, random_batch
 
 
 def _model(latent_modes: int) -> TrajectronCVAE:

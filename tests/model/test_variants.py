@@ -21,7 +21,7 @@ from grouptron.model.factory import build_model
 from grouptron.model.noise import draw_training_noise
 from grouptron.training.losses import elbo_loss
 from tests.golden.compute import synthetic_tracks
-from tests.model.test_cvae import SMALL
+from tests.helpers.models import SMALL, TINY_MODEL
 
 
 def _config(**variant: object) -> ExperimentConfig:
@@ -237,7 +237,6 @@ def test_the_named_variant_trains_and_evaluates_from_the_cli(
     import math
 
     from grouptron.cli import main
-    from tests.test_cli import TINY_MODEL
 
     config = tmp_path / "tiny.json"
     config.write_text(json.dumps({"model": TINY_MODEL, "train": {"batch_size": 64}}))

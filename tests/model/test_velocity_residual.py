@@ -18,7 +18,7 @@ from grouptron.model.batch import make_batch
 from grouptron.model.factory import build_model
 from grouptron.model.predict import predict_most_likely
 from tests.golden.compute import synthetic_tracks
-from tests.model.test_cvae import SMALL
+from tests.helpers.models import SMALL
 
 
 def _silent_decoder(residual: bool) -> tuple[torch.nn.Module, ExperimentConfig]:

@@ -15,7 +15,7 @@ from grouptron.data.locate import split_files
 from grouptron.errors import GrouptronError
 from grouptron.model.checkpoint import load_checkpoint
 from tests.conftest import synthetic_recording
-from tests.test_cli import TINY_MODEL
+from tests.helpers.models import TINY_MODEL
 
 
 @pytest.fixture(scope="module")

@@ -19,7 +19,7 @@ from grouptron.errors import GrouptronError
 from grouptron.training.distributed import Cluster, global_mean
 from grouptron.training.trainer import train
 from tests.conftest import REPO
-from tests.model.test_cvae import SMALL
+from tests.helpers.models import SMALL
 
 
 def _config(batch_size: int) -> ExperimentConfig:

@@ -22,8 +22,8 @@ from grouptron.training import trainer as trainer_module
 from grouptron.training.losses import LossTerms
 from grouptron.training.trainer import LAST, train
 from tests.conftest import REPO
-from tests.model.test_cvae import SMALL
-from tests.training.test_trainer import parts
+from tests.helpers.data import tiny_parts
+from tests.helpers.models import SMALL
 
 CONFIG = ExperimentConfig(model=SMALL, train=TrainConfig(epochs=3, batch_size=64, threads=1))
 STEPS_PER_EPOCH = 7  # 411 synthetic training samples in batches of 64
@@ -159,7 +159,7 @@ def test_nonfinite_steps_are_skipped_counted_and_stop_the_run(
     synthetic_data_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     config = dataclasses.replace(CONFIG, train=dataclasses.replace(CONFIG.train, epochs=1))
-    train_set, val_set = parts(synthetic_data_dir, config)
+    train_set, val_set = tiny_parts(synthetic_data_dir, config)
     monkeypatch.setattr(trainer_module, "elbo_loss", _poisoned_loss({2: "loss", 5: "grad"}))
     state = train(config, train_set, val_set, tmp_path / "skips", progress=False)
     assert state.nonfinite_steps == 2
@@ -180,7 +180,7 @@ def test_a_full_disk_keeps_the_previous_checkpoint(
     synthetic_data_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     config = dataclasses.replace(CONFIG, train=dataclasses.replace(CONFIG.train, epochs=2))
-    train_set, val_set = parts(synthetic_data_dir, config)
+    train_set, val_set = tiny_parts(synthetic_data_dir, config)
     real = checkpoint_module.save_file
     writes = [0]
 

@@ -17,7 +17,7 @@ from grouptron.training.losses import (
     mutual_information,
     position_log_likelihood,
 )
-from tests.model.test_cvae import SMALL, random_batch
+from tests.helpers.models import SMALL, random_batch
 
 
 def test_kl_matches_torch() -> None:

@@ -10,28 +10,18 @@ from pathlib import Path
 import pytest
 import torch
 
-from grouptron.config import ExperimentConfig, TrainConfig, load_config
-from grouptron.data.dataset import load_part
-from grouptron.data.samples import SampleSet
+from grouptron.config import ExperimentConfig, load_config
 from grouptron.errors import GrouptronError
 from grouptron.model.checkpoint import load_checkpoint
 from grouptron.training.trainer import BEST, LAST, train
-from tests.model.test_cvae import SMALL
-
-TINY = ExperimentConfig(model=SMALL, train=TrainConfig(epochs=2, batch_size=32, threads=1))
-
-
-def parts(root: Path, config: ExperimentConfig = TINY) -> tuple[SampleSet, SampleSet]:
-    return (
-        load_part(root, "eth", "train", config.data).samples,
-        load_part(root, "eth", "val", config.data).samples,
-    )
+from tests.helpers.data import tiny_parts
+from tests.helpers.models import TINY
 
 
 def test_killed_and_resumed_run_ends_at_the_same_weights(
     synthetic_data_dir: Path, tmp_path: Path
 ) -> None:
-    train_set, val_set = parts(synthetic_data_dir)
+    train_set, val_set = tiny_parts(synthetic_data_dir)
     per_epoch = math.ceil(len(train_set) / TINY.train.batch_size)
     full = train(TINY, train_set, val_set, tmp_path / "full", progress=False)
     assert full.iteration == 2 * per_epoch
@@ -52,7 +42,7 @@ def test_killed_and_resumed_run_ends_at_the_same_weights(
 def test_resume_refuses_another_config_and_a_fresh_run_refuses_an_old_folder(
     synthetic_data_dir: Path, tmp_path: Path
 ) -> None:
-    train_set, val_set = parts(synthetic_data_dir)
+    train_set, val_set = tiny_parts(synthetic_data_dir)
     one = dataclasses.replace(TINY, train=dataclasses.replace(TINY.train, epochs=1))
     train(one, train_set, val_set, tmp_path, progress=False)
     with pytest.raises(GrouptronError, match="already holds a training run"):
@@ -67,7 +57,7 @@ def test_resume_refuses_another_config_and_a_fresh_run_refuses_an_old_folder(
 def test_warm_start_continues_weights_and_schedule_under_another_protocol(
     synthetic_data_dir: Path, tmp_path: Path
 ) -> None:
-    train_set, val_set = parts(synthetic_data_dir)
+    train_set, val_set = tiny_parts(synthetic_data_dir)
     one = dataclasses.replace(TINY, train=dataclasses.replace(TINY.train, epochs=1))
     source = train(one, train_set, val_set, tmp_path / "central", progress=False)
     backward = dataclasses.replace(
@@ -75,7 +65,9 @@ def test_warm_start_continues_weights_and_schedule_under_another_protocol(
         data=dataclasses.replace(one.data, derivatives="backward"),
         train=dataclasses.replace(one.train, init_from=str(tmp_path / "central" / LAST)),
     )
-    moved = train(backward, *parts(synthetic_data_dir, backward), tmp_path / "b", progress=False)
+    moved = train(
+        backward, *tiny_parts(synthetic_data_dir, backward), tmp_path / "b", progress=False
+    )
     assert moved.epoch == 1 and moved.iteration == 2 * source.iteration
     assert moved.optimizer.param_groups[0]["lr"] < source.optimizer.param_groups[0]["lr"]
     assert load_config(ExperimentConfig, tmp_path / "b" / "config.json") == backward
@@ -95,7 +87,7 @@ def test_warm_start_continues_weights_and_schedule_under_another_protocol(
     )
     # Weights only: a fine-tune with a fresh optimiser and step count.
     tuned = train(
-        weights_only, *parts(synthetic_data_dir, backward), tmp_path / "w", progress=False
+        weights_only, *tiny_parts(synthetic_data_dir, backward), tmp_path / "w", progress=False
     )
     assert tuned.iteration == source.iteration
     assert tuned.optimizer.param_groups[0]["lr"] == pytest.approx(

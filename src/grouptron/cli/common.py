@@ -22,7 +22,6 @@ from grouptron.data.spelling import FLAGS
 from grouptron.errors import GrouptronError
 
 log = logging.getLogger("grouptron")
-CURVES = "curves.png"
 
 
 def show_progress(args: argparse.Namespace) -> bool:

@@ -13,18 +13,6 @@ from grouptron.cli.options import REPORT_CHECKPOINTS, eval_modes
 from grouptron.data.custom import read_dataset
 from grouptron.data.locate import resolve_data_dir, score_cache_dir
 from grouptron.errors import GrouptronError
-from grouptron.evaluation.dataset_report import dataset_report
-from grouptron.evaluation.out_of_domain import (
-    causal_checkpoints,
-    prepare_out_of_domain,
-    score_out_of_domain,
-)
-from grouptron.evaluation.report import (
-    ReportSettings,
-    find_checkpoints,
-    run_report,
-)
-from grouptron.evaluation.report_tables import report_markdown
 from grouptron.evaluation.results import results_json
 from grouptron.geometry import DERIVATIVE_SCHEMES
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT
@@ -34,6 +22,18 @@ from grouptron.io import (
 )
 from grouptron.model.factory import MODEL_NAMES
 from grouptron.model.predict import POINT_FORECASTS
+from grouptron.reporting.datasets import dataset_markdown, dataset_report
+from grouptron.reporting.out_of_domain import (
+    causal_checkpoints,
+    prepare_out_of_domain,
+    score_out_of_domain,
+)
+from grouptron.reporting.report import (
+    ReportSettings,
+    find_checkpoints,
+    run_report,
+)
+from grouptron.reporting.tables import report_markdown
 
 
 def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
@@ -107,19 +107,7 @@ def cmd_report_dataset(args: argparse.Namespace) -> int:
         use_cache=not args.no_cache,
         score_cache=_score_cache(args),
     )
-    if args.format == "json":
-        text = results_json(rows) + "\n"
-    else:
-        lines = [f"# {dataset.name}: test part of `{dataset.source}`", ""]
-        lines += ["| model | derivatives | mode | samples | ADE m | FDE m [95% interval] |"]
-        lines += ["|---|---|---|---|---|---|"]
-        for r in rows:
-            low, high = r.fde_ci or (float("nan"), float("nan"))
-            lines.append(
-                f"| {r.model} | {r.derivatives} | {r.mode or 'ml'} | {r.samples} | {r.ade:.3f} | "
-                f"{r.fde:.3f} [{low:.3f}, {high:.3f}] |"
-            )
-        text = "\n".join(lines) + "\n"
+    text = results_json(rows) + "\n" if args.format == "json" else dataset_markdown(dataset, rows)
     return _emit(args, text)
 
 

@@ -33,35 +33,75 @@ NLL_SAMPLES = 2000
 
 @dataclass(frozen=True)
 class ModeScores:
-    """Mean scores of one evaluation mode over ``samples`` samples (NaN where not defined)."""
+    """Mean scores of one evaluation mode over ``samples`` samples.
+
+    Attributes:
+        means: mean of each metric by name (the registered ones; ``nll`` for the NLL mode).
+        nll_undefined: samples whose KDE could not be built (all draws identical at some step).
+    """
 
     mode: str
     samples: int
-    ade: float
-    fde: float
-    nll: float = float("nan")
+    means: dict[str, float]
     nll_undefined: int = 0
-    """Samples whose KDE could not be built (all predictions identical at some step)."""
+
+    @property
+    def ade(self) -> float:
+        return self.means.get("ade", math.nan)
+
+    @property
+    def fde(self) -> float:
+        return self.means.get("fde", math.nan)
+
+    @property
+    def nll(self) -> float:
+        return self.means.get(metrics.NLL, math.nan)
 
 
 @dataclass(frozen=True)
 class SampleScores:
-    """Per-sample scores of one mode: (S,) arrays, NaN where the mode does not define them."""
+    """Per-sample scores of one mode: metric name -> (S,) array (NaN where not scored).
+
+    Point forecasts and best-of-20 carry every registered metric
+    (:data:`grouptron.evaluation.metrics.METRICS`); the ``nll`` mode carries ``nll`` alone.
+    """
 
     mode: str
-    ade: np.ndarray
-    fde: np.ndarray
-    nll: np.ndarray
+    values: dict[str, np.ndarray]
+
+    def __len__(self) -> int:
+        return len(next(iter(self.values.values())))
+
+    def get(self, name: str) -> np.ndarray:
+        """(S,) one metric's scores; all NaN where this mode does not define it."""
+        found = self.values.get(name)
+        return found if found is not None else np.full(len(self), np.nan)
+
+    @property
+    def ade(self) -> np.ndarray:
+        return self.get("ade")
+
+    @property
+    def fde(self) -> np.ndarray:
+        return self.get("fde")
+
+    @property
+    def nll(self) -> np.ndarray:
+        return self.get(metrics.NLL)
+
+    def subset(self, keep: np.ndarray) -> SampleScores:
+        """The scores of the samples where the (S,) mask ``keep`` is true."""
+        return SampleScores(self.mode, {k: v[keep] for k, v in self.values.items()})
 
     def summary(self, keep: np.ndarray | None = None) -> ModeScores:
         """Means over all samples, or over the samples where the (S,) mask ``keep`` is true."""
-        ade, fde, nll = (v if keep is None else v[keep] for v in (self.ade, self.fde, self.nll))
-        count = len(ade)
-        if self.mode != "nll":
-            return ModeScores(self.mode, count, _mean(ade), _mean(fde))
+        kept = self if keep is None else self.subset(keep)
+        count = len(kept)
+        if self.mode != metrics.NLL:
+            return ModeScores(self.mode, count, {k: _mean(v) for k, v in kept.values.items()})
+        nll = kept.nll
         undefined = int(np.isnan(nll).sum())
-        defined = nll[~np.isnan(nll)]
-        return ModeScores(self.mode, count, math.nan, math.nan, _mean(defined), undefined)
+        return ModeScores(self.mode, count, {metrics.NLL: _mean(nll[~np.isnan(nll)])}, undefined)
 
 
 def _mean(values: np.ndarray) -> float:
@@ -105,7 +145,7 @@ def score_samples(
             model, config, samples, batch_size, groups, device, ablate, progress
         )
     for mode in (m for m in modes if m not in results):
-        ade, fde, nll = (np.full(count, np.nan) for _ in range(3))
+        values: dict[str, np.ndarray] = {}
         generator = torch.Generator(device=device).manual_seed(seed)  # per mode: see above
         size = nll_batch if mode == "nll" else batch_size
         iterator = batches(samples, config, size, groups)
@@ -118,7 +158,7 @@ def score_samples(
             if mode in POINT_FORECASTS:
                 predict = POINT_FORECASTS[mode]
                 pred = predict(model, batch, horizon, dt, ablate).double().cpu().numpy()
-                ade[index], fde[index] = metrics.ade(pred, truth), metrics.fde(pred, truth)
+                _store(values, index, count, metrics.point_scores(pred, truth))
                 continue
             k = BEST_OF if mode == "best-of-20" else NLL_SAMPLES
             draws = predict_samples(
@@ -126,12 +166,24 @@ def score_samples(
             )
             draws_np = draws.double().cpu().numpy()  # (B, K, H, 2)
             if mode == "best-of-20":
-                ade[index] = metrics.min_ade_k(draws_np, truth)
-                fde[index] = metrics.min_fde_k(draws_np, truth)
+                _store(values, index, count, metrics.best_of_scores(draws_np, truth))
             else:
-                nll[index] = metrics.kde_nll(draws_np, truth)
-        results[mode] = SampleScores(mode, ade, fde, nll)
+                _store(values, index, count, {metrics.NLL: metrics.kde_nll(draws_np, truth)})
+        results[mode] = SampleScores(mode, _complete(values, count))
     return [results[mode] for mode in modes]
+
+
+def _store(
+    values: dict[str, np.ndarray], index: np.ndarray, count: int, batch: dict[str, np.ndarray]
+) -> None:
+    """Write one batch's (B,) scores per metric into the (S,) arrays at ``index``."""
+    for name, scores in batch.items():
+        values.setdefault(name, np.full(count, np.nan))[index] = scores
+
+
+def _complete(values: dict[str, np.ndarray], count: int) -> dict[str, np.ndarray]:
+    """The scores of an empty sample set still name their metrics."""
+    return values or {name: np.full(count, np.nan) for name in metrics.METRICS}
 
 
 SHARED_DECODE = ("ml", "mean")
@@ -151,7 +203,7 @@ def _score_shared_decode(
 ) -> dict[str, SampleScores]:
     """The ``SHARED_DECODE`` forecasts' per-sample ADE/FDE, in one pass over the batches."""
     horizon, dt, count = config.data.horizon_steps, config.data.dt_s, len(samples)
-    scores = {mode: (np.full(count, np.nan), np.full(count, np.nan)) for mode in SHARED_DECODE}
+    scores: dict[str, dict[str, np.ndarray]] = {mode: {} for mode in SHARED_DECODE}
     iterator = batches(samples, config, batch_size, groups)
     total = -(-count // batch_size)
     for index, batch in tqdm(
@@ -164,11 +216,10 @@ def _score_shared_decode(
             "ml": most_likely_positions(encoding, velocity, horizon, dt),
             "mean": mixture_mean_positions(encoding, velocity, dt),
         }
-        for mode, (ade, fde) in scores.items():
+        for mode, values in scores.items():
             pred = predictions[mode].double().cpu().numpy()  # (B, H, 2)
-            ade[index], fde[index] = metrics.ade(pred, truth), metrics.fde(pred, truth)
-    nan = np.full(count, np.nan)
-    return {mode: SampleScores(mode, ade, fde, nan) for mode, (ade, fde) in scores.items()}
+            _store(values, index, count, metrics.point_scores(pred, truth))
+    return {mode: SampleScores(mode, _complete(v, count)) for mode, v in scores.items()}
 
 
 def evaluate_model(
@@ -204,5 +255,4 @@ def constant_velocity_scores(samples: SampleSet, horizon_steps: int) -> SampleSc
     """Per-sample ADE/FDE (metres) of constant velocity, the one baseline every table shows."""
     pred = constant_velocity(samples.hist_rel_m.astype(np.float64), horizon_steps)
     truth = samples.fut_rel_m.astype(np.float64)
-    nan = np.full(len(samples), np.nan)
-    return SampleScores("ml", metrics.ade(pred, truth), metrics.fde(pred, truth), nan)
+    return SampleScores("ml", metrics.point_scores(pred, truth))

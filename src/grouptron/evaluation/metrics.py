@@ -1,9 +1,18 @@
-"""Trajectory metrics as pure NumPy functions (metres in, metres out).
+"""Trajectory metrics as pure NumPy functions (metres in, metres out), and the registry of the
+per-sample metrics every evaluation reports.
 
 Shapes: ``B`` samples, ``K`` predictions per sample, ``H`` horizon steps.
+
+A metric is one function from forecasts and truths to a per-sample score and one
+:func:`register_metric` line; every point forecast, best-of-K, ``grouptron evaluate`` (table
+and JSON) and the dataset report then carry it. Every metric is lower-is-better per sample, so
+that best-of-K is its minimum over the K forecasts.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -118,3 +127,53 @@ def kde_nll(samples: np.ndarray, truth: np.ndarray, chunk: int = 256) -> np.ndar
         clipped = np.maximum(log_density, KDE_LOG_DENSITY_FLOOR)  # NaN stays NaN
         out[start : start + chunk] = -clipped.mean(axis=-1)
     return out
+
+
+@dataclass(frozen=True)
+class Metric:
+    """A per-sample score of a forecast.
+
+    Attributes:
+        name: its key in score mappings and JSON (``ade``, ``fde``, ...).
+        label: its column heading in tables, unit included (``ADE m``).
+        score: (..., H, 2) forecast positions and (..., H, 2) true ones -> (...) scores, lower
+            is better.
+    """
+
+    name: str
+    label: str
+    score: Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+METRICS: dict[str, Metric] = {}
+"""Every registered metric by name, in the order of registration (the order of columns)."""
+
+
+def register_metric(metric: Metric) -> Metric:
+    """Add ``metric`` to :data:`METRICS` (a name is registered once)."""
+    if metric.name in METRICS or metric.name == NLL:
+        raise ValueError(f"a metric named {metric.name!r} is registered already")
+    METRICS[metric.name] = metric
+    return metric
+
+
+NLL = "nll"
+"""The KDE negative log-likelihood: a score of a forecast distribution (2000 draws), not of
+one forecast, kept under this name beside the registered metrics."""
+
+register_metric(Metric("ade", "ADE m", ade))
+register_metric(Metric("fde", "FDE m", fde))
+
+
+def point_scores(pred: np.ndarray, truth: np.ndarray) -> dict[str, np.ndarray]:
+    """Every registered metric of one forecast per sample: (B, H, 2), (B, H, 2) -> name: (B,)."""
+    return {name: metric.score(pred, truth) for name, metric in METRICS.items()}
+
+
+def best_of_scores(samples: np.ndarray, truth: np.ndarray) -> dict[str, np.ndarray]:
+    """Every registered metric's best over K forecasts, each minimum taken on its own (they
+    may come from different forecasts, as the reference evaluation does): (B, K, H, 2),
+    (B, H, 2) -> name: (B,)."""
+    return {
+        name: metric.score(samples, truth[:, None]).min(axis=1) for name, metric in METRICS.items()
+    }

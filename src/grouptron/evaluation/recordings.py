@@ -19,8 +19,7 @@ from grouptron.data.scene import build_scene
 from grouptron.data.subsets import density_masks, time_step_ids
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
-from grouptron.evaluation.results import EvaluationResult
-from grouptron.evaluation.uncertainty import mean_interval
+from grouptron.evaluation.results import EvaluationResult, score_rows
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model
 from grouptron.model.predict import Ablation
@@ -91,33 +90,21 @@ def _rows(
     """One row per file and the pooled row, each with 95% intervals over time steps; with
     ``by_density`` also a pooled row per density bin (its name in ``subset``)."""
     steps = time_step_ids(samples)
-    rows = []
-    pooled = np.ones(len(samples), dtype=bool)
-    parts: list[tuple[str, str | None, np.ndarray]] = [
-        (Path(f).name, None, samples.scene_index == i) for i, f in enumerate(files)
+    named = template.model != CONSTANT_VELOCITY
+    Masks = dict[str | None, np.ndarray | None]
+    per_file: list[tuple[str, Masks]] = [
+        (Path(f).name, {None: samples.scene_index == i}) for i, f in enumerate(files)
     ]
-    parts.append((POOLED, None, pooled))
+    pooled: Masks = {None: None}
     if by_density:
-        parts += [(POOLED, name, keep) for name, keep in density_masks(samples).items()]
-    for name, subset, keep in parts:
-        if not keep.any():
-            continue
-        ade, fde = (
-            mean_interval(scores.ade[keep], steps[keep]),
-            mean_interval(scores.fde[keep], steps[keep]),
-        )
-        rows.append(
-            dataclasses.replace(
-                template,
-                split=name,
-                subset=subset,
-                samples=int(keep.sum()),
-                ade=ade.mean,
-                fde=fde.mean,
-                ade_ci=(ade.low, ade.high),
-                fde_ci=(fde.low, fde.high),
-            )
-        )
+        pooled.update(density_masks(samples))
+    rows = []
+    for name, found in [*per_file, (POOLED, pooled)]:
+        masks = {k: m for k, m in found.items() if m is None or m.any()}
+        rows += score_rows(
+            dataclasses.replace(template, split=name), scores, masks, steps=steps,
+            named_mode=named,
+        )  # fmt: skip
     return rows
 
 
@@ -155,8 +142,7 @@ def evaluate_recordings(
     )  # fmt: skip
     name = experiment.model_name + (f" without {' and '.join(ablate)}" if ablate else "")
     for scores in per_mode:
-        mode_template = dataclasses.replace(template, model=name, mode=scores.mode)
-        rows += _rows(files, samples, scores, mode_template, by_density)
+        rows += _rows(files, samples, scores, dataclasses.replace(template, model=name), by_density)
     if baseline:
         scores = constant_velocity_scores(samples, data.horizon_steps)
         rows += _rows(files, samples, scores, template, by_density)

@@ -25,6 +25,7 @@ import torch
 
 from grouptron.config import ExperimentConfig
 from grouptron.data.samples import SampleSet
+from grouptron.evaluation import metrics
 from grouptron.evaluation.evaluate import SHARED_DECODE, SampleScores, score_samples
 from grouptron.groups.assign import SampleGroups
 from grouptron.io import keep_cache_npz, read_cache_npz
@@ -78,16 +79,21 @@ def _read(path: Path, mode: str, count: int) -> SampleScores | None:
     """The stored scores, or None when absent or unreadable (then scored again)."""
 
     def parse(stored: dict[str, np.ndarray]) -> SampleScores:
-        arrays = [np.asarray(stored[name], dtype=np.float64) for name in ("ade", "fde", "nll")]
-        if any(a.shape != (count,) for a in arrays):
+        arrays = {name: np.asarray(stored[name], dtype=np.float64) for name in _names(mode)}
+        if any(a.shape != (count,) for a in arrays.values()):
             raise ValueError(f"not {count} samples")
-        return SampleScores(mode, *arrays)
+        return SampleScores(mode, arrays)
 
-    return read_cache_npz(path, parse)
+    return read_cache_npz(path, parse)  # a metric missing from the file: scored again
+
+
+def _names(mode: str) -> tuple[str, ...]:
+    """The metrics a mode's stored scores must hold: every registered one, or the NLL."""
+    return (metrics.NLL,) if mode == metrics.NLL else tuple(metrics.METRICS)
 
 
 def _write(path: Path, scores: SampleScores) -> None:
-    keep_cache_npz(path, {"ade": scores.ade, "fde": scores.fde, "nll": scores.nll})
+    keep_cache_npz(path, {name: scores.get(name) for name in _names(scores.mode)})
 
 
 def _mode_key(common: str, mode: str) -> str:

@@ -17,13 +17,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from grouptron.constants import SPLITS
-from grouptron.evaluation.diagnostics import (
-    AblationRow,
-    DensityRow,
-    ablation_rows,
-    density_rows,
-)
-from grouptron.evaluation.out_of_domain import OutOfDomain
 from grouptron.evaluation.results import MEAN_ROW, EvaluationResult, mean_over_splits
 from grouptron.evaluation.scored import CONSTANT_VELOCITY, ScoredRun
 from grouptron.evaluation.uncertainty import (
@@ -34,6 +27,13 @@ from grouptron.evaluation.uncertainty import (
 )
 from grouptron.model.factory import GROUP_MODELS
 from grouptron.presets import GROUP_RESIDUAL_MODEL, RESIDUAL_MODEL, VARIANT_MODEL
+from grouptron.reporting.diagnostics import (
+    AblationRow,
+    DensityRow,
+    ablation_rows,
+    density_rows,
+)
+from grouptron.reporting.out_of_domain import OutOfDomain
 
 BOOTSTRAP_SEED = 0
 INTERVAL_MODES = ("ml", "ml-argmax", "mean", "ml-top10", "best-of-20")

@@ -12,12 +12,11 @@ import numpy as np
 import pytest
 
 from grouptron.cli import main
-from grouptron.config import ExperimentConfig
-from grouptron.data.dataset import load_part
-from grouptron.data.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, evaluate_model, score_samples
-from grouptron.evaluation.report import (
+from grouptron.evaluation.results import EvaluationResult
+from grouptron.evaluation.scored import ScoredRun
+from grouptron.reporting.report import (
     ReportCheckpoint,
     ReportSettings,
     evaluate_checkpoint,
@@ -25,26 +24,15 @@ from grouptron.evaluation.report import (
     nll_subsample,
     score_checkpoint,
 )
-from grouptron.evaluation.report_stats import Report, build_report
-from grouptron.evaluation.report_tables import report_markdown
-from grouptron.evaluation.results import EvaluationResult
-from grouptron.evaluation.scored import ScoredRun
-from grouptron.model.checkpoint import load_trained_model
-from grouptron.model.cvae import TrajectronCVAE
-
-
-def _eth_test(
-    checkpoints: Path, data_dir: Path
-) -> tuple[TrajectronCVAE, ExperimentConfig, SampleSet]:
-    """The tiny Trajectron++ eth checkpoint and the synthetic eth test samples."""
-    model, config = load_trained_model(checkpoints / "trajectron++-eth-central/best.safetensors")
-    return model, config, load_part(data_dir, "eth", "test", config.data).samples
+from grouptron.reporting.stats import Report, build_report
+from grouptron.reporting.tables import report_markdown
+from tests.helpers.data import eth_test_samples
 
 
 def test_subset_means_of_per_sample_scores_equal_evaluating_the_subset(
     tiny_checkpoints: Path, synthetic_data_dir: Path
 ) -> None:
-    model, config, samples = _eth_test(tiny_checkpoints, synthetic_data_dir)
+    model, config, samples = eth_test_samples(tiny_checkpoints, synthetic_data_dir)
     keep = np.arange(len(samples)) % 3 == 0
     (per_sample,) = score_samples(model, config, samples, ("ml",), batch_size=7)
     (direct,) = evaluate_model(model, config, samples.subset(keep), ("ml",), batch_size=5)
@@ -57,7 +45,7 @@ def test_subset_means_of_per_sample_scores_equal_evaluating_the_subset(
 def test_forecasts_scored_from_one_decode_equal_those_scored_alone(
     tiny_checkpoints: Path, synthetic_data_dir: Path
 ) -> None:
-    model, config, samples = _eth_test(tiny_checkpoints, synthetic_data_dir)
+    model, config, samples = eth_test_samples(tiny_checkpoints, synthetic_data_dir)
     together = score_samples(model, config, samples, ("mean", "ml-argmax", "ml"), batch_size=7)
     assert [s.mode for s in together] == ["mean", "ml-argmax", "ml"]
     for scores in together:
@@ -124,9 +112,8 @@ def test_report_refuses_unknown_models_and_seeds(capsys: pytest.CaptureFixture[s
 
 
 def _run(model: str, seed: int, fde: np.ndarray, steps: np.ndarray) -> ScoredRun:
-    nan = np.full(len(fde), np.nan)
     entry = ReportCheckpoint(model, "eth", "backward", Path(f"{model}-{seed}"), seed)
-    scores = {"ml": SampleScores("ml", fde / 2, fde, nan)}
+    scores = {"ml": SampleScores("ml", {"ade": fde / 2, "fde": fde})}
     template = EvaluationResult("eth", model, None, 0, 0.0, 0.0, "ml", None, None, "backward")
     rows = [dataclasses.replace(template, samples=len(fde), ade=fde.mean() / 2, fde=fde.mean())]
     return ScoredRun(entry, steps, {None: None}, scores, None, rows)
@@ -185,7 +172,7 @@ def test_density_and_ablation_tables_on_hand_made_scores() -> None:
     bins = {"neighbours 0": sparse, "neighbours 1-2": ~sparse}
     # The model beats constant velocity by 0.1 m when alone, loses by 0.2 m in company.
     model = _run("trajectron++", 0, np.where(sparse, base - 0.1, base + 0.2), steps)
-    no_edges = SampleScores("ml", base, model.scores["ml"].fde + 0.05, base)
+    no_edges = SampleScores("ml", {"ade": base, "fde": model.scores["ml"].fde + 0.05})
     model = dataclasses.replace(model, density=bins, ablated={"edges": no_edges})
     report = build_report([_run("constant-velocity", 0, base, steps), model], ("backward",))
     density = {r.bin: r for r in report.density}

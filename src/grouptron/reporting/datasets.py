@@ -6,15 +6,13 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-import numpy as np
-
 from grouptron.data.custom import DatasetDescription, load_dataset_part
 from grouptron.data.subsets import time_step_ids
 from grouptron.errors import GrouptronError
-from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores
-from grouptron.evaluation.results import EvaluationResult
+from grouptron.evaluation import metrics
+from grouptron.evaluation.evaluate import constant_velocity_scores
+from grouptron.evaluation.results import NAMED, EvaluationResult, score_rows
 from grouptron.evaluation.score_cache import cached_score_samples
-from grouptron.evaluation.uncertainty import mean_interval
 from grouptron.model.checkpoint import load_trained_model, stored_checkpoints
 from grouptron.model.factory import groups_for_model
 
@@ -32,19 +30,6 @@ def checkpoints_of(dataset: DatasetDescription, root: Path) -> list[Path]:
             f"no checkpoint under {root} was trained on {dataset.name} ({dataset.source})"
         )
     return found
-
-
-def _row(template: EvaluationResult, scores: SampleScores, steps: np.ndarray) -> EvaluationResult:
-    ade, fde = mean_interval(scores.ade, steps), mean_interval(scores.fde, steps)
-    return dataclasses.replace(
-        template,
-        samples=len(scores.fde),
-        ade=ade.mean,
-        fde=fde.mean,
-        mode=scores.mode,
-        ade_ci=(ade.low, ade.high),
-        fde_ci=(fde.low, fde.high),
-    )
 
 
 def dataset_report(
@@ -71,12 +56,36 @@ def dataset_report(
         if data.derivatives not in baselines_done:
             baselines_done.add(data.derivatives)
             cv = constant_velocity_scores(samples, data.horizon_steps)
-            rows.append(_row(template, cv, steps))
+            rows += score_rows(template, cv, {None: None}, steps=steps)
         groups = groups_for_model(samples, experiment)
         ours = dataclasses.replace(template, model=experiment.model_name, checkpoint=str(path))
         scored = cached_score_samples(
             score_cache, model, experiment, samples, modes, seed=seed, groups=groups
         )
         for scores in scored:
-            rows.append(_row(ours, scores, steps))
+            rows += score_rows(ours, scores, {None: None}, steps=steps)
     return rows
+
+
+def dataset_markdown(dataset: DatasetDescription, rows: list[EvaluationResult]) -> str:
+    """The rows as a Markdown table: every metric's mean with its 95% interval (ADE, FDE,
+    then the other registered metrics in order)."""
+    extra = [m for m in metrics.METRICS.values() if m.name not in NAMED]
+    headings = ["ADE m", "FDE m [95% interval]", *(f"{m.label} [95% interval]" for m in extra)]
+    lines = [f"# {dataset.name}: test part of `{dataset.source}`", ""]
+    lines += ["| model | derivatives | mode | samples | " + " | ".join(headings) + " |"]
+    lines += ["|---" * (4 + len(headings)) + "|"]
+    for r in rows:
+        cells = [f"{r.ade:.3f}", _with_interval(r.fde, r.fde_ci)]
+        cells += [_with_interval(r.metrics[m.name], r.metrics_ci.get(m.name)) for m in extra]
+        lines.append(
+            f"| {r.model} | {r.derivatives} | {r.mode or 'ml'} | {r.samples} | "
+            + " | ".join(cells)
+            + " |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _with_interval(mean: float, interval: tuple[float, float] | None) -> str:
+    low, high = interval or (float("nan"), float("nan"))
+    return f"{mean:.3f} [{low:.3f}, {high:.3f}]"

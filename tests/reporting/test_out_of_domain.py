@@ -13,16 +13,16 @@ from grouptron.cli.app import main
 from grouptron.data.custom import read_dataset
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import score_samples
-from grouptron.evaluation.out_of_domain import (
+from grouptron.evaluation.recordings import recording_samples
+from grouptron.evaluation.scored import CONSTANT_VELOCITY
+from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.factory import groups_for_model
+from grouptron.reporting.out_of_domain import (
     causal_checkpoints,
     out_of_domain_markdown,
     prepare_out_of_domain,
     score_out_of_domain,
 )
-from grouptron.evaluation.recordings import recording_samples
-from grouptron.evaluation.scored import CONSTANT_VELOCITY
-from grouptron.model.checkpoint import load_trained_model
-from grouptron.model.factory import groups_for_model
 from tests.conftest import synthetic_recording
 
 BACKWARD = "grouptron-eth-backward"

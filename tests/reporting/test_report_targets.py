@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from grouptron.evaluation.report_stats import PairedDifference, SeedSpread
-from grouptron.evaluation.report_targets import target_checks
 from grouptron.evaluation.uncertainty import Interval
+from grouptron.reporting.stats import PairedDifference, SeedSpread
+from grouptron.reporting.targets import target_checks
 
 COLUMNS = ("univ", "univ-40", "univ-45", "univ-50")
 

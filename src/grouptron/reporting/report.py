@@ -4,7 +4,7 @@ The folder holds ``<model>-<split>-<derivatives>/best.safetensors`` (e.g.
 ``grouptron-eth-central``). Each checkpoint is scored on its split's test set once per mode;
 UNIV-N rows are means over the univ samples with N or more people in view (every sample is
 predicted independently, so this equals evaluating the subset). Constant velocity is scored
-alongside. ``report_markdown`` (in :mod:`grouptron.evaluation.report_tables`) turns the rows
+alongside. ``report_markdown`` (in :mod:`grouptron.reporting.tables`) turns the rows
 into the paper's tables.
 """
 
@@ -33,11 +33,9 @@ from grouptron.data.subsets import (
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import (
     MODES,
-    SampleScores,
     constant_velocity_scores,
 )
-from grouptron.evaluation.report_stats import Report, build_report
-from grouptron.evaluation.results import EvaluationResult
+from grouptron.evaluation.results import EvaluationResult, score_rows
 from grouptron.evaluation.score_cache import cached_score_samples
 from grouptron.evaluation.scored import CONSTANT_VELOCITY, ReportCheckpoint, ScoredRun
 from grouptron.evaluation.test_sets import load_test_set, subset_with_groups
@@ -45,6 +43,7 @@ from grouptron.geometry import DerivativeScheme
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_trained_model, stored_checkpoints
 from grouptron.model.factory import MODEL_NAMES, PAPER_MODELS, uses_groups
 from grouptron.model.predict import ABLATIONS
+from grouptron.reporting.stats import Report, build_report
 
 log = logging.getLogger(__name__)
 
@@ -65,7 +64,7 @@ class ReportSettings:
     """Where per-sample scores are kept between reports (``evaluation.score_cache``; None: not
     kept), so that a report scores only checkpoints, modes and settings it has not seen."""
     diagnostics: bool = False
-    """Also score by density and with each input taken away (``evaluation.diagnostics``):
+    """Also score by density and with each input taken away (``reporting.diagnostics``):
     one more ML pass per ablation a model has."""
 
     def __post_init__(self) -> None:
@@ -150,32 +149,6 @@ def nll_subsample(count: int, cap: int, seed: int) -> np.ndarray:
     return keep
 
 
-def _rows(
-    scores: SampleScores,
-    masks: dict[str | None, np.ndarray | None],
-    within: np.ndarray | None,
-    template: EvaluationResult,
-) -> list[EvaluationResult]:
-    """One row per subset. ``within`` is the (S,) mask of the samples ``scores`` cover when
-    they cover only some (the NLL subsample); subset masks are narrowed to it."""
-    rows = []
-    for subset, keep in masks.items():
-        mask = keep if keep is None or within is None else keep[within]
-        summary = scores.summary(mask)
-        rows.append(
-            dataclasses.replace(
-                template,
-                subset=subset,
-                samples=summary.samples,
-                ade=summary.ade,
-                fde=summary.fde,
-                mode=scores.mode,
-                nll=summary.nll if scores.mode == "nll" else None,
-            )
-        )
-    return rows
-
-
 # One function so that every mode, the NLL subsample and the diagnostics score the very same
 # loaded test samples (their per-sample scores are paired later).
 def score_checkpoint(
@@ -221,7 +194,7 @@ def score_checkpoint(
         progress=progress,
         groups=groups,
     ):
-        rows += _rows(scores, masks, None, template)
+        rows += score_rows(template, scores, masks)
         by_mode[scores.mode] = scores
     keep = None
     if "nll" in settings.modes:
@@ -238,7 +211,7 @@ def score_checkpoint(
             progress=progress,
             groups=some_groups,
         )
-        rows += _rows(scores, masks, keep, template)
+        rows += score_rows(template, scores, masks, within=keep)
         by_mode["nll"] = scores
     run = ScoredRun(entry, time_step_ids(samples), masks, by_mode, keep, rows)
     if not settings.diagnostics:
@@ -283,7 +256,7 @@ def score_constant_velocity(
         entry = ReportCheckpoint(CONSTANT_VELOCITY, split, derivatives, Path())
         template = EvaluationResult(split, CONSTANT_VELOCITY, None, 0, 0.0, 0.0, "ml")
         template = dataclasses.replace(template, derivatives=derivatives)
-        rows = _rows(scores, masks, None, template)
+        rows = score_rows(template, scores, masks)
         runs.append(ScoredRun(entry, time_step_ids(samples), masks, {"ml": scores}, None, rows))
     return runs
 

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from grouptron.evaluation.diagnostics import diagnostics_markdown
-from grouptron.evaluation.out_of_domain import out_of_domain_markdown
-from grouptron.evaluation.published import TABLE_I, TABLE_II
-from grouptron.evaluation.report_cells import (
+from grouptron.evaluation.results import EvaluationResult
+from grouptron.evaluation.scored import CONSTANT_VELOCITY
+from grouptron.evaluation.uncertainty import Interval, seed_spread
+from grouptron.model.factory import GROUP_MODELS
+from grouptron.reporting.cells import (
     DISPLAY,
     OURS_MODELS,
     PRESENT_COLUMNS,
@@ -26,12 +27,11 @@ from grouptron.evaluation.report_cells import (
     percent_change,
     published_pair,
 )
-from grouptron.evaluation.report_stats import PairedDifference, Report, SeedSpread
-from grouptron.evaluation.report_targets import target_checks
-from grouptron.evaluation.results import EvaluationResult
-from grouptron.evaluation.scored import CONSTANT_VELOCITY
-from grouptron.evaluation.uncertainty import Interval, seed_spread
-from grouptron.model.factory import GROUP_MODELS
+from grouptron.reporting.diagnostics import diagnostics_markdown
+from grouptron.reporting.out_of_domain import out_of_domain_markdown
+from grouptron.reporting.published import TABLE_I, TABLE_II
+from grouptron.reporting.stats import PairedDifference, Report, SeedSpread
+from grouptron.reporting.targets import target_checks
 
 SEEDS_NOTE = (
     "Most likely scores of every seed run; a group model - Trajectron++ compares runs of the "

@@ -6,8 +6,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from grouptron.constants import SPLITS
-from grouptron.evaluation.published import TABLE_I, TABLE_II
-from grouptron.evaluation.report_cells import (
+from grouptron.evaluation.results import MEAN_ROW, EvaluationResult
+from grouptron.evaluation.scored import CONSTANT_VELOCITY
+from grouptron.model.factory import GROUP_MODELS
+from grouptron.reporting.cells import (
     OURS_MODELS,
     TABLE_II_COLUMNS,
     TARGET_TOLERANCE,
@@ -15,10 +17,8 @@ from grouptron.evaluation.report_cells import (
     display_name,
     fde_ade,
 )
-from grouptron.evaluation.report_stats import PairedDifference, SeedSpread
-from grouptron.evaluation.results import MEAN_ROW, EvaluationResult
-from grouptron.evaluation.scored import CONSTANT_VELOCITY
-from grouptron.model.factory import GROUP_MODELS
+from grouptron.reporting.published import TABLE_I, TABLE_II
+from grouptron.reporting.stats import PairedDifference, SeedSpread
 
 CAUSAL_MARGIN = 0.10
 """The project's causal target: ML FDE on the five splits' average this far below constant

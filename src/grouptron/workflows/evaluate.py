@@ -1,0 +1,272 @@
+"""One ``evaluate`` for every source: the benchmark's test sets, track files of one's own, and
+a dataset description's test part; a checkpoint's scores beside constant velocity's on the
+same samples (or constant velocity alone).
+
+    from grouptron.workflows.evaluate import Benchmark, evaluate
+    rows = evaluate(Benchmark(splits=("univ",)), "grouptron-univ-backward", ("ml", "best-of-20"))
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from grouptron.config import DataConfig, ExperimentConfig
+from grouptron.constants import ALL_LOCATIONS, SPLITS
+from grouptron.data.custom import DatasetDescription, load_dataset_part
+from grouptron.data.locate import resolve_data_dir
+from grouptron.data.recording import RecordingFormat
+from grouptron.data.samples import SampleSet
+from grouptron.data.subsets import density_masks, parse_univ_n
+from grouptron.errors import GrouptronError
+from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
+from grouptron.evaluation.recordings import evaluate_recordings, training_files
+from grouptron.evaluation.results import EvaluationResult, mean_over_splits, score_rows
+from grouptron.evaluation.test_sets import load_test_set
+from grouptron.geometry import DerivativeScheme
+from grouptron.groups.assign import SampleGroups
+from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
+from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.factory import groups_for_model, uses_groups
+from grouptron.model.predict import ABLATIONS, default_point_forecast
+
+log = logging.getLogger("grouptron")
+CONSTANT_VELOCITY = "constant-velocity"
+
+
+@dataclass(frozen=True)
+class Benchmark:
+    """The ETH/UCY test sets: ``splits`` (None: the checkpoint's own split, or all five for
+    constant velocity), univ's UNIV-N ``subset`` (``univ-40``), from ``data_dir`` (None:
+    ``$GROUPTRON_DATA``, else the download cache)."""
+
+    splits: tuple[str, ...] | None = None
+    subset: str | None = None
+    data_dir: Path | None = None
+
+
+@dataclass(frozen=True)
+class Tracks:
+    """Track files of one's own, laid out as ``recording`` says (default: ETH/UCY's)."""
+
+    files: tuple[Path, ...]
+    recording: RecordingFormat = field(default_factory=RecordingFormat)
+
+
+Source = Benchmark | Tracks | DatasetDescription
+
+
+@dataclass(frozen=True)
+class EvaluationOptions:
+    """How to evaluate.
+
+    Attributes:
+        seed: of the sampled modes (best-of-20, NLL).
+        by_density: add rows per density bin (neighbours within 3 m at t).
+        ablate: inputs taken away from the model (``ABLATIONS``).
+        derivatives: of constant velocity's samples (None: ``DataConfig``'s); a checkpoint
+            brings its own, and a different one here is refused.
+        on_gap: what a track that misses steps does (``split`` or ``error``).
+        device: where the network runs.
+        use_cache: read and keep samples and groups in the cache.
+        progress: progress bars.
+    """
+
+    seed: int = 0
+    by_density: bool = False
+    ablate: tuple[str, ...] = ()
+    derivatives: DerivativeScheme | None = None
+    on_gap: Literal["split", "error"] = "split"
+    device: str = "cpu"
+    use_cache: bool = True
+    progress: bool = False
+
+
+@dataclass(frozen=True)
+class _Loaded:
+    """A checkpoint's model and settings (both None for constant velocity alone)."""
+
+    model: TrajectronCVAE | None
+    experiment: ExperimentConfig | None
+    data: DataConfig
+    name: str | None
+
+
+def evaluate(
+    source: Source,
+    checkpoint: str | Path | None = DEFAULT_CHECKPOINT,
+    modes: Sequence[str] | None = None,
+    options: EvaluationOptions = EvaluationOptions(),
+) -> list[EvaluationResult]:
+    """Rows of scores of ``checkpoint`` (a shipped name or a file; None: constant velocity
+    alone) on ``source``, constant velocity's rows beside them on the same samples. ``modes``:
+    evaluation modes (default: the checkpoint's own point forecast, what ``predict`` writes).
+    """
+    loaded = _load(checkpoint, options)
+    chosen = tuple(modes) if modes else _default_modes(loaded.experiment)
+    _check_ablations(options.ablate, loaded)
+    if isinstance(source, Tracks):
+        return _evaluate_tracks(source, loaded, chosen, options)
+    if isinstance(source, DatasetDescription):
+        return _evaluate_dataset(source, loaded, chosen, options)
+    return _evaluate_benchmark(source, loaded, chosen, options)
+
+
+def _load(checkpoint: str | Path | None, options: EvaluationOptions) -> _Loaded:
+    if checkpoint is None:
+        data = DataConfig(on_gap=options.on_gap)
+        if options.derivatives:
+            data = dataclasses.replace(data, derivatives=options.derivatives)
+        return _Loaded(None, None, data, None)
+    model, experiment = load_trained_model(resolve_checkpoint(checkpoint))
+    data = dataclasses.replace(experiment.data, on_gap=options.on_gap)
+    if options.derivatives and options.derivatives != data.derivatives:
+        raise GrouptronError(
+            f"{checkpoint} was trained with {data.derivatives} derivatives; evaluating it on "
+            f"{options.derivatives} ones would be meaningless"
+        )
+    return _Loaded(model.to(options.device), experiment, data, str(checkpoint))
+
+
+def _default_modes(experiment: ExperimentConfig | None) -> tuple[str, ...]:
+    return (default_point_forecast(experiment.model),) if experiment is not None else ("ml",)
+
+
+def _check_ablations(ablate: tuple[str, ...], loaded: _Loaded) -> None:
+    unknown = sorted(set(ablate) - set(ABLATIONS))
+    if unknown:
+        raise GrouptronError(
+            f"unknown --ablate {', '.join(unknown)}; choose from {', '.join(ABLATIONS)}"
+        )
+    if ablate and loaded.model is None:
+        raise GrouptronError("--ablate takes inputs away from a checkpoint's model")
+    grouped = loaded.experiment is not None and uses_groups(loaded.experiment)
+    if "scene" in ablate and not grouped:
+        raise GrouptronError("--ablate scene needs a Grouptron checkpoint (a scene encoding)")
+
+
+def _model_scores(
+    loaded: _Loaded,
+    samples: SampleSet,
+    groups: SampleGroups | None,
+    modes: tuple[str, ...],
+    options: EvaluationOptions,
+) -> list[tuple[str, str | None, SampleScores]]:
+    """(model name, checkpoint, scores) of the model per mode, then constant velocity's."""
+    scored: list[tuple[str, str | None, SampleScores]] = []
+    if loaded.model is not None and loaded.experiment is not None:
+        suffix = f" without {' and '.join(options.ablate)}" if options.ablate else ""
+        scored += [
+            (loaded.experiment.model_name + suffix, loaded.name, scores)
+            for scores in score_samples(
+                loaded.model, loaded.experiment, samples, modes, seed=options.seed,
+                progress=options.progress, groups=groups, ablate=options.ablate,
+                device=options.device,
+            )
+        ]  # fmt: skip
+    baseline = constant_velocity_scores(samples, loaded.data.horizon_steps)
+    return [*scored, (CONSTANT_VELOCITY, None, baseline)]
+
+
+def _rows(
+    split: str,
+    scored: list[tuple[str, str | None, SampleScores]],
+    masks: dict[str | None, np.ndarray | None],
+    derivatives: str,
+) -> list[EvaluationResult]:
+    rows = []
+    for name, checkpoint, scores in scored:
+        template = EvaluationResult(split, name, None, 0, 0.0, 0.0)
+        template = dataclasses.replace(template, checkpoint=checkpoint, derivatives=derivatives)
+        rows += score_rows(template, scores, masks, named_mode=checkpoint is not None)
+    return rows
+
+
+def _evaluate_benchmark(
+    source: Benchmark, loaded: _Loaded, modes: tuple[str, ...], options: EvaluationOptions
+) -> list[EvaluationResult]:
+    """Every split's test set (and its UNIV-N subset), the mean over the five splits."""
+    experiment = loaded.experiment
+    if experiment is not None and experiment.split == ALL_LOCATIONS:
+        raise GrouptronError(
+            f"{loaded.name} was trained on every ETH/UCY location ({ALL_LOCATIONS}), so no "
+            "benchmark test set is held out from it; score it on recordings of your own "
+            "(--tracks, --dataset)"
+        )
+    splits = source.splits or ((experiment.split,) if experiment else SPLITS)
+    unknown = [s for s in splits if s not in SPLITS]
+    if unknown:
+        raise GrouptronError(f"unknown split {unknown[0]!r}; choose from {', '.join(SPLITS)}")
+    subset = parse_univ_n(source.subset) if source.subset is not None else None
+    if subset is not None and tuple(splits) != ("univ",):
+        raise GrouptronError("--subset univ-N needs --split univ")
+    data_dir = resolve_data_dir(source.data_dir)
+    grouped = experiment is not None and uses_groups(experiment)
+    group_config = experiment.groups if experiment is not None and grouped else None
+    rows: list[EvaluationResult] = []
+    for split in splits:
+        samples, groups = load_test_set(
+            data_dir, split, loaded.data, subset, group_config=group_config,
+            use_cache=options.use_cache,
+        )  # fmt: skip
+        masks: dict[str | None, np.ndarray | None] = {source.subset: None}
+        masks.update(density_masks(samples) if options.by_density else {})
+        scored = _model_scores(loaded, samples, groups, modes, options)
+        rows += _rows(split, scored, masks, loaded.data.derivatives)
+    rows = [r for r in rows if r.samples or r.subset is None]
+    if len(splits) == len(SPLITS) and not options.by_density:
+        for mode in dict.fromkeys(r.mode for r in rows):
+            rows.append(mean_over_splits([r for r in rows if r.mode == mode]))
+    return rows
+
+
+def _evaluate_tracks(
+    source: Tracks, loaded: _Loaded, modes: tuple[str, ...], options: EvaluationOptions
+) -> list[EvaluationResult]:
+    """Rows per file and pooled, with intervals; a file the checkpoint trained on is named."""
+    if "nll" in modes:
+        raise GrouptronError("the NLL is scored on the benchmark's test sets, not on track files")
+    if loaded.experiment is not None:
+        if loaded.data.derivatives == "central":
+            log.warning(
+                "%s was trained with central derivatives: each forecast reads the position one "
+                "step after the forecast time, which live data does not have; use a backward "
+                "checkpoint for causal forecasts",
+                loaded.name,
+            )
+        for path in training_files(source.files, loaded.experiment):
+            log.warning(
+                "%s is part of the data %s was trained or validated on (%s split): its scores "
+                "are not held-out scores",
+                path, loaded.name, loaded.experiment.split,
+            )  # fmt: skip
+    return evaluate_recordings(
+        source.files, source.recording, model=loaded.model, experiment=loaded.experiment,
+        data=loaded.data, modes=modes, seed=options.seed, progress=options.progress,
+        device=options.device, by_density=options.by_density, ablate=options.ablate,
+        baseline=loaded.model is not None,
+    )  # fmt: skip
+
+
+def _evaluate_dataset(
+    source: DatasetDescription,
+    loaded: _Loaded,
+    modes: tuple[str, ...],
+    options: EvaluationOptions,
+) -> list[EvaluationResult]:
+    """The test part of a dataset of one's own (and its density bins)."""
+    part = load_dataset_part(source, "test", loaded.data, use_cache=options.use_cache)
+    masks: dict[str | None, np.ndarray | None] = {None: None}
+    masks.update(density_masks(part.samples) if options.by_density else {})
+    groups = None
+    if loaded.experiment is not None:
+        groups = groups_for_model(part.samples, loaded.experiment)
+    scored = _model_scores(loaded, part.samples, groups, modes, options)
+    return _rows(source.name, scored, masks, loaded.data.derivatives)
