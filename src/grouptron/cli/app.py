@@ -13,7 +13,17 @@ from collections.abc import Callable, Sequence
 
 from grouptron import __version__
 from grouptron.cli.options import EXIT_USAGE, Formatter, Parser
-from grouptron.cli.parsers import config, data, evaluate, export, forecast, groups, report, train
+from grouptron.cli.parsers import (
+    adapt,
+    config,
+    data,
+    evaluate,
+    export,
+    forecast,
+    groups,
+    report,
+    train,
+)
 from grouptron.errors import GrouptronError
 
 
@@ -35,7 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"grouptron {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log more detail")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
-    for module in (data, evaluate, report, forecast, export, train, groups, config):
+    for module in (data, evaluate, report, forecast, export, train, adapt, groups, config):
         module.add_parser(commands)
     _accept_global_options_everywhere(parser)
     return parser

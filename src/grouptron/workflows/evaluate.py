@@ -36,6 +36,7 @@ from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model, uses_groups
 from grouptron.model.predict import ABLATIONS, default_point_forecast
+from grouptron.workflows.adapt import adapted_parts
 
 log = logging.getLogger("grouptron")
 CONSTANT_VELOCITY = "constant-velocity"
@@ -97,6 +98,7 @@ class _Loaded:
     experiment: ExperimentConfig | None
     data: DataConfig
     name: str | None
+    path: Path | None = None
 
 
 def evaluate(
@@ -132,7 +134,8 @@ def _load(checkpoint: str | Path | None, options: EvaluationOptions) -> _Loaded:
             f"{checkpoint} was trained with {data.derivatives} derivatives; evaluating it on "
             f"{options.derivatives} ones would be meaningless"
         )
-    return _Loaded(model.to(options.device), experiment, data, str(checkpoint))
+    path = resolve_checkpoint(checkpoint)
+    return _Loaded(model.to(options.device), experiment, data, str(checkpoint), path)
 
 
 def _default_modes(experiment: ExperimentConfig | None) -> tuple[str, ...]:
@@ -241,6 +244,13 @@ def _evaluate_tracks(
                 "checkpoint for causal forecasts",
                 loaded.name,
             )
+        adapted = adapted_parts(loaded.path, source.files) if loaded.path else []
+        for adapted_file, seconds in adapted:
+            log.warning(
+                "%s: its first %.0f s adapted %s: scores there are not held-out scores (score "
+                "a later recording, or adapt with grouptron adapt --holdout-minutes)",
+                adapted_file, seconds, loaded.name,
+            )  # fmt: skip
         for path in training_files(source.files, loaded.experiment):
             log.warning(
                 "%s is part of the data %s was trained or validated on (%s split): its scores "
