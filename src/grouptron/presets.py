@@ -4,9 +4,44 @@ differ per (model, ETH/UCY split). Everything else is ExperimentConfig's default
 from __future__ import annotations
 
 import copy
+from dataclasses import dataclass, field
 from typing import Any
 
-from grouptron.config import ExperimentConfig, GroupConfig, config_from_dict, merge_settings
+from grouptron.config import (
+    ExperimentConfig,
+    GroupConfig,
+    config_from_dict,
+    config_to_dict,
+    merge_settings,
+)
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """A named model: the code it runs, the settings that make it, how reports show it.
+
+    Attributes:
+        name: what ``train --model`` and stored configurations call it.
+        base: the network it runs: ``trajectron++`` (TrajectronCVAE) or ``grouptron``
+            (GrouptronCVAE, with group- and scene-level encoders; it reads groups).
+        display: its name in tables and on model cards.
+        switches: the settings, by section, laid over ExperimentConfig's defaults.
+        compared_with: the models (or ``constant-velocity``) reports subtract from it.
+        paper: one of the paper's two models (the rest are this project's variants).
+    """
+
+    name: str
+    base: str
+    display: str
+    switches: dict[str, dict[str, Any]] = field(default_factory=dict)
+    compared_with: tuple[str, ...] = ()
+    paper: bool = False
+
+    @property
+    def reads_groups(self) -> bool:
+        """Whether its batches need the samples' groups (its network has group encoders)."""
+        return self.base == "grouptron"
+
 
 VARIANT_MODEL = "grouptron-robust"
 """The project's density-robust Grouptron (the settings below), beside the paper's two models."""
@@ -14,8 +49,8 @@ RESIDUAL_MODEL = "trajectron++-residual"
 """Trajectron++ whose decoder predicts velocities relative to the current one (below)."""
 GROUP_RESIDUAL_MODEL = "grouptron-robust-residual"
 """``grouptron-robust`` with the velocity-residual decoder of ``trajectron++-residual``."""
-MODEL_NAMES = ("trajectron++", "grouptron", VARIANT_MODEL, RESIDUAL_MODEL, GROUP_RESIDUAL_MODEL)
-"""Every model ``train --model`` builds: the paper's two and the named variants."""
+CUSTOM = "custom"
+"""What reports call a run whose switches match no named model."""
 
 _ROBUST_SWITCHES: dict[str, dict[str, Any]] = {
     "groups": {"linkage": "single", "max_distance_m": 1.5, "velocity_weight_s": 2.0},
@@ -28,29 +63,67 @@ _ROBUST_SWITCHES: dict[str, dict[str, Any]] = {
         "count_feature": True,
     },
 }
+_RESIDUAL: dict[str, dict[str, Any]] = {"model": {"velocity_residual": True}}
+_CV = "constant-velocity"
 
+MODELS: dict[str, ModelSpec] = {
+    spec.name: spec
+    for spec in (
+        ModelSpec("trajectron++", "trajectron++", "Trajectron++", {}, (_CV,), paper=True),
+        ModelSpec("grouptron", "grouptron", "Grouptron", {}, ("trajectron++", _CV), paper=True),
+        ModelSpec(
+            VARIANT_MODEL, "grouptron", "Grouptron (robust)", copy.deepcopy(_ROBUST_SWITCHES),
+            ("trajectron++", "grouptron", _CV),
+        ),
+        ModelSpec(
+            RESIDUAL_MODEL, "trajectron++", "Trajectron++ (residual)", copy.deepcopy(_RESIDUAL),
+            ("trajectron++", _CV),
+        ),
+        ModelSpec(
+            GROUP_RESIDUAL_MODEL, "grouptron", "Grouptron (robust, residual)",
+            merge_settings(copy.deepcopy(_ROBUST_SWITCHES), _RESIDUAL),
+            ("trajectron++", RESIDUAL_MODEL, VARIANT_MODEL, _CV),
+        ),
+    )
+}  # fmt: skip
+"""Every named model, the one list the others derive from. ``grouptron-robust`` is Grouptron
+with every density switch on: E_scene sees all 8 observed steps, has dropout and layer norm and
+leaves the ego out of its own group; groups are the detector's (single linkage cut at 1.5 m,
+velocity-weighted) instead of C(N); neighbours and groups are averaged with log-count features
+(README, "Grouptron"). ``trajectron++-residual`` is Trajectron++ whose decoder's velocity means
+are offsets from the current velocity, so that an untrained or unsure decoder falls back to
+walking on. ``grouptron-robust-residual`` has both."""
+
+MODEL_NAMES = tuple(MODELS)
+"""Every model ``train --model`` builds: the paper's two and the named variants."""
 MODEL_PRESETS: dict[str, dict[str, dict[str, Any]]] = {
-    VARIANT_MODEL: copy.deepcopy(_ROBUST_SWITCHES),
-    RESIDUAL_MODEL: {"model": {"velocity_residual": True}},
-    GROUP_RESIDUAL_MODEL: merge_settings(
-        copy.deepcopy(_ROBUST_SWITCHES), {"model": {"velocity_residual": True}}
-    ),
+    name: spec.switches for name, spec in MODELS.items() if spec.switches
 }
-"""Settings that make a named model out of another's code, by section, on every split and
-dataset. ``grouptron-robust`` is Grouptron with every density switch on: E_scene sees all 8
-observed steps, has dropout and layer norm and leaves the ego out of its own group; groups are
-the detector's (single linkage cut at 1.5 m, velocity-weighted) instead of C(N); neighbours and
-groups are averaged with log-count features (README, "Grouptron"). ``trajectron++-residual``
-is Trajectron++ whose decoder's velocity means are offsets from the current velocity, so that
-an untrained or unsure decoder falls back to walking on (README, "Grouptron", its variants).
-``grouptron-robust-residual`` has both."""
-
-NAMED_MODEL_BASES = {
-    VARIANT_MODEL: "grouptron",
-    RESIDUAL_MODEL: "trajectron++",
-    GROUP_RESIDUAL_MODEL: "grouptron",
-}
+"""Settings that make a named model out of another's code, by section."""
+NAMED_MODEL_BASES = {name: spec.base for name, spec in MODELS.items() if not spec.paper}
 """The model whose code each named model runs with its preset's settings."""
+
+
+def model_label(config: ExperimentConfig) -> str:
+    """The named model a run is: the one on the same code whose switches it has (every
+    setting any named model switches, compared; Trajectron++'s code reads the ``model``
+    section alone), else ``custom``."""
+    base = MODELS[config.model_name].base if config.model_name in MODELS else config.model_name
+    read = ("model",) if base == "trajectron++" else ("model", "group_encoder", "groups")
+    keys = {
+        (section, key)
+        for spec in MODELS.values()
+        for section, table in spec.switches.items()
+        for key in table
+        if section in read
+    }
+    values, defaults = config_to_dict(config), config_to_dict(ExperimentConfig())
+    for spec in MODELS.values():
+        wanted = merge_settings(defaults, spec.switches)
+        if spec.base == base and all(values[s][k] == wanted[s][k] for s, k in keys):
+            return spec.name
+    return CUSTOM
+
 
 SPLIT_PRESETS: dict[tuple[str, str], dict[str, dict[str, Any]]] = {
     ("grouptron", "eth"): {"group_encoder": {"group_dim": 8}},

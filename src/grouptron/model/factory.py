@@ -10,26 +10,21 @@ from grouptron.errors import GrouptronError
 from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.grouptron import GrouptronCVAE
-from grouptron.presets import GROUP_RESIDUAL_MODEL, MODEL_NAMES, RESIDUAL_MODEL, VARIANT_MODEL
+from grouptron.presets import MODEL_NAMES, MODELS
 
 __all__ = ["MODEL_NAMES"]
-PAPER_MODELS = ("trajectron++", "grouptron")
+PAPER_MODELS = tuple(name for name, spec in MODELS.items() if spec.paper)
 """The models of the paper's tables (the rest are this project's variants)."""
-GROUP_MODELS = ("grouptron", VARIANT_MODEL, GROUP_RESIDUAL_MODEL)
+GROUP_MODELS = tuple(name for name, spec in MODELS.items() if spec.reads_groups)
 """The models with group- and scene-level encoders: one network (GrouptronCVAE), whose
-named variants' settings come from their presets (presets.MODEL_PRESETS)."""
-DISPLAY_NAMES = {
-    "trajectron++": "Trajectron++",
-    "grouptron": "Grouptron",
-    VARIANT_MODEL: "Grouptron (robust)",
-    RESIDUAL_MODEL: "Trajectron++ (residual)",
-    GROUP_RESIDUAL_MODEL: "Grouptron (robust, residual)",
-}
+named variants' settings come from their presets (presets.MODELS)."""
+DISPLAY_NAMES = {name: spec.display for name, spec in MODELS.items()}
 
 
 def uses_groups(config: ExperimentConfig) -> bool:
     """Whether the model's batches need the samples' groups."""
-    return config.model_name in GROUP_MODELS
+    spec = MODELS.get(config.model_name)
+    return spec is not None and spec.reads_groups
 
 
 def groups_for_model(samples: SampleSet, config: ExperimentConfig) -> SampleGroups | None:
@@ -42,9 +37,10 @@ def groups_for_model(samples: SampleSet, config: ExperimentConfig) -> SampleGrou
 def build_model(config: ExperimentConfig) -> TrajectronCVAE:
     """The model named by ``config.model_name`` (Grouptron is Trajectron++ plus encoders)."""
     scale = config.data.velocity_scale_mps
-    if config.model_name in ("trajectron++", RESIDUAL_MODEL):
+    spec = MODELS.get(config.model_name)
+    if spec is not None and not spec.reads_groups:
         return TrajectronCVAE(config.model, velocity_scale_mps=scale)
-    if config.model_name in GROUP_MODELS:
+    if spec is not None:
         return GrouptronCVAE(config.model, config.group_encoder, scale)
     raise GrouptronError(
         f"unknown model {config.model_name!r}; choose from {', '.join(MODEL_NAMES)}"

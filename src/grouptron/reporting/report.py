@@ -43,6 +43,7 @@ from grouptron.geometry import DerivativeScheme
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_trained_model, stored_checkpoints
 from grouptron.model.factory import MODEL_NAMES, PAPER_MODELS, uses_groups
 from grouptron.model.predict import ABLATIONS
+from grouptron.presets import CUSTOM, model_label
 from grouptron.reporting.stats import Report, build_report
 
 log = logging.getLogger(__name__)
@@ -94,16 +95,17 @@ def find_checkpoints(
     found = []
     for path, config in stored_checkpoints(root):
         derivatives = config.data.derivatives
+        label = model_label(config)  # a run with other switches is not its code's model
+        if label == CUSTOM and config.model_name in models:
+            log.info("%s: %s with switches of its own, left out", path, config.model_name)
         if (
             derivatives in schemes
             and config.split in SPLITS
-            and config.model_name in models
+            and label in models
             and (seeds is None or config.train.seed in seeds)
         ):
             found.append(
-                ReportCheckpoint(
-                    config.model_name, config.split, derivatives, path, config.train.seed
-                )
+                ReportCheckpoint(label, config.split, derivatives, path, config.train.seed)
             )
     if not found:
         seeded = "" if seeds is None else f" trained with seed {' or '.join(map(str, seeds))}"
@@ -160,7 +162,7 @@ def score_checkpoint(
     """Per-sample scores and mean rows of one checkpoint: each mode on its test set and, for
     univ, on UNIV-N."""
     model, experiment = load_trained_model(entry.path)
-    stored = (experiment.model_name, experiment.split, experiment.data.derivatives)
+    stored = (model_label(experiment), experiment.split, experiment.data.derivatives)
     if stored != (entry.model, entry.split, entry.derivatives):
         raise GrouptronError(
             f"{entry.path}: expected {entry.model} on {entry.split} ({entry.derivatives}) "

@@ -26,7 +26,7 @@ from grouptron.evaluation.uncertainty import (
     split_average_interval,
 )
 from grouptron.model.factory import GROUP_MODELS
-from grouptron.presets import GROUP_RESIDUAL_MODEL, RESIDUAL_MODEL, VARIANT_MODEL
+from grouptron.presets import MODELS
 from grouptron.reporting.diagnostics import (
     AblationRow,
     DensityRow,
@@ -38,18 +38,18 @@ from grouptron.reporting.out_of_domain import OutOfDomain
 BOOTSTRAP_SEED = 0
 INTERVAL_MODES = ("ml", "ml-argmax", "mean", "ml-top10", "best-of-20")
 PAIRS = (
-    ("grouptron", "trajectron++"),
-    (VARIANT_MODEL, "trajectron++"),
-    (VARIANT_MODEL, "grouptron"),
-    (RESIDUAL_MODEL, "trajectron++"),
-    (GROUP_RESIDUAL_MODEL, "trajectron++"),
-    (GROUP_RESIDUAL_MODEL, RESIDUAL_MODEL),
-    (GROUP_RESIDUAL_MODEL, VARIANT_MODEL),
-    ("trajectron++", CONSTANT_VELOCITY),
-    ("grouptron", CONSTANT_VELOCITY),
-    (VARIANT_MODEL, CONSTANT_VELOCITY),
-    (RESIDUAL_MODEL, CONSTANT_VELOCITY),
-    (GROUP_RESIDUAL_MODEL, CONSTANT_VELOCITY),
+    *(
+        (name, b)
+        for name, spec in MODELS.items()
+        for b in spec.compared_with
+        if b != CONSTANT_VELOCITY
+    ),
+    *(
+        (name, b)
+        for name, spec in MODELS.items()
+        for b in spec.compared_with
+        if b == CONSTANT_VELOCITY
+    ),
 )
 """(model, baseline): the differences a reader asks about, model minus baseline."""
 

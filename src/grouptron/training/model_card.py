@@ -18,6 +18,7 @@ from grouptron.config import ExperimentConfig, non_default_settings
 from grouptron.constants import ALL_LOCATIONS
 from grouptron.io import write_text_atomically
 from grouptron.model.factory import DISPLAY_NAMES
+from grouptron.presets import CUSTOM, model_label
 
 CARD = "README.md"
 DERIVATIVES_NOTES = {
@@ -143,6 +144,15 @@ def _wall_time(records: list[dict[str, Any]]) -> str:
     return "; ".join(parts) or "-"
 
 
+def _model_name(config: ExperimentConfig) -> str:
+    """The named model the run is, or its code's model with switches of its own."""
+    label = model_label(config)
+    if label != CUSTOM:
+        return DISPLAY_NAMES.get(label, label)
+    shown = DISPLAY_NAMES.get(config.model_name, config.model_name)
+    return f"{shown} with switches of its own ({CUSTOM}: see the settings below)"
+
+
 def _recipe(config: ExperimentConfig, records: list[dict[str, Any]]) -> str:
     train = config.train
     augmentation = "24-angle rotation augmentation, " if train.rotation_augmentation else ""
@@ -181,7 +191,7 @@ def render_model_card(
         "validated on their val parts)"
     )
     rows = [
-        ("model", DISPLAY_NAMES.get(config.model_name, config.model_name)),
+        ("model", _model_name(config)),
         ("split" if not config.dataset else "dataset", data),
         ("derivatives", DERIVATIVES_NOTES.get(config.data.derivatives, config.data.derivatives)),
         ("recipe", _recipe(config, records)),

@@ -124,10 +124,10 @@ def adapt(request: AdaptRequest, *, progress: bool = False) -> AdaptResult:
     if request.minutes <= 0 or request.holdout_minutes < 0:
         raise GrouptronError("the adaptation part needs minutes > 0 (and a held-out part >= 0)")
     if (request.minutes + request.holdout_minutes) * 60 > total_s + 1e-9:
-        held = f" and the held-out part ({request.holdout_minutes:g} min) would overlap"
-        held = held if request.holdout_minutes else ""
+        overlap = f" and the held-out part ({request.holdout_minutes:g} min) would overlap"
+        overlap = overlap if request.holdout_minutes else ""
         raise GrouptronError(
-            f"the adaptation part ({request.minutes:g} min){held} needs more than the "
+            f"the adaptation part ({request.minutes:g} min){overlap} needs more than the "
             f"recordings hold ({total_s / 60:.2f} min)"
         )
     windows = cut_windows(steps, request.minutes * 60, request.holdout_minutes * 60, data.dt_s)
