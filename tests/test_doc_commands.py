@@ -37,6 +37,9 @@ SKIPPED = {
     "real univ test set (time steps with 45 people); the subset's own tests build one",
     "grouptron evaluate --checkpoint runs/grouptron-univ-central/best.safetensors --subset "
     "univ-45": "the same subset, of a 100-epoch run",
+    "grouptron adapt --tracks monday.csv tuesday.csv": "needs 20 minutes of a site's "
+    "recordings; tests/workflows/test_adapt.py adapts on two minutes",
+    "grouptron predict --checkpoint runs/lobby/best.safetensors": "reads the run adapted above",
 }
 """Command prefixes not run here, each with why (their options still parse in test_docs)."""
 SHIPPED = {  # shipped names the docs use -> the tiny checkpoint that stands in for each

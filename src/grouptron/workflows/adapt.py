@@ -124,12 +124,14 @@ def adapt(request: AdaptRequest, *, progress: bool = False) -> AdaptResult:
     if request.minutes <= 0 or request.holdout_minutes < 0:
         raise GrouptronError("the adaptation part needs minutes > 0 (and a held-out part >= 0)")
     if (request.minutes + request.holdout_minutes) * 60 > total_s + 1e-9:
-        overlap = f" and the held-out part ({request.holdout_minutes:g} min) would overlap"
-        overlap = overlap if request.holdout_minutes else ""
+        parts, verb = f"the adaptation part ({request.minutes:g} min)", "needs"
+        if request.holdout_minutes:
+            held = f"the held-out part ({request.holdout_minutes:g} min)"
+            parts, verb = f"{parts} and {held}, which may not overlap,", "need"
         raise GrouptronError(
-            f"the adaptation part ({request.minutes:g} min){overlap} needs more than the "
-            f"recordings hold ({total_s / 60:.2f} min)"
+            f"{parts} {verb} more than the recordings hold ({total_s / 60:.2f} min)"
         )
+        raise GrouptronError(f"{parts} need more than the recordings hold ({total_s / 60:.2f} min)")
     windows = cut_windows(steps, request.minutes * 60, request.holdout_minutes * 60, data.dt_s)
     first = [step_window(t, 0, end) for t, end in zip(tables, windows.first, strict=True)]
     last = [
