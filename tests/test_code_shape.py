@@ -9,6 +9,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "grouptron"
 TESTS = Path(__file__).resolve().parent
 MAX_MODULE_LINES = 450
 MAX_FUNCTION_LINES = 60
+MAX_HANDLER_LINES = 30
 
 
 def test_no_module_is_longer_than_450_lines() -> None:
@@ -33,6 +34,22 @@ def test_long_functions_say_why() -> None:
                 if length > MAX_FUNCTION_LINES and not above.startswith("#"):
                     unexplained.append(f"{path.relative_to(SRC)}:{node.lineno} {node.name}")
     assert not unexplained
+
+
+def test_command_handlers_are_thin() -> None:
+    """A command's handler (``cli/*.py``) reads its options, calls the library's workflow and
+    prints the result: no function there is over 30 lines. The parsers (``cli/parsers/``) and
+    their shared options (``cli/options.py``) define arguments and are exempt."""
+    long = []
+    for path in sorted((SRC / "cli").glob("*.py")):  # not cli/parsers/: a folder below
+        if path.name == "options.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                length = (node.end_lineno or node.lineno) - node.lineno + 1
+                if length > MAX_HANDLER_LINES:
+                    long.append(f"cli/{path.name}:{node.lineno} {node.name} ({length} lines)")
+    assert not long
 
 
 def _imported_modules(tree: ast.Module, package: list[str]) -> list[str]:

@@ -186,8 +186,8 @@ def test_a_lasting_jump_in_a_recording_of_its_own_layout_splits_its_track(
 def test_plot_rows_keep_the_readers_track_splits() -> None:
     """A person's earlier track (split at a jump) gets a fresh id, so that a predictor fed the
     table's rows does not join the pieces again (and warns no second time)."""
-    from grouptron.cli.forecast import table_rows
     from grouptron.data.reader import table_from_values
+    from grouptron.data.track_files import table_rows
 
     rows = crowd_rows()
     rows[(rows[:, 1] == 2) & (rows[:, 0] >= 100), 2] += 50.0  # a lasting jump of id 2

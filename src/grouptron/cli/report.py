@@ -1,9 +1,9 @@
-"""``grouptron report``: the paper's tables from a folder of checkpoints."""
+"""``grouptron report``: the paper's tables from a folder of checkpoints (the work:
+:func:`grouptron.workflows.report.benchmark_report`)."""
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from pathlib import Path
 
 import torch
@@ -11,29 +11,19 @@ import torch
 from grouptron.cli.common import show_progress
 from grouptron.cli.options import REPORT_CHECKPOINTS, eval_modes
 from grouptron.data.custom import read_dataset
-from grouptron.data.locate import resolve_data_dir, score_cache_dir
+from grouptron.data.locate import score_cache_dir
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.results import results_json
 from grouptron.geometry import DERIVATIVE_SCHEMES
-from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT
 from grouptron.io import (
     refuse_folder,
     write_text_atomically,
 )
 from grouptron.model.factory import MODEL_NAMES
-from grouptron.model.predict import POINT_FORECASTS
 from grouptron.reporting.datasets import dataset_markdown, dataset_report
-from grouptron.reporting.out_of_domain import (
-    causal_checkpoints,
-    prepare_out_of_domain,
-    score_out_of_domain,
-)
-from grouptron.reporting.report import (
-    ReportSettings,
-    find_checkpoints,
-    run_report,
-)
+from grouptron.reporting.report import ReportSettings
 from grouptron.reporting.tables import report_markdown
+from grouptron.workflows.report import ReportRequest, benchmark_report
 
 
 def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
@@ -123,54 +113,17 @@ def cmd_report(args: argparse.Namespace) -> int:
         return cmd_report_dataset(args)
     modes = eval_modes(args.mode)
     models, seeds = _checkpoint_filters(args.models, args.seeds)
-    point_modes = [m for m in modes if m in POINT_FORECASTS]
-    if args.out_of_domain and not point_modes:
-        raise GrouptronError(
-            f"--out-of-domain scores point forecasts: add one of {', '.join(POINT_FORECASTS)} "
-            "to --mode"
-        )
-    # Read before the long work, so that bad recordings fail at once.
-    out_of_domain = (
-        prepare_out_of_domain([read_dataset(path) for path in args.out_of_domain])
-        if args.out_of_domain
-        else None
-    )
     schemes = DERIVATIVE_SCHEMES if args.derivatives == "both" else (args.derivatives,)
     settings = ReportSettings(
-        modes=modes,
-        seed=args.seed,
-        nll_max_samples=args.nll_max_samples,
-        use_cache=not args.no_cache,
-        score_cache=_score_cache(args),
-        diagnostics=args.diagnostics,
-    )
-    data_dir = resolve_data_dir(args.data_dir)
-    checkpoints = find_checkpoints(Path(args.checkpoints), schemes, models, seeds)
+        modes=modes, seed=args.seed, nll_max_samples=args.nll_max_samples,
+        use_cache=not args.no_cache, score_cache=_score_cache(args), diagnostics=args.diagnostics,
+    )  # fmt: skip
     torch.set_num_threads(args.threads)
-    report = run_report(
-        data_dir,
-        checkpoints,
-        schemes,
-        settings,
-        progress=show_progress(args),
-        announce=not args.quiet,
-    )
-    if out_of_domain is not None:
-        causal = causal_checkpoints(Path(args.checkpoints))
-        ood = score_out_of_domain(
-            out_of_domain,
-            causal,
-            point_modes,
-            default_model=DEFAULT_CHECKPOINT,
-            progress=show_progress(args),
-            score_cache=settings.score_cache,
-        )
-        report = dataclasses.replace(report, out_of_domain=ood)
+    request = ReportRequest(
+        Path(args.checkpoints), schemes, settings, models, seeds, tuple(args.out_of_domain or ()),
+        args.data_dir, progress=show_progress(args), announce=not args.quiet,
+    )  # fmt: skip
+    report = benchmark_report(request)
     if args.format == "json":
-        text = report.to_json() + "\n"
-    else:
-        text = report_markdown(report, schemes, _report_command(args, modes))
-    return _emit(args, text)
-
-
-# One flat list of options so that `--help` reads in the order a user needs them.
+        return _emit(args, report.to_json() + "\n")
+    return _emit(args, report_markdown(report, schemes, _report_command(args, modes)))

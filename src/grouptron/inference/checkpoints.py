@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import difflib
+import logging
 import os
 from pathlib import Path
 
 from grouptron import constants
 from grouptron.errors import GrouptronError
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE
+
+log = logging.getLogger("grouptron")
 
 CHECKPOINTS_ENV = "GROUPTRON_CHECKPOINTS"
 PACKAGE_CHECKPOINTS = Path(__file__).resolve().parents[1] / "checkpoints"
@@ -88,3 +91,15 @@ def resolve_checkpoint(name_or_path: str | Path, checkpoints_dir: str | Path | N
         f"{', '.join(str(f) for f in dict.fromkeys(folders))}{hint} (set ${CHECKPOINTS_ENV} to "
         f"a folder of <name>/{BEST_WEIGHTS_FILE})"
     )
+
+
+def warn_look_ahead(name: str | Path, derivatives: str) -> None:
+    """Warn that a checkpoint trained with central derivatives reads, for each forecast, the
+    position one step after the forecast time (docs/recordings.md, "Look-ahead")."""
+    if derivatives == "central":
+        log.warning(
+            "%s was trained with central derivatives: each forecast reads the position one "
+            "step after the forecast time, which live data does not have; use a backward "
+            "checkpoint for causal forecasts",
+            name,
+        )

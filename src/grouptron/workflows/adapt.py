@@ -126,12 +126,11 @@ def adapt(request: AdaptRequest, *, progress: bool = False) -> AdaptResult:
     if (request.minutes + request.holdout_minutes) * 60 > total_s + 1e-9:
         parts, verb = f"the adaptation part ({request.minutes:g} min)", "needs"
         if request.holdout_minutes:
-            held = f"the held-out part ({request.holdout_minutes:g} min)"
-            parts, verb = f"{parts} and {held}, which may not overlap,", "need"
+            later = f"the held-out part ({request.holdout_minutes:g} min)"
+            parts, verb = f"{parts} and {later}, which may not overlap,", "need"
         raise GrouptronError(
             f"{parts} {verb} more than the recordings hold ({total_s / 60:.2f} min)"
         )
-        raise GrouptronError(f"{parts} need more than the recordings hold ({total_s / 60:.2f} min)")
     windows = cut_windows(steps, request.minutes * 60, request.holdout_minutes * 60, data.dt_s)
     first = [step_window(t, 0, end) for t, end in zip(tables, windows.first, strict=True)]
     last = [

@@ -1,0 +1,48 @@
+"""Conformal radii of a checkpoint's prediction regions from a recording of a site
+(``grouptron calibrate``), written as a calibration file that ``predict``, ``plot`` and
+``Predictor(calibration=...)`` read.
+
+    from grouptron.data.track_files import TrackFile
+    from grouptron.workflows.calibrate import calibrate_tracks
+    calibration = calibrate_tracks(TrackFile("monday.csv", columns="t,id,x,y"), Path("site.json"))
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from grouptron.data.samples import scene_samples
+from grouptron.data.scene import build_scene
+from grouptron.data.track_files import TrackFile, read_track_file
+from grouptron.evaluation.calibration import calibrate, save_calibration, weights_digest
+from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint, warn_look_ahead
+from grouptron.io import refuse_folder
+from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.predict import default_point_forecast
+from grouptron.model.regions import RegionCalibration
+
+
+def calibrate_tracks(
+    tracks: TrackFile,
+    out: Path,
+    checkpoint: str | Path = DEFAULT_CHECKPOINT,
+    mode: str | None = None,
+) -> RegionCalibration:
+    """Score every person of ``tracks`` with a full history and future against the regions of
+    ``checkpoint``'s point forecast ``mode`` (None: the model's own) and write the conformal
+    radii to ``out`` (checked before the work); returns them."""
+    refuse_folder(out, inputs=(tracks.path,))  # before the work, not after it
+    path = resolve_checkpoint(checkpoint)
+    model, experiment = load_trained_model(path)
+    warn_look_ahead(checkpoint, experiment.data.derivatives)
+    table, _ = read_track_file(tracks, experiment.data.frames_per_step)
+    data = dataclasses.replace(experiment.data, frames_per_step=table.frames_per_step)
+    experiment = dataclasses.replace(experiment, data=data)
+    scene = build_scene(table, data, name=str(tracks.path))
+    samples = scene_samples(scene, data, data.history_steps, require_future=True)
+    mode = mode or default_point_forecast(experiment.model)
+    digest = weights_digest(path)
+    calibration = calibrate(model, experiment, samples, mode, str(tracks.path), digest)
+    save_calibration(calibration, out)
+    return calibration

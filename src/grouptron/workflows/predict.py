@@ -1,0 +1,184 @@
+"""Forecasts of every pedestrian of a track file, written as CSV rows, TrajNet++ predictions
+or Foxglove scene updates (``grouptron predict``).
+
+    from grouptron.data.track_files import TrackFile
+    from grouptron.workflows.predict import PredictRequest, predict_tracks
+    done = predict_tracks(PredictRequest(TrackFile("tracks.txt"), Path("forecasts.csv")))
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+import numpy as np
+import torch
+
+from grouptron.data.ndjson import write_forecast_ndjson
+from grouptron.data.reader import TrackTable
+from grouptron.data.ros_bag import BagTracks
+from grouptron.data.scene import build_scene
+from grouptron.data.track_files import TrackFile, read_track_file
+from grouptron.errors import GrouptronError
+from grouptron.evaluation.calibration import calibration_for
+from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint, warn_look_ahead
+from grouptron.inference.forecast import Forecast
+from grouptron.inference.tracks import forecast_scene
+from grouptron.io import refuse_folder, write_array_csv_atomically
+from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.predict import default_point_forecast
+from grouptron.viz.foxglove import write_forecast_mcap
+
+
+@dataclass(frozen=True)
+class PredictRequest:
+    """What to forecast, with which model, and where to write it.
+
+    Attributes:
+        tracks: the track file and how to read it (``tracks.frames_per_step`` None: the
+            checkpoint's).
+        out: where the forecasts go, by suffix: ``.mcap`` Foxglove scene updates (on a bag's
+            clock and in its frame), ``.ndjson`` TrajNet++ predictions, else CSV rows (layout 2,
+            docs/guide.md); an open text stream takes CSV rows (standard output).
+        checkpoint: a shipped name or a ``.safetensors`` file.
+        mode: ``FORECAST_MODES`` (None: the model's own point forecast).
+        samples: futures per pedestrian and frame of ``mode`` ``samples`` (K).
+        seed: of the sampled futures.
+        regions: probabilities Q of the regions added per point (CSV; an MCAP draws the first).
+        calibration: a ``grouptron calibrate`` file of this checkpoint for the regions' radii.
+        min_points: forecast pedestrians with at least this many observed steps in a row, 2
+            to 8 (None: 8, the samples the evaluator scores).
+        device: where the network runs.
+        progress: a progress bar.
+    """
+
+    tracks: TrackFile
+    out: str | Path | TextIO
+    checkpoint: str | Path = DEFAULT_CHECKPOINT
+    mode: str | None = None
+    samples: int = 20
+    seed: int = 0
+    regions: tuple[float, ...] = ()
+    calibration: str | Path | None = None
+    min_points: int | None = None
+    device: str | torch.device = "cpu"
+    progress: bool = False
+
+
+@dataclass(frozen=True)
+class Predicted:
+    """What was written: ``count`` rows (CSV, ``.ndjson``), or with ``scene_updates`` scene
+    updates (``.mcap``), of the forecasts of ``model_name`` (its ``derivatives``) in ``mode``."""
+
+    forecast: Forecast
+    count: int
+    model_name: str
+    derivatives: str
+    mode: str
+    scene_updates: bool
+
+
+def predict_tracks(request: PredictRequest) -> Predicted:
+    """Forecast every (pedestrian, frame) of ``request.tracks`` with a full enough history and
+    write the forecasts to ``request.out``; a central checkpoint's look-ahead is logged."""
+    out = _out_path(request.out)
+    if out is not None:
+        refuse_folder(out, inputs=(request.tracks.path,))  # before the work, not after it
+    path = resolve_checkpoint(request.checkpoint)
+    model, experiment = load_trained_model(path)
+    warn_look_ahead(request.checkpoint, experiment.data.derivatives)
+    table, bag = read_track_file(request.tracks, experiment.data.frames_per_step)
+    data = dataclasses.replace(experiment.data, frames_per_step=table.frames_per_step)
+    experiment = dataclasses.replace(experiment, data=data)
+    scene = build_scene(table, data, name=str(request.tracks.path))
+    mode = request.mode or default_point_forecast(experiment.model)
+    trajnet = out is not None and str(out).endswith(".ndjson")
+    if (request.regions or request.calibration) and (mode == "samples" or trajnet):
+        raise GrouptronError(
+            "--regions and --calibration go with a point forecast (--mode) written as CSV or MCAP"
+        )
+    calibrated = calibration_for(request.calibration, experiment, mode, str(path))  # before work
+    forecast = forecast_scene(
+        model, experiment, scene, mode, num_samples=request.samples, seed=request.seed,
+        progress=request.progress, min_points=request.min_points, device=request.device,
+        keep_distribution=bool(request.regions),
+    )  # fmt: skip
+    forecast = dataclasses.replace(forecast, calibration=calibrated)
+    done = Predicted(forecast, 0, experiment.model_name, data.derivatives, mode, False)
+    if out is not None and out.suffix == ".mcap":
+        count = _write_mcap(out, forecast, table, bag, data.dt_s, request.regions)
+        return dataclasses.replace(done, count=count, scene_updates=True)
+    count = _write_rows(request, forecast, table, mode, data.horizon_steps)
+    return dataclasses.replace(done, count=count)
+
+
+def _out_path(out: str | Path | TextIO) -> Path | None:
+    """The file to write (None: a stream)."""
+    return Path(out) if isinstance(out, str | Path) else None
+
+
+def _write_rows(
+    request: PredictRequest, forecast: Forecast, table: TrackTable, mode: str, horizon: int
+) -> int:
+    """Write the forecasts as TrajNet++ ``.ndjson`` or CSV rows; returns how many rows."""
+    sampled = mode == "samples"
+    out = _out_path(request.out)
+    if out is not None and out.suffix == ".ndjson":
+        _write_trajnet(out, forecast, table, sampled=sampled)
+        return len(forecast) * horizon * (request.samples if sampled else 1)
+    header, rows, formats = forecast.table(sampled, request.regions, table.times)
+    if out is not None:
+        write_array_csv_atomically(out, header, rows, formats)
+    else:
+        stream = request.out
+        assert not isinstance(stream, str | Path)
+        stream.write(",".join(header) + "\n")
+        np.savetxt(stream, rows, fmt=list(formats), delimiter=",")
+    return len(rows)
+
+
+def _write_trajnet(path: Path, forecast: Forecast, table: TrackTable, *, sampled: bool) -> None:
+    """Forecasts as TrajNet++ predictions, each scene with the pedestrian's observed rows."""
+    rows = zip(table.ped_id.tolist(), table.frame.tolist(), table.pos_m, strict=True)
+    position = {(p, f): xy for p, f, xy in rows}
+    step = table.frames_per_step
+    history = []
+    for p, f in zip(forecast.ids.tolist(), forecast.frames.tolist(), strict=True):
+        keys = [(int(p), int(f) - k * step) for k in range(7, -1, -1)]
+        history.append(np.asarray([position[key] for key in keys if key in position]))
+    positions = forecast.samples if sampled else forecast.most_likely[:, None]
+    assert positions is not None
+    write_forecast_ndjson(
+        path, forecast.frames, forecast.ids, positions, history, frames_per_step=step
+    )
+
+
+def _write_mcap(
+    path: Path,
+    forecast: Forecast,
+    table: TrackTable,
+    bag: BagTracks | None,
+    dt_s: float,
+    regions: tuple[float, ...],
+) -> int:
+    """Foxglove scene updates of ``forecast`` on the input's clock (a bag's stamps) and in its
+    frame (``map`` for a file), each with the region of the first of ``regions``."""
+    # A person's pieces never overlap in time: (frame, id) names one row of the table.
+    _, person = np.unique(np.concatenate([table.ped_id, forecast.ids]), return_inverse=True)
+    people = int(person.max()) + 1
+    row_key = table.frame.astype(np.int64) * people + person[: len(table.ped_id)]
+    wanted = forecast.frames.astype(np.int64) * people + person[len(table.ped_id) :]
+    order = np.argsort(row_key)
+    origins = table.pos_m[order[np.searchsorted(row_key[order], wanted)]]  # (N, 2)
+
+    def time_of_frame(frame: int) -> float:
+        return float(table.times.seconds(np.array([frame]))[0])
+
+    names = (lambda i: f"{i:g}") if bag is None else bag.name
+    frame_id = bag.frame_id if bag is not None and bag.frame_id else "map"
+    region_q = regions[0] if regions else None
+    return write_forecast_mcap(
+        path, forecast, origins, time_of_frame, frame_id, dt_s, names, region_q
+    )
