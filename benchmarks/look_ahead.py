@@ -25,8 +25,8 @@ import torch
 
 from grouptron.data.locate import resolve_data_dir
 from grouptron.data.subsets import time_step_ids
-from grouptron.reporting.report import subset_masks
 from grouptron.evaluation.uncertainty import mean_interval
+from grouptron.reporting.report import subset_masks
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from paired import score, validation_fde

@@ -25,12 +25,12 @@ from pathlib import Path
 import torch
 
 from grouptron.data.custom import read_dataset
+from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.reporting.out_of_domain import (
     out_of_domain_markdown,
     prepare_out_of_domain,
     score_out_of_domain,
 )
-from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 
 HERE = Path(__file__).resolve().parent
 DEVELOPMENT_SET = ",".join(

@@ -25,11 +25,11 @@ from grouptron.data.locate import resolve_data_dir
 from grouptron.data.subsets import time_step_ids
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, score_samples
-from grouptron.reporting.report import subset_masks
 from grouptron.evaluation.test_sets import load_test_set
 from grouptron.evaluation.uncertainty import mean_interval
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.factory import uses_groups
+from grouptron.reporting.report import subset_masks
 
 
 def weights_of(path: Path) -> Path:

@@ -27,10 +27,10 @@ import torch
 
 from grouptron.data.locate import resolve_data_dir
 from grouptron.evaluation.evaluate import score_samples
-from grouptron.reporting.report import subset_masks
 from grouptron.evaluation.test_sets import load_test_set
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.factory import uses_groups
+from grouptron.reporting.report import subset_masks
 
 MODELS = ("trajectron++", "grouptron")
 

@@ -40,6 +40,7 @@ class Parser(argparse.ArgumentParser):
     (handled by the one error policy) instead of exiting."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
+        """Print the usage to stderr and raise ``GrouptronError`` with ``message`` (never exit)."""
         self.print_usage(sys.stderr)
         raise GrouptronError(message)
 

@@ -76,6 +76,7 @@ class DatasetDescription:
     shares: dict[str, float] = field(default_factory=dict)
 
     def files(self, part: str) -> list[Path]:
+        """The files of ``part`` (``train``, ``val`` or ``test``); an error where it is absent."""
         if part not in self.parts:
             raise GrouptronError(f"{self.source}: the dataset has no {part!r} part")
         return list(self.parts[part])

@@ -73,6 +73,7 @@ class TrackTable:
 
     @property
     def num_tracks(self) -> int:
+        """Number of tracks (gap-free pieces); 0 for an empty table."""
         return int(self.track.max()) + 1 if self.track.size else 0
 
     @property

@@ -126,10 +126,12 @@ class RecordingFormat:
 
     @property
     def time_column(self) -> str:
+        """The time column's name: ``t`` (seconds) or ``frame`` (frame numbers)."""
         return "t" if "t" in self.columns else "frame"
 
     @property
     def seconds_per_frame(self) -> float:
+        """Seconds per frame number: ``1 / fps`` (ETH/UCY's 25 fps where ``fps`` is None)."""
         return 1.0 / (self.fps if self.fps is not None else ETH_UCY_FPS)
 
 

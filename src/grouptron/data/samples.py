@@ -79,6 +79,7 @@ class SampleSet:
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray]) -> SampleSet:
+        """The sample set from :meth:`to_arrays`'s dict (e.g. ``np.load`` of its ``np.savez``)."""
         return cls(**{f.name: arrays[f.name] for f in dataclasses.fields(cls)})
 
     def subset(self, keep: np.ndarray) -> SampleSet:

@@ -54,6 +54,7 @@ class Scene:
 
     @property
     def num_tracks(self) -> int:
+        """Number of tracks (A)."""
         return len(self.ped_id)
 
     @property

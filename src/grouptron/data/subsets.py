@@ -35,6 +35,7 @@ class UnivN:
 
     @property
     def name(self) -> str:
+        """The subset's name: ``univ-N``, or ``univ-N-present`` for the present count."""
         suffix = "-present" if self.definition == "present" else ""
         return f"univ-{self.min_agents}{suffix}"
 

@@ -47,14 +47,17 @@ class ModeScores:
 
     @property
     def ade(self) -> float:
+        """Mean ADE in metres; NaN where this mode does not score it."""
         return self.means.get("ade", math.nan)
 
     @property
     def fde(self) -> float:
+        """Mean FDE in metres; NaN where this mode does not score it."""
         return self.means.get("fde", math.nan)
 
     @property
     def nll(self) -> float:
+        """Mean KDE NLL in nats; NaN outside the ``nll`` mode."""
         return self.means.get(metrics.NLL, math.nan)
 
 
@@ -79,14 +82,17 @@ class SampleScores:
 
     @property
     def ade(self) -> np.ndarray:
+        """(S,) ADE of every sample in metres; NaN where not scored."""
         return self.get("ade")
 
     @property
     def fde(self) -> np.ndarray:
+        """(S,) FDE of every sample in metres; NaN where not scored."""
         return self.get("fde")
 
     @property
     def nll(self) -> np.ndarray:
+        """(S,) KDE NLL of every sample in nats; NaN where not scored."""
         return self.get(metrics.NLL)
 
     def subset(self, keep: np.ndarray) -> SampleScores:

@@ -27,9 +27,11 @@ class Interval:
     high: float
 
     def to_list(self) -> list[float]:
+        """``[low, high]``, the interval's bounds."""
         return [self.low, self.high]
 
     def excludes_zero(self) -> bool:
+        """Whether the interval lies strictly above or strictly below zero."""
         return self.low > 0.0 or self.high < 0.0
 
     def signed_text(self) -> str:

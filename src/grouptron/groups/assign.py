@@ -36,10 +36,12 @@ class SampleGroups:
     num_groups: np.ndarray
 
     def to_arrays(self) -> dict[str, np.ndarray]:
+        """The fields as a flat dict of arrays (for ``np.savez``)."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray]) -> SampleGroups:
+        """The groups from :meth:`to_arrays`'s dict (e.g. ``np.load`` of its ``np.savez``)."""
         return cls(**{f.name: arrays[f.name] for f in dataclasses.fields(cls)})
 
     def subset(self, keep: np.ndarray, samples: SampleSet) -> SampleGroups:

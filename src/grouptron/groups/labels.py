@@ -137,15 +137,20 @@ class PairCounts:
     dice_count: int = 0
 
     def add_pairs(self, predicted_same: np.ndarray, labelled_same: np.ndarray) -> None:
+        """Count the true and false positives and false negatives of (P,) boolean
+        "same group" decisions, ``predicted_same`` against ``labelled_same``."""
         self.true_positive += int((predicted_same & labelled_same).sum())
         self.false_positive += int((predicted_same & ~labelled_same).sum())
         self.false_negative += int((~predicted_same & labelled_same).sum())
 
     def add_dice(self, value: float) -> None:
+        """Add one partition's Dice score to the running mean."""
         self.dice_sum += value
         self.dice_count += 1
 
     def summary(self) -> dict[str, float]:
+        """Pair precision, recall and F1 and the mean Dice (NaN with nothing to divide by; F1 is 0
+        without true positives), with the ``decisions`` and ``dice_count`` behind them."""
         tp, fp, fn = self.true_positive, self.false_positive, self.false_negative
         precision = tp / (tp + fp) if tp + fp else float("nan")
         recall = tp / (tp + fn) if tp + fn else float("nan")

@@ -70,14 +70,19 @@ class ForecastNetwork(nn.Module):
 
     @property
     def input_names(self) -> tuple[str, ...]:
+        """The network's input names, in the order :meth:`forward` takes them."""
         return self.names_for(self.config)
 
     @staticmethod
     def names_for(config: ExperimentConfig) -> tuple[str, ...]:
+        """The input names of a network of ``config``: the base ones, then the group ones
+        (Grouptron) and ``nbr_count`` where it reads them."""
         names = BASE_INPUTS + (GROUP_INPUTS if uses_groups(config) else ())
         return names + (COUNT_INPUTS if uses_neighbour_count(config) else ())
 
     def forward(self, *inputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(B, Z) log p(z|x), (B, Z, H, 2) mean positions in metres and (B, Z, H, 2, 2) their
+        covariances in m^2, from the inputs in the order of :attr:`input_names`."""
         hist_st, hist_mask, nbr_sum_st, edge_scale = inputs[:4]
         groups = GroupBatch(*inputs[4:9]) if self.uses_groups else None
         count = inputs[-1] if self.uses_count else None

@@ -215,10 +215,12 @@ class Predictor:
 
     @property
     def history_steps(self) -> int:
+        """History steps the model reads (T, its ``data.history_steps``)."""
         return self.config.data.history_steps
 
     @property
     def frames_per_step(self) -> int:
+        """Frame numbers between consecutive steps (the model's ``data.frames_per_step``)."""
         return self.config.data.frames_per_step
 
     @property

@@ -21,16 +21,26 @@ class WindowForecaster(Protocol):
     config: Any
 
     @property
-    def window_frames(self) -> int: ...
+    def window_frames(self) -> int:
+        """Frames before ``t`` a forecast reads (``Predictor.window_frames``)."""
+        ...
 
     @property
-    def frames_per_step(self) -> int: ...
+    def frames_per_step(self) -> int:
+        """Frame numbers between consecutive steps."""
+        ...
 
-    def check_plausible(self, values: np.ndarray, min_pairs: int = 1) -> bool: ...
+    def check_plausible(self, values: np.ndarray, min_pairs: int = 1) -> bool:
+        """Refuse (R, 4) rows whose speeds no pedestrian walks; returns whether there were
+        ``min_pairs`` consecutive observations to judge."""
+        ...
 
     def forecast_window(
         self, values: np.ndarray, frame: int, num_samples: int, seed: int
-    ) -> Forecast: ...
+    ) -> Forecast:
+        """The forecast at ``frame`` of (R, 4) rows already cut to the window; columns frame, id,
+        x, y (metres)."""
+        ...
 
 
 log = logging.getLogger(__name__)
@@ -60,6 +70,7 @@ class StreamSession:
 
     @property
     def window_frames(self) -> int:
+        """Frames before the current one whose rows the session keeps (the predictor's)."""
         return self.predictor.window_frames
 
     def update(

@@ -35,9 +35,11 @@ class GroupBatch:
 
     @property
     def num_groups(self) -> int:
+        """Number of groups in the batch (G)."""
         return self.group_sample.shape[0]
 
     def to(self, device: torch.device | str) -> GroupBatch:
+        """A copy with every tensor on ``device``."""
         return GroupBatch(**{f.name: getattr(self, f.name).to(device) for f in fields(self)})
 
 
@@ -116,6 +118,7 @@ class Batch:
         return self.hist_st[:, -1]
 
     def to(self, device: torch.device | str) -> Batch:
+        """A copy with every tensor (the groups' included) on ``device``."""
         moved: dict[str, Any] = {}
         for f in fields(self):
             value = getattr(self, f.name)

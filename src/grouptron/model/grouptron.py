@@ -34,6 +34,8 @@ class GrouptronCVAE(TrajectronCVAE):
         self.scene_norm = nn.LayerNorm(width) if groups.scene_layer_norm else None
 
     def extra_dropout_sizes(self) -> dict[str, int]:
+        """The ``scene`` dropout site (E_scene's features) where ``scene_dropout_keep`` is below
+        1; none otherwise."""
         keep = self.groups_config.scene_dropout_keep
         return {"scene": self.condition_dim - self.base_condition_dim} if keep < 1.0 else {}
 
@@ -74,5 +76,6 @@ class GrouptronCVAE(TrajectronCVAE):
         return self._dropout(encoding, drawn, "scene", variant.scene_dropout_keep)
 
     def encode_condition(self, batch: Batch, drawn: TrainingNoise | None = None) -> torch.Tensor:
+        """(B, Dx) ``x = [edge encoding; history encoding; E_scene]``; ``drawn`` as for the CVAE."""
         base = super().encode_condition(batch, drawn)
         return torch.cat([base, self.encode_scene(batch, drawn)], -1)

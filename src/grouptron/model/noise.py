@@ -46,6 +46,7 @@ class TrainingNoise:
         return TrainingNoise({k: v[rows] for k, v in self.dropout.items()}, self.decoder[rows])
 
     def to(self, device: torch.device | str) -> TrainingNoise:
+        """A copy with every draw on ``device``."""
         return TrainingNoise(
             {k: v.to(device) for k, v in self.dropout.items()}, self.decoder.to(device)
         )

@@ -37,6 +37,7 @@ class DensityRow:
     difference: Interval
 
     def to_dict(self) -> dict[str, object]:
+        """The row as a dict (the interval as ``{mean, low, high}``)."""
         return dataclasses.asdict(self)  # the Interval becomes a {mean, low, high} dict
 
 
@@ -54,6 +55,7 @@ class AblationRow:
     difference: Interval
 
     def to_dict(self) -> dict[str, object]:
+        """The row as a dict (the interval as ``{mean, low, high}``)."""
         return dataclasses.asdict(self)  # the Interval becomes a {mean, low, high} dict
 
 

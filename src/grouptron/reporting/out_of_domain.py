@@ -71,6 +71,8 @@ class RecordingRow:
         return self.fde.mean / self.fde_constant_velocity
 
     def to_dict(self) -> dict[str, object]:
+        """The row as a dict (intervals as ``{mean, low, high}``) plus
+        ``fde_over_constant_velocity``."""
         return {**asdict(self), "fde_over_constant_velocity": self.ratio}
 
 
@@ -88,9 +90,12 @@ class PooledRow:
 
     @property
     def ratio(self) -> float:
+        """FDE over constant velocity's."""
         return self.fde / self.fde_constant_velocity
 
     def to_dict(self) -> dict[str, object]:
+        """The row as a dict (the interval as ``{mean, low, high}``) plus
+        ``fde_over_constant_velocity``."""
         return {**asdict(self), "fde_over_constant_velocity": self.ratio}
 
 
@@ -106,6 +111,8 @@ class OutOfDomain:
     """The checkpoint folder whose targets the section checks (the library's default model)."""
 
     def to_dict(self) -> dict[str, object]:
+        """The section as a dict for the report's JSON: the datasets and their test files, the
+        checkpoints, the default model's target checks and every row."""
         return {
             "datasets": [
                 {

@@ -71,6 +71,7 @@ class PairedDifference:
     ade: Interval
 
     def to_dict(self) -> dict[str, object]:
+        """The difference as a dict, its intervals as ``{mean, low, high}``."""
         row = dataclasses.asdict(self)
         row["fde"], row["ade"] = _interval_dict(self.fde), _interval_dict(self.ade)
         return row
@@ -93,6 +94,8 @@ class SeedSpread:
     fde_intervals: tuple[tuple[float, float], ...] = ()
 
     def to_dict(self) -> dict[str, object]:
+        """The spread as a dict plus the mean and sample SD over seeds of FDE and ADE
+        (``fde_mean``, ``fde_sd``, ...; the SD is None for one seed)."""
         row = dataclasses.asdict(self)
         for name in ("fde", "ade"):
             mean, sd = seed_spread(getattr(self, name))
@@ -112,6 +115,8 @@ class Report:
     out_of_domain: OutOfDomain | None = None
 
     def to_json(self) -> str:
+        """The report as indented JSON: results, paired differences, seed spreads, density and
+        ablation rows, and the out-of-domain section where there is one."""
         ood = self.out_of_domain
         return json.dumps(
             {

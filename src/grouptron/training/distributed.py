@@ -36,6 +36,7 @@ class Cluster:
 
     @property
     def distributed(self) -> bool:
+        """Whether training runs in more than one process."""
         return self.world_size > 1
 
     def shard(self, size: int) -> np.ndarray:
@@ -43,6 +44,7 @@ class Cluster:
         return np.arange(self.rank, size, self.world_size)
 
     def barrier(self) -> None:
+        """Wait for every process (``dist.barrier``); nothing to wait for in a single process."""
         if self.distributed:
             dist.barrier()
 

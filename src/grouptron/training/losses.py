@@ -24,6 +24,7 @@ class LossTerms:
     mutual_info: torch.Tensor
 
     def as_floats(self) -> dict[str, float]:
+        """The terms as detached Python floats, by name."""
         return {
             "loss": float(self.loss.detach()),
             "log_likelihood": float(self.log_likelihood.detach()),

@@ -22,6 +22,7 @@ class MetricsWriter:
         self.csv = out_dir / "metrics.csv"
 
     def write(self, record: dict[str, Any]) -> None:
+        """Append ``record`` and rewrite both files."""
         self._save([*self.records(), record])
 
     def records(self) -> list[dict[str, Any]]:

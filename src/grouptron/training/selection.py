@@ -88,6 +88,8 @@ class Validation:
 
     @classmethod
     def of(cls, samples: SampleSet, groups: SampleGroups | None, size: int) -> Validation:
+        """The validation part ``samples`` (and its ``groups``) with its fixed subset of ``size``
+        samples (all of them when ``size`` is 0 or at least the part's size)."""
         keep = np.zeros(len(samples), dtype=bool)
         keep[validation_subset(len(samples), size)] = True
         subset_groups = groups.subset(keep, samples) if groups is not None else None
@@ -95,6 +97,7 @@ class Validation:
 
     @property
     def is_subset(self) -> bool:
+        """Whether the subset leaves out any of the validation samples."""
         return len(self.subset) < len(self.samples)
 
 

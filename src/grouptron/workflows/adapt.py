@@ -99,6 +99,7 @@ class AdaptResult:
 
     @property
     def best(self) -> Path:
+        """The adapted weights, ``<out>/best.safetensors``."""
         return self.out / BEST
 
     def table(self) -> str:
