@@ -72,7 +72,7 @@ LINKAGES: Final = ("single", "average", "complete")
 DISTANCE_KINDS: Final = ("hausdorff", "modified")
 """Trajectory distances of group detection (``grouptron.groups.distances``)."""
 
-DEFAULT_CHECKPOINT: Final = "trajectron++-residual-univ-backward"
+DEFAULT_CHECKPOINT: Final = "grouptron-robust-residual-crowds-backward"
 """The model used where none is named (``grouptron.inference.checkpoints``, which says why)."""
 
 UNITS_M: Final = {"m": 1.0, "cm": 0.01, "mm": 0.001}

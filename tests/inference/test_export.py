@@ -59,6 +59,7 @@ def _batch_inputs(network: ForecastNetwork) -> dict[str, torch.Tensor]:
         "grouptron-univ-backward",
         "grouptron-robust-univ-backward",
         "trajectron++-residual-univ-backward",
+        "grouptron-robust-residual-crowds-backward",  # the default model
     ],
 )
 def test_onnxruntime_equals_pytorch_on_a_shipped_checkpoint(name: str, tmp_path: Path) -> None:

@@ -14,8 +14,9 @@ MODELS = [
     "grouptron-univ-backward",
     "trajectron++-univ-backward",
     "grouptron-robust-univ-backward",
-    "trajectron++-residual-univ-backward",  # the default model
+    "trajectron++-residual-univ-backward",
     "grouptron-robust-residual-univ-backward",
+    "grouptron-robust-residual-crowds-backward",  # the default model
 ]
 
 

@@ -12,6 +12,7 @@ import torch
 
 from grouptron.config import DataConfig, ExperimentConfig
 from grouptron.constants import ALL_LOCATIONS
+from grouptron.data.custom import read_dataset
 from grouptron.data.download import file_sha256, shipped_checksums
 from grouptron.data.recording import RecordingFormat, read_table
 from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
@@ -48,8 +49,11 @@ def recording_samples(files: Sequence[Path], fmt: RecordingFormat, config: DataC
 def training_files(files: Sequence[Path], experiment: ExperimentConfig) -> list[str]:
     """The given files that are (byte for byte) ETH/UCY data the checkpoint was trained or
     validated on: a file of its split's train/val parts, or a whole recording of a location
-    other than its split's test location (every ETH/UCY file for an all-locations model).
-    Scores on them are not held-out scores."""
+    other than its split's test location (every ETH/UCY file for an all-locations model); for
+    a run on a dataset of one's own, the files of its description's train and val parts
+    (where the description is on this machine). Scores on them are not held-out scores."""
+    if experiment.dataset:
+        return _dataset_files(files, experiment.dataset)
     names_of: dict[str, list[str]] = {}
     for name, digest in shipped_checksums().items():
         names_of.setdefault(digest, []).append(name)
@@ -65,6 +69,16 @@ def training_files(files: Sequence[Path], experiment: ExperimentConfig) -> list[
                 found.append(str(path))
                 break
     return found
+
+
+def _dataset_files(files: Sequence[Path], description: str) -> list[str]:
+    """The given files that are (byte for byte) in a dataset's train or val part."""
+    try:
+        dataset = read_dataset(description)
+    except GrouptronError:  # trained elsewhere: its description is not on this machine
+        return []
+    seen = {file_sha256(f) for part in ("train", "val") for f in dataset.parts.get(part, ())}
+    return [str(path) for path in files if file_sha256(Path(path)) in seen]
 
 
 def _in_training(all_data_name: str, split: str) -> bool:

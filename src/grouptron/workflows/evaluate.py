@@ -20,7 +20,7 @@ import numpy as np
 from grouptron.config import DataConfig, ExperimentConfig
 from grouptron.constants import ALL_LOCATIONS, SPLITS
 from grouptron.data.custom import DatasetDescription, load_dataset_part
-from grouptron.data.locate import resolve_data_dir
+from grouptron.data.locate import resolve_data_dir, split_files
 from grouptron.data.recording import RecordingFormat
 from grouptron.data.samples import SampleSet
 from grouptron.data.subsets import density_masks, parse_univ_n
@@ -203,6 +203,12 @@ def _evaluate_benchmark(
             "benchmark test set is held out from it; score it on recordings of your own "
             "(--tracks, --dataset)"
         )
+    if experiment is not None and experiment.dataset and not source.splits:
+        raise GrouptronError(
+            f"{loaded.name} was trained on a dataset of its own ({experiment.split}), not on a "
+            "benchmark split: name the splits to score it on (--split), or score recordings "
+            "(--tracks, --dataset)"
+        )
     splits = source.splits or ((experiment.split,) if experiment else SPLITS)
     unknown = [s for s in splits if s not in SPLITS]
     if unknown:
@@ -215,6 +221,7 @@ def _evaluate_benchmark(
     group_config = experiment.groups if experiment is not None and grouped else None
     rows: list[EvaluationResult] = []
     for split in splits:
+        _refuse_seen_test_files(loaded, data_dir, split)
         samples, groups = load_test_set(
             data_dir, split, loaded.data, subset, group_config=group_config,
             use_cache=options.use_cache,
@@ -228,6 +235,20 @@ def _evaluate_benchmark(
         for mode in dict.fromkeys(r.mode for r in rows):
             rows.append(mean_over_splits([r for r in rows if r.mode == mode]))
     return rows
+
+
+def _refuse_seen_test_files(loaded: _Loaded, data_dir: Path, split: str) -> None:
+    """A checkpoint trained on a dataset that holds a split's test recordings has no
+    held-out score there."""
+    if loaded.experiment is None or not loaded.experiment.dataset:
+        return
+    seen = training_files(split_files(data_dir, split, "test"), loaded.experiment)
+    if seen:
+        raise GrouptronError(
+            f"{loaded.name} was trained on {split}'s test recordings ({Path(seen[0]).name}): no "
+            "benchmark score of it is held out; score it on recordings it never saw (--tracks, "
+            "--dataset)"
+        )
 
 
 def _evaluate_tracks(
