@@ -5,10 +5,8 @@ A :class:`RecordingFormat` says how a file is laid out (``columns``, ``fps``, ``
 :func:`read_recording` reads it into times in seconds, ids and positions in metres;
 :func:`resample` puts every track on a common grid of ``dt_s`` steps by linear interpolation
 between the track's own observations (never extrapolated; a gap longer than ``max_gap_s``
-splits the track). Rows already on the grid are kept exactly, so ETH/UCY files read with the
-defaults give the same samples as before. :func:`check_plausible` refuses speeds no pedestrian
-walks, with a hint about units and frame rate.
-"""
+splits the track); rows already on the grid are kept exactly. :func:`check_plausible` refuses
+speeds no pedestrian walks, with a hint about units and frame rate."""
 
 from __future__ import annotations
 
