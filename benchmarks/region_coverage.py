@@ -5,7 +5,7 @@ Usage:
                                          [--datasets A.toml,B.toml] [--q 0.5,0.9]
                                          [--threads 1]
 
-For every validation file of the checkpoint's split (never test files; ``--split`` for
+For every validation file of the checkpoint's split or dataset (never test files; ``--split`` for
 another's) and every test file of the
 out-of-domain descriptions (default: the development set, ``$GROUPTRON_OOD``), every person
 with 8 observed and 12 future steps is forecast with the checkpoint's own point forecast
@@ -70,8 +70,15 @@ def interval(hits: np.ndarray, steps: np.ndarray, draws: int = 1000) -> tuple[fl
 def recordings(args: argparse.Namespace, data: DataConfig) -> list[tuple[str, SampleSet]]:
     """(name, samples) of every validation file and every out-of-domain test file."""
     out = []
-    for path in split_files(resolve_data_dir(), args.split, "val"):
-        samples = recording_samples([path], RecordingFormat(), data)
+    if args.own_dataset:  # a run on a dataset of its own: its description's val part
+        own = read_dataset(args.own_dataset)
+        validation = [(path, own.recording) for path in own.files("val")]
+    else:
+        validation = [
+            (p, RecordingFormat()) for p in split_files(resolve_data_dir(), args.split, "val")
+        ]
+    for path, layout in validation:
+        samples = recording_samples([path], layout, data)
         out.append((f"{args.split} val: {path.name}", samples))
     for description in (d for d in args.datasets.split(",") if d):
         dataset = read_dataset(description)
@@ -93,6 +100,7 @@ def main() -> None:
     qs = [float(q) for q in args.q.split(",")]
     model, config = load_trained_model(resolve_checkpoint(args.checkpoint))
     model.eval()
+    args.own_dataset = config.dataset if not args.split else ""
     args.split = args.split or config.split
     print(f"{args.checkpoint}: {default_point_forecast(config.model)} point forecast")
     steps_header = " | ".join(f"step {k}" for k in STEPS)
