@@ -11,6 +11,9 @@ Sites of the out-of-domain development set (``$GROUPTRON_OOD``, default ../share
   held out: the last 1.35 min (uo-300); adapted on N = 0.5, 1, 2 min.
 - bookstore: the Stanford Drone bookstore_0, _1, _2 videos in order (about 23.6 min); held out:
   the last 8 min (bookstore_2); adapted on N = 2, 5, 15 min.
+- nexus (``--sites nexus``; Stanford Drone videos outside the development and confirmation
+  sets, for the 30-minute point): nexus_1, 2, 3, 4, 7, 8, 9 in order (about 34.9 min); held
+  out: the last 4 min (in nexus_9); adapted on N = 2, 5, 15, 30 min.
 Every N of a site is scored on the same held-out samples: the checkpoint before, adapted, and
 constant velocity, with the paired FDE difference (after minus before, 95% interval over time
 steps). The adapted runs go to a temporary folder and are never shipped.
@@ -48,6 +51,12 @@ SITES = {
         RecordingFormat(columns=("id", "frame", "x", "y", "z"), fps=16, units="cm"),
         1.35,
         (0.5, 1.0, 2.0),
+    ),
+    "nexus": Site(
+        tuple(f"trajnet_sdd/nexus_{i}.txt" for i in (1, 2, 3, 4, 7, 8, 9)),
+        RecordingFormat(columns=("frame", "id", "x", "y"), fps=30),
+        4.0,
+        (2.0, 5.0, 15.0, 30.0),
     ),
     "bookstore": Site(
         tuple(f"trajnet_sdd/bookstore_{i}.txt" for i in range(3)),
