@@ -122,3 +122,12 @@ def test_an_unavailable_device_is_one_line(
     assert main([*command, "--device", "cuda"]) == 2
     err = capsys.readouterr().err
     assert "CUDA is not available here" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("command", ["predict", "calibrate"])
+def test_the_forecast_is_named_by_forecast_and_by_its_older_name(command: str) -> None:
+    """What predict and calibrate write is a forecast (``--forecast``); ``--mode`` names what
+    evaluate scores, and is still read here as the older name."""
+    base = [command, "--tracks", "t.txt", "--out", "o.csv"]
+    for flag in ("--forecast", "--mode"):
+        assert build_parser().parse_args([*base, flag, "mean"]).mode == "mean"

@@ -97,7 +97,8 @@ def predict_tracks(request: PredictRequest) -> Predicted:
     trajnet = out is not None and str(out).endswith(".ndjson")
     if (request.regions or request.calibration) and (mode == "samples" or trajnet):
         raise GrouptronError(
-            "--regions and --calibration go with a point forecast (--mode) written as CSV or MCAP"
+            "--regions and --calibration go with a point forecast (--forecast) written as CSV or "
+            "MCAP"
         )
     calibrated = calibration_for(request.calibration, experiment, mode, str(path))  # before work
     forecast = forecast_scene(

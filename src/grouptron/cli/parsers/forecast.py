@@ -60,9 +60,12 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "predictions (its tools score it)",
     )
     predict.add_argument(
+        "--forecast",
         "--mode",
+        dest="mode",
         choices=FORECAST_MODES,
-        help="ml: the most likely future per pedestrian (the evaluator's); ml-argmax: the most "
+        help="which forecast (--mode: its older name): "
+        "ml: the most likely future per pedestrian (the evaluator's); ml-argmax: the most "
         "probable latent value's; mean: the p(z|x)-weighted mean "
         "future; ml-top10: ml of the 10 most probable latent values only; samples: --samples "
         "sampled futures. Default: the model's own, as in the Python API: "
@@ -72,7 +75,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     predict.add_argument(
         "--samples", type=positive_int, default=20, help="futures per pedestrian (samples)"
     )
-    predict.add_argument("--seed", type=int, default=0, help="seed of --mode samples")
+    predict.add_argument("--seed", type=int, default=0, help="seed of --forecast samples")
     predict.add_argument(
         "--regions",
         type=region_probabilities,
@@ -142,9 +145,12 @@ def _add_calibrate(commands: argparse._SubParsersAction) -> None:
     )
     calibrate.add_argument("--out", required=True, help="the calibration file to write (.json)")
     calibrate.add_argument(
+        "--forecast",
         "--mode",
+        dest="mode",
         choices=POINT_FORECAST_NAMES,
-        help="the point forecast the regions go with (default: the model's own, as for predict)",
+        help="the point forecast the regions go with (default: the model's own, as for predict; "
+        "--mode: its older name)",
     )
     add_gap_option(calibrate)
     add_recording_options(calibrate)
