@@ -62,8 +62,8 @@ class DatasetDescription:
         source: the description file (stored in the configuration of runs trained on it).
         parts: the files of each part present (``train``, ``val``, ``test``).
         recording: how the files are laid out.
-        sources: the train part's named sources (one source, ``train``, where none are named),
-            in the order their files appear in ``parts["train"]``.
+        sources: the train part's named sources, in the order their files appear in
+            ``parts["train"]``; empty where the train part is one list of files.
         shares: each source's share of an epoch's draws (summing to 1); empty where the train
             part names no sources, so that an epoch is one pass over every sample.
     """
@@ -164,8 +164,6 @@ def _parts(
             out[part] = tuple(f for named in sources.values() for f in named)
         else:
             out[part] = _files(path, part, files)
-    if "train" in out and not sources:
-        sources = {"train": out["train"]}
     return out, sources
 
 
@@ -188,10 +186,9 @@ def _files(path: Path, what: str, files: Any) -> tuple[Path, ...]:
 def _shares(path: Path, sources: dict[str, tuple[Path, ...]], shares: Any) -> dict[str, float]:
     """Each named train source's share of an epoch (normalised to sum to 1); equal shares
     where ``[shares]`` is absent, none where the train part names no sources."""
-    named = len(sources) > 1 or (sources and "train" not in sources)
     if shares is None:
-        return {name: 1.0 / len(sources) for name in sources} if named else {}
-    if not isinstance(shares, dict) or not named:
+        return {name: 1.0 / len(sources) for name in sources}
+    if not isinstance(shares, dict) or not sources:
         raise GrouptronError(f"{path}: [shares] gives each named source of [parts.train] a share")
     if set(shares) != set(sources):
         raise GrouptronError(

@@ -77,7 +77,9 @@ def _dataset_files(files: Sequence[Path], description: str) -> list[str]:
         dataset = read_dataset(description)
     except GrouptronError:  # trained elsewhere: its description is not on this machine
         return []
-    seen = {file_sha256(f) for part in ("train", "val") for f in dataset.parts.get(part, ())}
+    sizes = {Path(path).stat().st_size for path in files}  # only files of a size given are read
+    trained = [f for part in ("train", "val") for f in dataset.parts.get(part, ())]
+    seen = {file_sha256(f) for f in trained if f.stat().st_size in sizes}
     return [str(path) for path in files if file_sha256(Path(path)) in seen]
 
 

@@ -127,14 +127,14 @@ def _load(checkpoint: str | Path | None, options: EvaluationOptions) -> _Loaded:
         if options.derivatives:
             data = dataclasses.replace(data, derivatives=options.derivatives)
         return _Loaded(None, None, data, None)
-    model, experiment = load_trained_model(resolve_checkpoint(checkpoint))
+    path = resolve_checkpoint(checkpoint)
+    model, experiment = load_trained_model(path)
     data = dataclasses.replace(experiment.data, on_gap=options.on_gap)
     if options.derivatives and options.derivatives != data.derivatives:
         raise GrouptronError(
             f"{checkpoint} was trained with {data.derivatives} derivatives; evaluating it on "
             f"{options.derivatives} ones would be meaningless"
         )
-    path = resolve_checkpoint(checkpoint)
     return _Loaded(model.to(options.device), experiment, data, str(checkpoint), path)
 
 
