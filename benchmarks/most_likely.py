@@ -2,37 +2,52 @@
 
 Usage:
     python benchmarks/most_likely.py [--checkpoints NAME,NAME] [--split univ]
-                                     [--latent-values 1,2,3,5,25] [--threads 1]
+                                     [--latent-values 1,2,3,5,25] [--reference K]
+                                     [--datasets benchmarks/ood/stanford_drone.toml,...]
+                                     [--threads 1]
 
-On the validation files of the checkpoint's split (never its test files): every latent value
-is decoded once, following its means; for each k the most likely forecast is the per-step mode
-of the mixture of the k most probable latent values, integrated (k = 1 is the argmax latent,
-k = Z the benchmark's ML). Prints ADE and FDE of each k over the samples with 8 observed and
-12 future steps, with a 95% bootstrap interval of the FDE difference to all Z (over samples).
+On the validation files of the split (never its test files) and, with ``--datasets``, on the
+test parts of those dataset descriptions (the out-of-domain development set): every latent
+value is decoded once, following its means; for each k the most likely forecast is the
+per-step mode of the mixture of the k most probable latent values, integrated (k = 1 is the
+argmax latent, k = Z the benchmark's ML). Prints ADE and FDE of each k over the samples with 8
+observed and 12 future steps, with a 95% bootstrap interval (time steps resampled) of the FDE
+difference to k = ``--reference`` (default: the largest k).
 """
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import numpy as np
 import torch
 
+from grouptron.data.custom import DatasetDescription, read_dataset
 from grouptron.data.locate import resolve_data_dir, split_files
 from grouptron.data.recording import RecordingFormat
+from grouptron.data.subsets import time_step_ids
 from grouptron.evaluation.recordings import recording_samples
+from grouptron.evaluation.uncertainty import mean_interval
 from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.model.batch import batches
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.factory import groups_for_model
 from grouptron.model.predict import decode_every_latent, most_likely_of_decoded_top
+from grouptron.reporting.out_of_domain import TEST_PART
 
 
-def errors_by_top(name: str, split: str, tops: list[int]) -> dict[int, np.ndarray]:
-    """(S, 2) ADE and FDE per validation sample for each number of latent values."""
+def errors_by_top(
+    name: str, split: str, tops: list[int], dataset: DatasetDescription | None = None
+) -> tuple[dict[int, np.ndarray], np.ndarray]:
+    """(S, 2) ADE and FDE per sample for each number of latent values, and (S,) the time step
+    of each sample: on the split's validation files, or on ``dataset``'s test part."""
     model, config = load_trained_model(resolve_checkpoint(name))
-    files = split_files(resolve_data_dir(), split, "val")
-    samples = recording_samples(files, RecordingFormat(), config.data)
+    if dataset is None:
+        files = split_files(resolve_data_dir(), split, "val")
+        samples = recording_samples(files, RecordingFormat(), config.data)
+    else:
+        samples = recording_samples(dataset.files(TEST_PART), dataset.recording, config.data)
     groups = groups_for_model(samples, config)
     H, dt = config.data.horizon_steps, config.data.dt_s
     out: dict[int, list[np.ndarray]] = {k: [] for k in tops}
@@ -43,14 +58,7 @@ def errors_by_top(name: str, split: str, tops: list[int]) -> dict[int, np.ndarra
                 forecast = most_likely_of_decoded_top(encoding, velocity, k, dt)
                 error = (forecast - batch.fut_rel_m).norm(dim=-1)  # (B, H)
                 out[k].append(torch.stack([error.mean(-1), error[:, -1]], -1).numpy())
-    return {k: np.concatenate(v) for k, v in out.items()}
-
-
-def interval(diff: np.ndarray, seed: int = 0, draws: int = 2000) -> tuple[float, float]:
-    """95% bootstrap interval of the mean of per-sample differences."""
-    rng = np.random.default_rng(seed)
-    means = diff[rng.integers(0, len(diff), (draws, len(diff)))].mean(axis=1)
-    return float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
+    return {k: np.concatenate(v) for k, v in out.items()}, time_step_ids(samples)
 
 
 def main() -> None:
@@ -60,21 +68,32 @@ def main() -> None:
     )
     parser.add_argument("--split", default="univ")
     parser.add_argument("--latent-values", default="1,2,3,5,25")
+    parser.add_argument("--reference", type=int, help="k the differences are taken to")
+    parser.add_argument("--datasets", default="", help="comma-separated dataset descriptions")
     parser.add_argument("--threads", type=int, default=1)
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     tops = [int(k) for k in args.latent_values.split(",")]
-    print(f"{'checkpoint':30} {'k':>3} {'samples':>8} {'ADE m':>7} {'FDE m':>7}  FDE - FDE(all)")
+    reference = args.reference or max(tops)
+    if reference not in tops:
+        parser.error(f"--reference {reference} must be one of --latent-values")
+    sources: list[tuple[str, DatasetDescription | None]] = [(f"{args.split} val", None)]
+    sources += [(Path(p).stem, read_dataset(Path(p))) for p in args.datasets.split(",") if p]
+    print(
+        f"{'checkpoint':30} {'files':>16} {'k':>3} {'samples':>8} {'ADE m':>7} {'FDE m':>7}  "
+        f"FDE - FDE(k = {reference})"
+    )
     for name in args.checkpoints.split(","):
-        errors = errors_by_top(name, args.split, tops)
-        full = errors[max(tops)][:, 1]
-        for k in tops:
-            ade, fde = errors[k].mean(axis=0)
-            low, high = interval(errors[k][:, 1] - full)
-            print(
-                f"{name:30} {k:>3} {len(errors[k]):>8} {ade:>7.3f} {fde:>7.3f}  "
-                f"{fde - full.mean():+.3f} [{low:+.3f}, {high:+.3f}]"
-            )
+        for label, dataset in sources:
+            errors, steps = errors_by_top(name, args.split, tops, dataset)
+            full = errors[reference][:, 1]
+            for k in tops:
+                ade, fde = errors[k].mean(axis=0)
+                diff = mean_interval(errors[k][:, 1] - full, steps)
+                print(
+                    f"{name:30} {label:>16} {k:>3} {len(errors[k]):>8} {ade:>7.3f} {fde:>7.3f}  "
+                    f"{diff.mean:+.4f} [{diff.low:+.4f}, {diff.high:+.4f}]"
+                )
 
 
 if __name__ == "__main__":

@@ -72,7 +72,7 @@ def load_predictor(args: argparse.Namespace, most_likely: str | None = None) -> 
     return Predictor.from_checkpoint(
         args.checkpoint,
         most_likely=most_likely or args.most_likely,
-        latent_values=args.latent_values,
+        latent_values=None if most_likely else args.latent_values,
         mixture=args.mixture,
         min_points=args.min_points,
         max_missed_steps=args.max_missed_steps,

@@ -215,6 +215,8 @@ class TrajectronCVAE(nn.Module):
         if c.velocity_residual:
             now_mps = state_now_st[:, 2:4].float() * self.velocity_scale_mps  # (B, 2)
             offset = now_mps[:, None, :].expand(B, M, -1).reshape(B * M, 2)
+        if feedback == "mean":
+            return self._decode_means(gates_zx, h, action, offset, (B, M, horizon))
         means, log_sigmas, corrs, fed = [], [], [], []
         for k in range(horizon):  # the recurrence; batched over B*M rows
             h = self.decoder.step(gates_zx, action, h)
@@ -236,6 +238,36 @@ class TrajectronCVAE(nn.Module):
             log_sigma=torch.stack(log_sigmas, 1).reshape(B, M, horizon, 2),
             corr=torch.stack(corrs, 1).reshape(B, M, horizon),
             fed_back=torch.stack(fed, 1).reshape(B, M, horizon, 2),
+        )
+
+    def _decode_means(
+        self,
+        gates_zx: torch.Tensor,
+        h: torch.Tensor,
+        action: torch.Tensor,
+        offset: torch.Tensor | float,
+        shape: tuple[int, int, int],
+    ) -> VelocityGaussians:
+        """The recurrence fed its own means: (R, 3h) gates, (R, h) state, (R, A) first action
+        and (R, 2) or 0 offset for R = B*M rows -> Gaussians shaped (B, M, H, ...).
+
+        Only the means feed the next step, so the loop computes the head's two mean rows and
+        the spreads come from all steps' states at once afterwards (the same affine map)."""
+        c = self.config
+        weight, bias = self.gaussian_head.weight, self.gaussian_head.bias  # (5, h), (5,)
+        states, means = [], []
+        for _ in range(shape[2]):  # the recurrence; batched over B*M rows
+            h = self.decoder.step(gates_zx, action, h)
+            action = torch.addmm(bias[:2], h, weight[:2].T).float() + offset  # (R, 2)
+            states.append(h)
+            means.append(action)
+        spread = F.linear(torch.stack(states, 1), weight[2:], bias[2:]).float()  # (R, H, 3)
+        mean = torch.stack(means, 1).reshape(*shape, 2)
+        return VelocityGaussians(
+            mean=mean,
+            log_sigma=spread[..., :2].clamp(c.log_sigma_min, c.log_sigma_max).reshape(*shape, 2),
+            corr=torch.tanh(spread[..., 2]).clamp(-c.corr_max, c.corr_max).reshape(shape),
+            fed_back=mean,
         )
 
     def forward(
