@@ -341,3 +341,36 @@ def test_a_snapshot_refuses_a_run_being_trained(tmp_path: Path) -> None:
     finally:
         os.close(lock)
     assert copied == 0 and "being trained" in lines[0] and not paused.exists()
+
+
+def test_a_chosen_point_forecast_is_stored_with_the_weights_untouched(tmp_path: Path) -> None:
+    """The candidate no worse than ml-top10 anywhere with the lowest pooled development FDE
+    wins; writing it keeps the weights and replaces the card's section on a second choice."""
+    from grouptron.evaluation.uncertainty import Interval
+    from grouptron.model.predict import default_point_forecast
+
+    script = _script("point_forecast")
+
+    def candidate(k: int, low: float, pooled: float) -> object:
+        difference = {"univ val": Interval(0.0, low, low + 0.01), "dev": Interval(0.0, -0.01, 0.0)}
+        return script.Comparison(k, {"univ val": 0.8, "dev": 1.0}, difference, pooled)
+
+    worse_but_best, good, reference = (
+        candidate(3, 0.001, 0.5),
+        candidate(2, -0.002, 0.7),
+        (candidate(10, 0.0, 0.9)),
+    )
+    assert not worse_but_best.qualifies and good.qualifies
+    assert script.choose([worse_but_best, good, reference]) is good
+    assert script.choose([worse_but_best, reference]) is reference
+    folder = tmp_path / "run"
+    state = _run(folder, ROBUST)
+    for forecast in ("ml-top2", "ml-top3"):
+        section = script.markdown([good, reference], good, "cmd")
+        script.write_choice(folder, forecast, section)
+    stored = load_checkpoint(folder / "best.safetensors")
+    assert default_point_forecast(stored.config) == "ml-top3"
+    assert all(torch.equal(state[k], stored.model_state[k]) for k in state)
+    assert json.loads((folder / "config.json").read_text())["point_forecast"] == "ml-top3"
+    card = (folder / "README.md").read_text()
+    assert card.count("## Point forecast") == 1 and "| `ml-top2` |" in card

@@ -10,6 +10,7 @@ import pytest
 import torch
 
 from grouptron.cli import build_parser
+from grouptron.cli.options import eval_modes
 from grouptron.cli.train import experiment_from_args, parse_setting
 from grouptron.errors import GrouptronError
 
@@ -131,3 +132,15 @@ def test_the_forecast_is_named_by_forecast_and_by_its_older_name(command: str) -
     base = [command, "--tracks", "t.txt", "--out", "o.csv"]
     for flag in ("--forecast", "--mode"):
         assert build_parser().parse_args([*base, flag, "mean"]).mode == "mean"
+        assert build_parser().parse_args([*base, flag, "ml-top3"]).mode == "ml-top3"
+
+
+@pytest.mark.parametrize("command", ["predict", "calibrate", "plot"])
+def test_a_forecast_that_does_not_exist_is_refused_with_the_choices(command: str) -> None:
+    base = [command, "--tracks", "t.txt", "--out", "o.csv", "--forecast"]
+    for bad in ("ml-top1", "ml-topx", "fast"):
+        with pytest.raises(GrouptronError, match=r"ml-top10.* or ml-topK \(K = 2, 3, ...\)"):
+            build_parser().parse_args([*base, bad])
+    assert eval_modes("ml-top3,ml") == ("ml-top3", "ml")
+    with pytest.raises(GrouptronError, match="ml-topK or all"):
+        eval_modes("ml-top1")

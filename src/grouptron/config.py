@@ -286,6 +286,16 @@ class ExperimentConfig:
     group_encoder: GroupEncoderConfig = dataclasses.field(default_factory=GroupEncoderConfig)
     loss: LossConfig = dataclasses.field(default_factory=LossConfig)
     train: TrainConfig = dataclasses.field(default_factory=TrainConfig)
+    point_forecast: str = ""
+    """The trained model's own point forecast, chosen after training and written into its
+    checkpoint (empty: its kind's rule, ``grouptron.model.predict.default_point_forecast``)."""
+
+    def __post_init__(self) -> None:
+        if self.point_forecast and not constants.is_point_forecast(self.point_forecast):
+            raise GrouptronError(
+                f"point_forecast must be a point forecast (ml, ml-argmax, mean, ml-topK), "
+                f"not {self.point_forecast!r}"
+            )
 
 
 ConfigT = TypeVar("ConfigT")

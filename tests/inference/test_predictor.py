@@ -354,6 +354,28 @@ def test_without_a_forecast_named_each_model_uses_its_own(causal: Predictor) -> 
         assert named.decoded_latent_values == decoded
 
 
+def test_a_point_forecast_stored_with_the_model_is_its_own(causal: Predictor) -> None:
+    """``ExperimentConfig.point_forecast`` overrides the rule of the model's kind everywhere
+    the default is read; a name that is no point forecast is refused when the config is made."""
+    import dataclasses
+
+    from grouptron.model.predict import default_point_forecast
+
+    config = dataclasses.replace(causal.config, point_forecast="ml-top3")
+    assert default_point_forecast(config) == "ml-top3"
+    own = Predictor(causal.model, config)
+    assert (own.most_likely, own.decoded_latent_values, own.point_forecast_name) == (
+        "ml",
+        3,
+        "ml-top3",
+    )
+    assert Predictor(causal.model, config, most_likely="ml-argmax").decoded_latent_values == 1
+    with pytest.raises(GrouptronError, match="point_forecast must be a point forecast"):
+        dataclasses.replace(causal.config, point_forecast="ml-top")
+    with pytest.raises(GrouptronError, match="ml-topK"):
+        Predictor(causal.model, causal.config, most_likely="fastest")
+
+
 def test_the_most_likely_of_the_top_latent_values(causal: Predictor, recording: np.ndarray) -> None:
     """``latent_values`` trims the mixture: 1 is the argmax latent, Z is the full mixture,
     and decoding only the top values equals picking them from all decoded ones."""

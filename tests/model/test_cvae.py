@@ -93,3 +93,18 @@ def test_sampled_feedback_is_reproducible_with_a_generator() -> None:
     )
     torch.testing.assert_close(first.fed_back, again.fed_back)
     assert not torch.allclose(first.fed_back[:, 0], first.fed_back[:, 1])
+
+
+def test_following_the_means_equals_sampled_feedback_with_zero_draws() -> None:
+    """The inference loop (means only per step, spreads afterwards) is the training loop's
+    mathematics: fed zero draws, a sample is its mean."""
+    torch.manual_seed(0)
+    for residual in (False, True):
+        model = TrajectronCVAE(dataclasses.replace(SMALL, velocity_residual=residual)).eval()
+        batch = random_batch()
+        x = model.encode_condition(batch)
+        means = model.decode(x, batch.state_now_st, None, 12, feedback="mean")
+        zero = torch.zeros(6, SMALL.latent_modes, 12, 2)
+        sampled = model.decode(x, batch.state_now_st, None, 12, feedback="sample", draws=zero)
+        for name in ("mean", "log_sigma", "corr", "fed_back"):
+            torch.testing.assert_close(getattr(means, name), getattr(sampled, name))

@@ -65,3 +65,18 @@ def test_default_search_is_never_worse_than_the_reference_grid() -> None:
         ours = log_density_at(modes[i : i + 1], log_weights[i], mean[i], cov[i])
         theirs = log_density_at(grid_answer[None], log_weights[i], mean[i], cov[i])
         assert ours >= theirs - 1e-3, i
+
+
+def test_blocks_side_by_side_give_one_block_s_answer() -> None:
+    """Large inputs are cut into equal blocks climbed on worker threads; the answer does not
+    depend on the cut."""
+    log_weights, mean, cov = random_mixtures(50, 3)
+    whole = mixture_mode(log_weights, mean, cov)
+    threads = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        for chunk in (7, 25, 49):
+            torch.testing.assert_close(mixture_mode(log_weights, mean, cov, chunk=chunk), whole)
+    finally:
+        torch.set_num_threads(threads)
+    assert mixture_mode(log_weights[:0], mean[:0], cov[:0]).shape == (0, 2)

@@ -33,7 +33,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     calibration = None
     if args.calibration:
         # The file states the default point forecast; a calibration of another would not fit.
-        forecast = default_point_forecast(config.model)
+        forecast = default_point_forecast(config)
         calibration = calibration_for(args.calibration, config, forecast, str(path))
     print(f"exporting {config.model_name} from {path} to ONNX (about half a minute)", flush=True)
     names = export_onnx(model, config, out, calibration)

@@ -8,7 +8,16 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
-from grouptron.constants import EVALUATION_MODES, MAX_REGION_Q, SPLITS, UNITS_M
+from grouptron.constants import (
+    EVALUATION_MODES,
+    FORECAST_MODES,
+    MAX_REGION_Q,
+    POINT_FORECAST_NAMES,
+    SPLITS,
+    UNITS_M,
+    is_evaluation_mode,
+    is_point_forecast,
+)
 from grouptron.errors import GrouptronError
 from grouptron.geometry import DERIVATIVE_SCHEMES
 
@@ -196,16 +205,36 @@ def plot_region_probability(value: str) -> float | None:
     return qs[0]
 
 
+def point_forecast_option(value: str) -> str:
+    """A point forecast named on the command line: ml, ml-argmax, mean, ml-top10 or ml-topK."""
+    if not is_point_forecast(value):
+        raise argparse.ArgumentTypeError(
+            f"{value!r} is no point forecast: choose from {', '.join(POINT_FORECAST_NAMES)} or "
+            "ml-topK (K = 2, 3, ...)"
+        )
+    return value
+
+
+def forecast_option(value: str) -> str:
+    """What ``predict`` writes: a point forecast (:func:`point_forecast_option`) or samples."""
+    if value != "samples" and not is_point_forecast(value):
+        raise argparse.ArgumentTypeError(
+            f"{value!r} is no forecast: choose from {', '.join(FORECAST_MODES)} or ml-topK "
+            "(K = 2, 3, ...)"
+        )
+    return value
+
+
 def eval_modes(value: str) -> tuple[str, ...]:
     """Comma-separated evaluation modes (or ``all``), each once, in the order given."""
     if value == "all":
         return EVALUATION_MODES
     modes = tuple(v.strip() for v in value.split(",") if v.strip())
-    unknown = [m for m in modes if m not in EVALUATION_MODES]
+    unknown = [m for m in modes if not is_evaluation_mode(m)]
     if unknown or not modes:
         raise GrouptronError(
             f"unknown mode {', '.join(unknown) or value!r}; choose from "
-            f"{', '.join(EVALUATION_MODES)} or all"
+            f"{', '.join(EVALUATION_MODES)}, ml-topK or all"
         )
     return tuple(dict.fromkeys(modes))  # a mode named twice is scored once
 

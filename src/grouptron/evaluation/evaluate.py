@@ -12,17 +12,18 @@ from tqdm import tqdm
 from grouptron import constants
 from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import ExperimentConfig
+from grouptron.constants import is_point_forecast
 from grouptron.data.samples import SampleSet
 from grouptron.evaluation import metrics
 from grouptron.groups.assign import SampleGroups
 from grouptron.model.batch import batches
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.predict import (
-    POINT_FORECASTS,
     Ablation,
     decode_every_latent,
     mixture_mean_positions,
     most_likely_positions,
+    point_forecast,
     predict_samples,
 )
 
@@ -138,7 +139,7 @@ def score_samples(
     same whichever other modes are asked with it. Grouptron needs the samples' ``groups``. The
     model must already be on ``device``.
     """
-    unknown = set(modes) - set(MODES)
+    unknown = {m for m in modes if not constants.is_evaluation_mode(m)}
     if unknown:
         raise ValueError(f"unknown evaluation modes {sorted(unknown)}")
     model.eval()
@@ -161,8 +162,8 @@ def score_samples(
         ):
             batch = batch.to(device)
             truth = batch.fut_rel_m.double().cpu().numpy()  # (B, H, 2)
-            if mode in POINT_FORECASTS:
-                predict = POINT_FORECASTS[mode]
+            if is_point_forecast(mode):
+                predict = point_forecast(mode)
                 pred = predict(model, batch, horizon, dt, ablate).double().cpu().numpy()
                 _store(values, index, count, metrics.point_scores(pred, truth))
                 continue

@@ -210,7 +210,7 @@ def contract_metadata(config: ExperimentConfig) -> dict[str, str]:
         "grouptron.edge_ramp_weights": json.dumps(list(data.edge_ramp_weights)),
         "grouptron.inputs": json.dumps(list(ForecastNetwork.names_for(config))),
         "grouptron.outputs": json.dumps(list(OUTPUTS)),
-        "grouptron.point_forecast": default_point_forecast(config.model),
+        "grouptron.point_forecast": default_point_forecast(config),
     }
 
 

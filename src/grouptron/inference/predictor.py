@@ -17,12 +17,13 @@ import dataclasses
 import logging
 import warnings
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import torch
 
 from grouptron.config import ExperimentConfig
+from grouptron.constants import is_point_forecast, top_forecast_size
 from grouptron.data import glitches
 from grouptron.data.gaps import bridge_gaps, filled_in_histories
 from grouptron.data.reader import table_from_values
@@ -50,7 +51,6 @@ from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import uses_groups
 from grouptron.model.predict import (
     POINT_FORECASTS,
-    TOP_LATENT_VALUES,
     ForecastGaussians,
     default_point_forecast,
     forecast_name,
@@ -63,7 +63,7 @@ from grouptron.presets import DETECTION_GROUPS
 
 log = logging.getLogger(__name__)
 
-MostLikely = Literal["ml", "ml-argmax", "mean", "ml-top10"]
+MostLikely = str  # a point forecast: ml, ml-argmax, mean, ml-top10 or ml-topK
 MOST_LIKELY_CHOICES = tuple(POINT_FORECASTS)
 OLDER_NAMES = {"mixture-mode": "ml", "argmax-latent": "ml-argmax"}
 """Names these choices had before the vocabulary was unified (still accepted)."""
@@ -75,15 +75,16 @@ class Predictor:
     """A trained Trajectron++ or Grouptron model ready to forecast tracks.
 
     Args:
-        most_likely: None (the default): the model's own choice, ``"ml-top10"`` for a
-            velocity-residual decoder and ``"ml-argmax"`` otherwise (``default_point_forecast``;
-            the forecasts closest to the truth on recordings from elsewhere), or ``"ml"`` when
+        most_likely: None (the default): the model's own (``default_point_forecast``: the
+            one stored with it, ``"ml-top2"`` for the default model; else ``"ml-top10"`` for a
+            velocity-residual decoder, ``"ml-argmax"`` otherwise), or ``"ml"`` when
             ``latent_values`` is given. ``"ml-argmax"``: the means of the most probable latent
             value only, the fast choice for a control loop; ``"ml"``: per step the mode of the
             p(z|x)-weighted mixture of the latent values' Gaussians, integrated (with all Z,
             the benchmark's most likely trajectory; ``ml-argmax`` is about 5% worse in FDE on
             validation). ``"mean"``: the p(z|x)-weighted mean of every latent value's
-            trajectory. ``"ml-top10"``: ``"ml"`` with ``latent_values=10``.
+            trajectory. ``"ml-top10"`` (``"ml-topK"``): ``"ml"`` with ``latent_values=10``
+            (K).
         latent_values: for ``"ml"``, the mixture of only this many of the most probable
             latent values (None: all Z); only these are decoded unless ``mixture`` is asked for.
         mixture: also return the mixture parameters (decodes all Z latent values; slower).
@@ -118,13 +119,14 @@ class Predictor:
         max_missed_steps: int = 2,
         calibration: str | Path | RegionCalibration | None = None,
     ) -> None:
-        own = "ml" if latent_values else default_point_forecast(config.model)
+        own = "ml" if latent_values else default_point_forecast(config)
         named: Any = own if most_likely is None else most_likely
         if isinstance(named, str):
             named = OLDER_NAMES.get(named, named)
-        if named not in MOST_LIKELY_CHOICES:
+        if not isinstance(named, str) or not is_point_forecast(named):
             raise GrouptronError(
-                f"most_likely must be one of {', '.join(MOST_LIKELY_CHOICES)}, not {most_likely!r}"
+                f"most_likely must be one of {', '.join(MOST_LIKELY_CHOICES)} or ml-topK, "
+                f"not {most_likely!r}"
             )
         most_likely = named
         refuse_future_neighbours(config.data, source)
@@ -144,11 +146,12 @@ class Predictor:
             raise GrouptronError(
                 "latent_values is for most_likely='ml'; 'ml-argmax' decodes one latent value"
             )
-        if most_likely == "ml-top10":  # a name for ml of the 10 most probable latent values
-            top = min(TOP_LATENT_VALUES, Z)
+        named_top = top_forecast_size(most_likely)
+        if named_top:  # ml-topK: a name for ml of the K most probable latent values
+            top = min(named_top, Z)
             if latent_values not in (None, top):
                 raise GrouptronError(
-                    f"most_likely='ml-top10' decodes {top} latent values, not "
+                    f"most_likely={most_likely!r} decodes {top} latent values, not "
                     f"latent_values={latent_values}"
                 )
             most_likely, latent_values = "ml", top

@@ -14,6 +14,7 @@ from tqdm import tqdm
 
 from grouptron import constants
 from grouptron.config import ExperimentConfig
+from grouptron.constants import is_point_forecast
 from grouptron.data.samples import SampleSet, scene_samples
 from grouptron.data.scene import Scene
 from grouptron.errors import GrouptronError
@@ -22,7 +23,7 @@ from grouptron.model.batch import Batch, batches
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model
 from grouptron.model.predict import (
-    POINT_FORECASTS,
+    point_forecast,
     point_forecast_and_gaussians,
     predict_samples,
 )
@@ -72,8 +73,10 @@ def forecast_scene(
     (``Predictor`` gives those); ``keep_distribution`` keeps the Gaussians the point forecast
     was made from, for ``Forecast.regions`` (about 1 KB per forecast and latent value).
     """
-    if mode not in FORECAST_MODES:
-        raise GrouptronError(f"unknown forecast mode {mode!r}; choose from {FORECAST_MODES}")
+    if mode != "samples" and not is_point_forecast(mode):
+        raise GrouptronError(
+            f"unknown forecast mode {mode!r}; choose from {', '.join(FORECAST_MODES)} or ml-topK"
+        )
     samples = _samples_to_forecast(scene, config, min_points)
     groups = groups_for_model(samples, config)
     model.eval().to(device)
@@ -81,7 +84,7 @@ def forecast_scene(
     loader = batches(samples, config, batch_size, groups)
     total = -(-len(samples) // batch_size)
     batched = tqdm(loader, total=total, disable=not progress)
-    point_mode = mode if mode in POINT_FORECASTS else "ml"  # samples: with the ml one
+    point_mode = "ml" if mode == "samples" else mode  # samples: with the ml one
     most_likely, drawn, kept = _decode_batches(
         model, config, batched, len(samples), point_mode, K, seed, device, keep_distribution
     )
@@ -133,7 +136,7 @@ def _decode_batches(
                     kept.append(np.empty((count, *part.shape[1:])))
                 kept[i][index] = part
         else:
-            point = POINT_FORECASTS[point_mode](model, batch, H, dt, ())
+            point = point_forecast(point_mode)(model, batch, H, dt, ())
         most_likely[index] = point.double().cpu().numpy()
         if num_samples:
             pred = predict_samples(

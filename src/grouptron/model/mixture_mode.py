@@ -23,7 +23,8 @@ from grouptron.model import gaussians
 def _logsumexp(values: np.ndarray) -> np.ndarray:
     """(..., Z) -> (...) log of the sum of exponentials over the last axis."""
     top = values.max(axis=-1)
-    return top + np.log(np.exp(values - top[..., None]).sum(axis=-1))
+    total: np.ndarray = top + np.log(np.exp(values - top[..., None]).sum(axis=-1))
+    return total
 
 
 def _precision(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -36,7 +37,10 @@ def _precision(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _quad(diff: np.ndarray, precision: np.ndarray) -> np.ndarray:
     """(..., 2) vectors, (..., 3) precision entries -> (...) quadratic forms."""
     dx, dy = diff[..., 0], diff[..., 1]
-    return precision[..., 0] * dx**2 + 2.0 * precision[..., 1] * dx * dy + precision[..., 2] * dy**2
+    quad: np.ndarray = (
+        precision[..., 0] * dx**2 + 2.0 * precision[..., 1] * dx * dy + precision[..., 2] * dy**2
+    )
+    return quad
 
 
 def _log_components(
@@ -49,15 +53,17 @@ def _log_components(
 def _solve(a: np.ndarray, v: np.ndarray) -> np.ndarray:
     """(R, 3) symmetric 2x2 matrices (xx, xy, yy), (R, 2) vectors -> (R, 2) ``a^-1 v``."""
     det = a[:, 0] * a[:, 2] - a[:, 1] ** 2
-    return (
-        np.stack([a[:, 2] * v[:, 0] - a[:, 1] * v[:, 1], a[:, 0] * v[:, 1] - a[:, 1] * v[:, 0]], -1)
-        / det[:, None]
+    adjugate_v = np.stack(
+        [a[:, 2] * v[:, 0] - a[:, 1] * v[:, 1], a[:, 0] * v[:, 1] - a[:, 1] * v[:, 0]], -1
     )
+    solved: np.ndarray = adjugate_v / det[:, None]
+    return solved
 
 
 def _weighted(resp: np.ndarray, entries: np.ndarray) -> np.ndarray:
     """(R, Z) responsibilities, (R, Z, C) entries -> (R, C) their responsibility-weighted sum."""
-    return np.einsum("rz,rzc->rc", resp, entries)
+    weighted: np.ndarray = np.einsum("rz,rzc->rc", resp, entries)
+    return weighted
 
 
 def _newton_or_fixed_point(
@@ -201,9 +207,8 @@ def mixture_mode(
     size = -(-count // max(1, -(-count // chunk)))  # equal blocks of at most ``chunk``
 
     def block(start: int) -> np.ndarray:
-        return _mixture_mode_block(
-            *(a[start : start + size] for a in arrays), num_starts, max_iters=max_iters, tol=tol
-        )
+        weights, means, covs = (a[start : start + size] for a in arrays)
+        return _mixture_mode_block(weights, means, covs, num_starts, max_iters=max_iters, tol=tol)
 
     starts = range(0, count, max(size, 1))
     workers = min(torch.get_num_threads(), len(starts))
@@ -252,7 +257,8 @@ def _mixture_mode_block(
         tol=tol,
     )
     best = score.reshape(N, S).argmax(axis=-1)
-    return points.reshape(N, S, 2)[np.arange(N), best]
+    modes: np.ndarray = points.reshape(N, S, 2)[np.arange(N), best]
+    return modes
 
 
 def grid_mode(

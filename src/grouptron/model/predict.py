@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from typing import Literal
 
 import numpy as np
 import torch
 
 from grouptron import constants
-from grouptron.config import ModelConfig
+from grouptron.config import ExperimentConfig
 from grouptron.errors import GrouptronError
 from grouptron.model.batch import Batch
 from grouptron.model.cvae import Encoding, TrajectronCVAE, VelocityGaussians
@@ -337,18 +336,43 @@ POINT_FORECASTS: dict[str, PointForecast] = {
     "mean": predict_mixture_mean,
     "ml-top10": predict_most_likely_of_top10,
 }
-"""The single-trajectory forecasts: the mixture mode per step (the benchmark's most likely),
-the most probable latent value's means, the p(z|x)-weighted mean trajectory, and the mixture
-mode of only the 10 most probable latent values (as close to ``ml`` on ETH/UCY validation data,
-cheaper, and steadier on recordings from elsewhere: benchmarks/RESULTS.md)."""
+"""The named single-trajectory forecasts: the mixture mode per step (the benchmark's most
+likely), the most probable latent value's means, the p(z|x)-weighted mean trajectory, and the
+mixture mode of only the 10 most probable latent values (as close to ``ml`` on ETH/UCY
+validation data, cheaper, and steadier on recordings from elsewhere: benchmarks/RESULTS.md).
+:func:`point_forecast` adds ``ml-topK`` for any K."""
 assert tuple(POINT_FORECASTS) == constants.POINT_FORECAST_NAMES  # the command line's names
 
 
-def default_point_forecast(model: ModelConfig) -> Literal["ml-top10", "ml-argmax"]:
-    """The point forecast to use when none is named: ``ml-top10`` for a velocity-residual
-    decoder, ``ml-argmax`` (the fastest) otherwise. On recordings from elsewhere each is its
-    kind's best or level with it, and the other kind's choice fails there: the residual
-    Trajectron++'s argmax latent is at 1.02-1.04x constant velocity's FDE pooled on the
-    development set (its ``ml-top10`` at 0.90-0.93x), plain Trajectron++'s ``ml-top10`` up to
-    1.30x with 25+ neighbours (benchmarks/RESULTS.md)."""
-    return "ml-top10" if model.velocity_residual else "ml-argmax"
+def point_forecast(name: str) -> PointForecast:
+    """The forecast named ``name``: one of :data:`POINT_FORECASTS`, or ``ml-topK`` (the most
+    likely forecast of the K most probable latent values, all of them in a model with fewer)."""
+    if name in POINT_FORECASTS:
+        return POINT_FORECASTS[name]
+    if constants.top_forecast_size(name) is None:
+        raise GrouptronError(
+            f"unknown point forecast {name!r}; choose from {', '.join(POINT_FORECASTS)} or "
+            "ml-topK (K = 2, 3, ...)"
+        )
+
+    def of_top(
+        model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float, ablate: Ablation = ()
+    ) -> torch.Tensor:
+        _, top = decoded_latent_values(name, None, model.config.latent_modes)
+        return predict_most_likely_of_top(model, batch, horizon, dt_s, ablate, latent_values=top)
+
+    return of_top
+
+
+def default_point_forecast(config: ExperimentConfig) -> str:
+    """The point forecast to use when none is named: the one stored with the trained model
+    (``ExperimentConfig.point_forecast``, chosen after training on validation and development
+    data), else ``ml-top10`` for a velocity-residual decoder and ``ml-argmax`` (the fastest)
+    otherwise. On recordings from elsewhere each is its kind's best or level with it, and the
+    other kind's choice fails there: the residual Trajectron++'s argmax latent is at
+    1.02-1.04x constant velocity's FDE pooled on the development set (its ``ml-top10`` at
+    0.90-0.93x), plain Trajectron++'s ``ml-top10`` up to 1.30x with 25+ neighbours
+    (benchmarks/RESULTS.md)."""
+    if config.point_forecast:
+        return config.point_forecast
+    return "ml-top10" if config.model.velocity_residual else "ml-argmax"

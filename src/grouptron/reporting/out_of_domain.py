@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from grouptron.config import DataConfig
+from grouptron.constants import is_point_forecast
 from grouptron.data.custom import DatasetDescription
 from grouptron.data.samples import SampleSet, concatenate_samples
 from grouptron.data.subsets import density_masks, time_step_ids
@@ -170,10 +171,11 @@ def score_out_of_domain(
     ``mode`` on every prepared recording: per-recording rows and pooled rows by density bin,
     95% intervals over resampled time steps; ``default_model`` names the folder whose targets
     are checked; ``score_cache`` keeps per-sample scores between runs (None: not kept)."""
-    unknown = [m for m in modes if m not in POINT_FORECASTS]
+    unknown = [m for m in modes if not is_point_forecast(m)]
     if unknown or not modes:
         raise GrouptronError(
-            f"out-of-domain scores need point forecasts ({', '.join(POINT_FORECASTS)}), "
+            f"out-of-domain scores need point forecasts ({', '.join(POINT_FORECASTS)}, "
+            "ml-topK), "
             f"not {', '.join(unknown) or 'none'}"
         )
     labels = [path.parent.name for path in checkpoints]

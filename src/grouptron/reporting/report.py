@@ -21,7 +21,12 @@ import numpy as np
 import torch
 
 from grouptron.config import DataConfig, ExperimentConfig
-from grouptron.constants import REPORT_NLL_MAX_SAMPLES, SPLITS, UNIV_N_PAPER
+from grouptron.constants import (
+    REPORT_NLL_MAX_SAMPLES,
+    SPLITS,
+    UNIV_N_PAPER,
+    is_evaluation_mode,
+)
 from grouptron.data.samples import SampleSet
 from grouptron.data.subsets import (
     UNIV_N_DEFINITIONS,
@@ -69,7 +74,7 @@ class ReportSettings:
     one more ML pass per ablation a model has."""
 
     def __post_init__(self) -> None:
-        unknown = [m for m in self.modes if m not in MODES]
+        unknown = [m for m in self.modes if not is_evaluation_mode(m)]
         if unknown or not self.modes:
             raise GrouptronError(f"unknown report modes {unknown}; choose from {MODES}")
         if self.diagnostics and "ml" not in self.modes:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grouptron.constants import SPLITS
+from grouptron.constants import SPLITS, top_forecast_size
 from grouptron.evaluation.results import MEAN_ROW, EvaluationResult, mean_over_splits
 from grouptron.evaluation.scored import CONSTANT_VELOCITY, ScoredRun
 from grouptron.evaluation.uncertainty import (
@@ -154,7 +154,7 @@ def primary_runs(runs: Sequence[ScoredRun]) -> dict[tuple[str, str, str], Scored
 def _values(run: ScoredRun, mode: str, column: str, metric: str) -> Values | None:
     """Per-sample ``metric`` of ``run`` on a split or subset column (None if not scored)."""
     scores = run.scores.get(mode)
-    if scores is None or mode not in INTERVAL_MODES:
+    if scores is None or (mode not in INTERVAL_MODES and not top_forecast_size(mode)):
         return None
     mask = run.masks.get(None if column == run.entry.split else column, "absent")
     if isinstance(mask, str):

@@ -221,7 +221,7 @@ def _held_out(
     data = experiment.data
     samples = _samples(tables, experiment, data.history_steps)
     groups = groups_for_model(samples, experiment)
-    mode = default_point_forecast(experiment.model)
+    mode = default_point_forecast(experiment)
     scored: list[tuple[str, SampleScores]] = []
     for name, model in ((before_name, before), (after_name, after)):
         (scores,) = score_samples(model, experiment, samples, (mode,), groups=groups)

@@ -41,7 +41,7 @@ def calibrate_tracks(
     experiment = dataclasses.replace(experiment, data=data)
     scene = build_scene(table, data, name=str(tracks.path))
     samples = scene_samples(scene, data, data.history_steps, require_future=True)
-    mode = mode or default_point_forecast(experiment.model)
+    mode = mode or default_point_forecast(experiment)
     digest = weights_digest(path)
     calibration = calibrate(model, experiment, samples, mode, str(tracks.path), digest)
     save_calibration(calibration, out)

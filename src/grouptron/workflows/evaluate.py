@@ -139,7 +139,7 @@ def _load(checkpoint: str | Path | None, options: EvaluationOptions) -> _Loaded:
 
 
 def _default_modes(experiment: ExperimentConfig | None) -> tuple[str, ...]:
-    return (default_point_forecast(experiment.model),) if experiment is not None else ("ml",)
+    return (default_point_forecast(experiment),) if experiment is not None else ("ml",)
 
 
 def _check_ablations(ablate: tuple[str, ...], loaded: _Loaded) -> None:

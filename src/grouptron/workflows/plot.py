@@ -16,6 +16,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from grouptron.constants import top_forecast_size
 from grouptron.data.reader import TrackTable
 from grouptron.data.track_files import TrackFile, read_track_file, table_rows
 from grouptron.errors import GrouptronError
@@ -26,12 +27,14 @@ from grouptron.presets import describe_group_rule
 from grouptron.viz.files import check_picture_path
 from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tracks_around
 
-POINT_LABELS = {
-    "ml": "most likely",
-    "ml-argmax": "argmax latent",
-    "ml-top10": "most likely of top 10",
-}
-"""How a panel's legend names a point forecast (any other: ``mean``)."""
+POINT_LABELS = {"ml": "most likely", "ml-argmax": "argmax latent", "mean": "mean"}
+"""How a panel's legend names a point forecast (``ml-topK``: most likely of top K)."""
+
+
+def point_label(forecast: str) -> str:
+    """The legend's name of a point forecast."""
+    top = top_forecast_size(forecast)
+    return f"most likely of top {top}" if top else POINT_LABELS[forecast]
 
 
 @dataclass(frozen=True)
@@ -225,7 +228,7 @@ def _panels(
         )  # fmt: skip
         config = predictor.config
         name = f"{config.model_name} ({config.data.derivatives})"
-        label = POINT_LABELS.get(request.forecast or default_point_forecast(config.model), "mean")
+        label = point_label(request.forecast or default_point_forecast(config))
         rule = describe_group_rule(predictor.group_rule)
         panels.append(
             Panel(name, forecast, history, truth, label, rule, request.region, request.ids)

@@ -93,7 +93,7 @@ def predict_tracks(request: PredictRequest) -> Predicted:
     data = dataclasses.replace(experiment.data, frames_per_step=table.frames_per_step)
     experiment = dataclasses.replace(experiment, data=data)
     scene = build_scene(table, data, name=str(request.tracks.path))
-    mode = request.mode or default_point_forecast(experiment.model)
+    mode = request.mode or default_point_forecast(experiment)
     trajnet = out is not None and str(out).endswith(".ndjson")
     if (request.regions or request.calibration) and (mode == "samples" or trajnet):
         raise GrouptronError(

@@ -13,6 +13,7 @@ import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from grouptron.constants import is_point_forecast
 from grouptron.data.custom import read_dataset
 from grouptron.data.locate import resolve_data_dir
 from grouptron.errors import GrouptronError
@@ -60,7 +61,7 @@ def benchmark_report(request: ReportRequest) -> Report:
     """Score every checkpoint the request names on every test set (rows, AVG rows, intervals,
     paired differences, seed spread), and the causal ones on the out-of-domain recordings.
     The recordings are read before the long work, so that bad ones fail at once."""
-    point_modes = [m for m in request.settings.modes if m in POINT_FORECASTS]
+    point_modes = [m for m in request.settings.modes if is_point_forecast(m)]
     if request.out_of_domain and not point_modes:
         raise GrouptronError(
             f"--out-of-domain scores point forecasts: add one of {', '.join(POINT_FORECASTS)} "

@@ -10,8 +10,10 @@ from grouptron.cli.options import (
     add_gap_option,
     add_recording_options,
     add_threads_option,
+    forecast_option,
     non_negative_int,
     plot_region_probability,
+    point_forecast_option,
     positive_int,
     region_probabilities,
 )
@@ -63,14 +65,16 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--forecast",
         "--mode",
         dest="mode",
-        choices=FORECAST_MODES,
+        type=forecast_option,
+        metavar="{" + ",".join(FORECAST_MODES) + ",ml-topK}",
         help="which forecast (--mode: its older name): "
         "ml: the most likely future per pedestrian (the evaluator's); ml-argmax: the most "
         "probable latent value's; mean: the p(z|x)-weighted mean "
-        "future; ml-top10: ml of the 10 most probable latent values only; samples: --samples "
-        "sampled futures. Default: the model's own, as in the Python API: "
-        "ml-top10 for a velocity-residual model, ml-argmax otherwise (on recordings from "
-        "elsewhere the forecasts closest to the truth; benchmarks/RESULTS.md)",
+        "future; ml-top10 (ml-topK): ml of the 10 (K) most probable latent values only; "
+        "samples: --samples sampled futures. Default: the model's own, as in the Python API: "
+        "the one stored with it (ml-top2 for the shipped deployment model), else ml-top10 for a "
+        "velocity-residual model and ml-argmax otherwise (on recordings from elsewhere the "
+        "forecasts closest to the truth; benchmarks/RESULTS.md)",
     )
     predict.add_argument(
         "--samples", type=positive_int, default=20, help="futures per pedestrian (samples)"
@@ -148,7 +152,8 @@ def _add_calibrate(commands: argparse._SubParsersAction) -> None:
         "--forecast",
         "--mode",
         dest="mode",
-        choices=POINT_FORECAST_NAMES,
+        type=point_forecast_option,
+        metavar="{" + ",".join(POINT_FORECAST_NAMES) + ",ml-topK}",
         help="the point forecast the regions go with (default: the model's own, as for predict; "
         "--mode: its older name)",
     )
@@ -211,10 +216,12 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
     plot.add_argument("--out", required=True, help="PNG file to write (.gif/.mp4 with --until)")
     plot.add_argument(
         "--forecast",
-        choices=tuple(POINT_FORECAST_NAMES),
+        type=point_forecast_option,
+        metavar="{" + ",".join(POINT_FORECAST_NAMES) + ",ml-topK}",
         help="the dashed point forecast: ml (most likely, the evaluator's), ml-argmax (the "
-        "most probable latent value's), mean (the p(z|x)-weighted mean) or ml-top10 (ml of "
-        "the 10 most probable latent values) (default: the model's own, as for predict)",
+        "most probable latent value's), mean (the p(z|x)-weighted mean) or ml-top10 (ml-topK: "
+        "ml of the 10 (K) most probable latent values) (default: the model's own, as for "
+        "predict)",
     )
     plot.add_argument(
         "--region",
