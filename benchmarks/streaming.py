@@ -5,19 +5,23 @@ Usage:
                                    [--frames 60] [--threads 2]
                                    [--most-likely ml|ml-argmax|mean|ml-top10] [--latent-values K]
                                    [--mixture] [--min-points 2] [--max-missed-steps 2]
-                                   [--regions Q]
+                                   [--regions Q] [--profile]
 
 A synthetic scene of N pedestrians walking in pairs and alone through a square sized for about
 one person per 4 m^2 is streamed frame by frame; the first 9 frames (before anyone has 8 steps)
 are not timed. By default the default model with its own point forecast (what
 ``Predictor.from_checkpoint()`` gives), and beside it, fed the same frames in turn, the same
 checkpoint's argmax latent: the ratio of the two medians is the figure that holds across
-machines. Prints the median and 90th percentile of the update time per N.
+machines. Prints the median and 90th percentile of the update time per N. ``--profile``
+then prints, per N, where the default predictor's time goes: ``cProfile`` around its updates
+(frames 10 on), the functions with the most cumulative time per update.
 """
 
 from __future__ import annotations
 
 import argparse
+import cProfile
+import pstats
 import statistics
 import time
 
@@ -99,6 +103,39 @@ def timed_updates(
     return times, counts
 
 
+PROFILED = (
+    ("encoders", "encode_prior"),
+    ("decoder", "decode"),
+    ("mixture mode", "mixture_mode"),
+    ("groups at the step", "groups_at_step"),
+    ("samples and edges", "scene_samples"),
+    ("whole update", "update"),
+)
+"""The parts of an update the profile reports: (label, function name)."""
+
+
+def profile_update(predictor: Predictor, people: int, frames: int) -> dict[str, float]:
+    """ms per update spent in each of :data:`PROFILED` (cumulative, cProfile's own overhead
+    included, so the parts are comparable with each other rather than with the timings)."""
+    session = predictor.stream()
+    profiler = cProfile.Profile()
+    timed = 0
+    for k, (ids, xy) in enumerate(synthetic_frames(people, frames)):
+        if k >= 9:
+            profiler.enable()
+            timed += 1
+        session.update(10 * k, ids, xy)
+        profiler.disable()
+    stats = pstats.Stats(profiler).stats  # type: ignore[attr-defined]
+    spent: dict[str, float] = {}
+    for label, function in PROFILED:
+        seconds = sum(
+            v[3] for (path, _, name), v in stats.items() if name == function and "grouptron" in path
+        )
+        spent[label] = 1000 * seconds / max(timed, 1)
+    return spent
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_predictor_options(parser, most_likely=None)
@@ -107,6 +144,7 @@ def main() -> None:
     parser.add_argument(
         "--regions", type=float, help="also draw each update's Q-regions (first predictor only)"
     )
+    parser.add_argument("--profile", action="store_true", help="then profile the default's parts")
     args = parser.parse_args()
     predictor = load_predictor(args)
     predictors = [predictor]
@@ -129,6 +167,11 @@ def main() -> None:
         if len(predictors) > 1:
             line += f" {medians[1]:>14.1f} {p90s[1]:>6.1f} {medians[0] / medians[1]:>6.2f}"
         print(line)
+    if args.profile:
+        for people in (int(n) for n in args.people.split(",")):
+            spent = profile_update(predictor, people, args.frames)
+            parts = ", ".join(f"{label} {ms:.2f}" for label, ms in spent.items())
+            print(f"profile, {people} people, ms per update: {parts}")
 
 
 if __name__ == "__main__":

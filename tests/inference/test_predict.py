@@ -218,8 +218,8 @@ def test_without_a_checkpoint_the_default_model_forecasts(
     predictor = Predictor.from_checkpoint()
     assert predictor.config.data.derivatives == "backward"  # made for live tracks
     assert Path(predictor.source).parent.name == DEFAULT_CHECKPOINT
-    # its own point forecast, the one measured out of domain: ml of the 10 likeliest values
-    assert (predictor.most_likely, predictor.latent_values) == ("ml", 10)
+    # its own point forecast, stored with it (campaign/point_forecast.py): ml of the 2 likeliest
+    assert (predictor.point_forecast_name, predictor.latent_values) == ("ml-top2", 2)
     rows = [(10 * s, p, 0.4 * s, 1.5 * p) for s in range(9) for p in range(2)]
     tracks = write_tracks(tmp_path / "pair.txt", rows)
     out = tmp_path / "f.csv"
