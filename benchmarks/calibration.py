@@ -68,7 +68,7 @@ def main() -> None:
     qs = [float(q) for q in args.q.split(",")]
     model, config = load_trained_model(resolve_checkpoint(args.checkpoint))
     model.eval()
-    mode = default_point_forecast(config.model)
+    mode = default_point_forecast(config)
     print(f"{args.checkpoint}: {mode} point forecast")
     steps = " | ".join(f"step {k}" for k in STEPS)
     print(f"| recording | calibration / held back | q | regions | {steps} | lowest-highest |")

@@ -47,7 +47,7 @@ def inside_per_step(
     model: TrajectronCVAE, config: ExperimentConfig, samples: SampleSet, qs: list[float]
 ) -> dict[float, np.ndarray]:
     """Per q, (S, H) whether each truth is inside its region."""
-    mode = default_point_forecast(config.model)
+    mode = default_point_forecast(config)
     inside: dict[float, list[np.ndarray]] = {q: [] for q in qs}
     for arrays, truth in forecast_distributions(model, config, samples, mode):
         for q in qs:
@@ -102,7 +102,7 @@ def main() -> None:
     model.eval()
     args.own_dataset = config.dataset if not args.split else ""
     args.split = args.split or config.split
-    print(f"{args.checkpoint}: {default_point_forecast(config.model)} point forecast")
+    print(f"{args.checkpoint}: {default_point_forecast(config)} point forecast")
     steps_header = " | ".join(f"step {k}" for k in STEPS)
     print(f"| recording | samples | q | {steps_header} | all steps [95%] |")
     print("|---|---|---|" + "---|" * len(STEPS) + "---|")

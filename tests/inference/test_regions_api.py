@@ -63,3 +63,18 @@ def test_predict_writes_region_columns_and_refuses_them_with_samples(
     assert all(float(r["q90_major_m"]) > float(r["q50_major_m"]) > 0 for r in rows)
     assert main([*argv, "--regions", "0.9", "--mode", "samples"]) == 2
     assert main([*argv, "--regions", "0,9"]) == 2
+
+
+def test_uncalibrated_regions_say_once_that_their_size_is_no_promise(
+    tiny_checkpoints: Path, recording: np.ndarray, caplog: pytest.LogCaptureFixture
+) -> None:
+    from grouptron.inference import forecast as forecast_module
+
+    forecast_module._say_regions_are_uncalibrated.cache_clear()
+    predictor = Predictor.from_checkpoint("grouptron-eth-backward", tiny_checkpoints)
+    forecast = predictor.predict(recording, t=int(recording[len(recording) // 2, 0]))
+    caplog.clear()
+    for q in (0.5, 0.9):
+        forecast.regions(q)
+    told = [r.getMessage() for r in caplog.records if "without a calibration" in r.getMessage()]
+    assert len(told) == 1 and "grouptron calibrate" in told[0]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,6 +17,8 @@ from grouptron.model.regions import (
     calibrated_regions,
     prediction_regions,
 )
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True, eq=False)  # arrays have no single truth value: compare by identity
@@ -139,7 +143,18 @@ class Forecast:
         )
         if self.calibration is not None:
             return calibrated_regions(*arrays, q, self.calibration.radius(q))
+        _say_regions_are_uncalibrated()
         return prediction_regions(*arrays, q)
+
+
+@functools.cache
+def _say_regions_are_uncalibrated() -> None:
+    """Once per process: a region's own size is no promise (a planner may trust it)."""
+    log.warning(
+        "prediction regions without a calibration hold what the model's own distribution "
+        "says, which on recordings from elsewhere can be far from q (benchmarks/RESULTS.md); "
+        "grouptron calibrate sizes them for a site with a coverage guarantee (docs/regions.md)"
+    )
 
 
 def empty_forecast(
