@@ -3,6 +3,7 @@
 Usage:
     python benchmarks/calibration.py [--checkpoint NAME] [--datasets A.toml,B.toml]
                                      [--q 0.5,0.9] [--blocks 2] [--threads 1]
+                                     [--forecast ml-top10]
 
 Every test file of the out-of-domain descriptions (default: the development set,
 ``$GROUPTRON_OOD``) is cut in time into ``--blocks`` spans of equally many forecasts, taken in
@@ -63,12 +64,13 @@ def main() -> None:
     parser.add_argument("--q", default="0.5,0.9")
     parser.add_argument("--blocks", type=int, default=2)
     parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument("--forecast", help="the point forecast (default: the model's own)")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     qs = [float(q) for q in args.q.split(",")]
     model, config = load_trained_model(resolve_checkpoint(args.checkpoint))
     model.eval()
-    mode = default_point_forecast(config)
+    mode = args.forecast or default_point_forecast(config)
     print(f"{args.checkpoint}: {mode} point forecast")
     steps = " | ".join(f"step {k}" for k in STEPS)
     print(f"| recording | calibration / held back | q | regions | {steps} | lowest-highest |")

@@ -3,7 +3,7 @@
 Usage:
     python benchmarks/region_coverage.py [--checkpoint NAME] [--split SPLIT]
                                          [--datasets A.toml,B.toml] [--q 0.5,0.9]
-                                         [--threads 1]
+                                         [--threads 1] [--forecast ml-top10]
 
 For every validation file of the checkpoint's split or dataset (never test files; ``--split`` for
 another's) and every test file of the
@@ -44,10 +44,9 @@ STEPS = (1, 3, 6, 9, 12)
 
 
 def inside_per_step(
-    model: TrajectronCVAE, config: ExperimentConfig, samples: SampleSet, qs: list[float]
+    model: TrajectronCVAE, config: ExperimentConfig, samples: SampleSet, qs: list[float], mode: str
 ) -> dict[float, np.ndarray]:
-    """Per q, (S, H) whether each truth is inside its region."""
-    mode = default_point_forecast(config)
+    """Per q, (S, H) whether each truth is inside the region of point forecast ``mode``."""
     inside: dict[float, list[np.ndarray]] = {q: [] for q in qs}
     for arrays, truth in forecast_distributions(model, config, samples, mode):
         for q in qs:
@@ -95,6 +94,7 @@ def main() -> None:
     parser.add_argument("--datasets", default=DEVELOPMENT_SET)
     parser.add_argument("--q", default="0.5,0.9")
     parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument("--forecast", help="the point forecast (default: the model's own)")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     qs = [float(q) for q in args.q.split(",")]
@@ -102,7 +102,8 @@ def main() -> None:
     model.eval()
     args.own_dataset = config.dataset if not args.split else ""
     args.split = args.split or config.split
-    print(f"{args.checkpoint}: {default_point_forecast(config)} point forecast")
+    mode = args.forecast or default_point_forecast(config)
+    print(f"{args.checkpoint}: {mode} point forecast")
     steps_header = " | ".join(f"step {k}" for k in STEPS)
     print(f"| recording | samples | q | {steps_header} | all steps [95%] |")
     print("|---|---|---|" + "---|" * len(STEPS) + "---|")
@@ -110,7 +111,7 @@ def main() -> None:
     for name, samples in recordings(args, config.data):
         if not len(samples):
             continue
-        inside = inside_per_step(model, config, samples, qs)
+        inside = inside_per_step(model, config, samples, qs, mode)
         kind = "validation" if " val: " in name else "out of domain"
         offset = 10_000 * len(pooled.get(kind, []))  # keep each file's time steps apart
         pooled.setdefault(kind, []).append((inside, samples.step + offset))
