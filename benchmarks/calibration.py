@@ -3,7 +3,7 @@
 Usage:
     python benchmarks/calibration.py [--checkpoint NAME] [--datasets A.toml,B.toml]
                                      [--q 0.5,0.9] [--blocks 2] [--threads 1]
-                                     [--forecast ml-top10]
+                                     [--forecast ml-top10] [--by-site]
 
 Every test file of the out-of-domain descriptions (default: the development set,
 ``$GROUPTRON_OOD``) is cut in time into ``--blocks`` spans of equally many forecasts, taken in
@@ -12,13 +12,17 @@ turn for calibration and held back: with 2 (the default) the first half calibrat
 both parts sample the whole recording (closer to the exchangeable case the guarantee assumes).
 Prints, per recording and q, the share of the held-back truths inside the model's own regions
 and inside the calibrated ones, at steps 1, 3, 6, 9 and 12 and the lowest and highest share
-over the twelve steps.
+over the twelve steps. ``--by-site`` calibrates once per site instead of per file: the files of
+one scene (``bookstore_0`` to ``bookstore_2``: a name that differs only in a trailing ``_N``),
+each cut into its own spans, the calibration parts together and the held-back parts together.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 import sys
+from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +30,7 @@ import torch
 
 from grouptron.config import ExperimentConfig
 from grouptron.data.custom import read_dataset
-from grouptron.data.samples import SampleSet
+from grouptron.data.samples import SampleSet, concatenate_samples
 from grouptron.evaluation.calibration import calibrate, forecast_distributions
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
@@ -57,6 +61,19 @@ def held_back_inside(
     return np.concatenate(own), np.concatenate(calibrated)
 
 
+def site_of(path: Path) -> str:
+    """The scene a recording shows: its name without a trailing ``_N`` (a video's number)."""
+    return re.sub(r"_\d+$", "", path.stem)
+
+
+def split_in_time(samples: SampleSet, blocks: int) -> tuple[SampleSet, SampleSet]:
+    """The recording cut in time into ``blocks`` spans of equally many forecasts: the even
+    spans (calibration) and the odd ones (held back)."""
+    edges = np.quantile(samples.step, np.linspace(0, 1, blocks + 1)[1:-1])
+    block = np.searchsorted(edges, samples.step, side="right")  # 0 .. blocks - 1
+    return samples.subset(block % 2 == 0), samples.subset(block % 2 == 1)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--checkpoint", default=DEFAULT_CHECKPOINT)
@@ -65,6 +82,7 @@ def main() -> None:
     parser.add_argument("--blocks", type=int, default=2)
     parser.add_argument("--threads", type=int, default=1)
     parser.add_argument("--forecast", help="the point forecast (default: the model's own)")
+    parser.add_argument("--by-site", action="store_true", help="one calibration per scene")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     qs = [float(q) for q in args.q.split(",")]
@@ -75,23 +93,26 @@ def main() -> None:
     steps = " | ".join(f"step {k}" for k in STEPS)
     print(f"| recording | calibration / held back | q | regions | {steps} | lowest-highest |")
     print("|---|---|---|---|" + "---|" * len(STEPS) + "---|")
+    groups: dict[str, list[tuple[Path, SampleSet]]] = defaultdict(list)
     for description in (d for d in args.datasets.split(",") if d):
         dataset = read_dataset(description)
         for path in dataset.files("test"):
             samples = recording_samples([path], dataset.recording, config.data)
-            edges = np.quantile(samples.step, np.linspace(0, 1, args.blocks + 1)[1:-1])
-            block = np.searchsorted(edges, samples.step, side="right")  # 0 .. blocks - 1
-            early, late = samples.subset(block % 2 == 0), samples.subset(block % 2 == 1)
-            calibration = calibrate(model, config, early, mode, str(path))
-            for q in qs:
-                own, sized = held_back_inside(model, config, late, mode, calibration, q)
-                for label, inside in (("own", own), ("calibrated", sized)):
-                    share = inside.mean(axis=0)
-                    cells = " | ".join(f"{share[k - 1]:.3f}" for k in STEPS)
-                    print(
-                        f"| {path.name} | {len(early)} / {len(late)} | {q:g} | {label} | "
-                        f"{cells} | {share.min():.3f}-{share.max():.3f} |"
-                    )
+            groups[site_of(path) if args.by_site else path.name].append((path, samples))
+    for name, recordings in groups.items():
+        parts = [split_in_time(samples, args.blocks) for _, samples in recordings]
+        early = concatenate_samples([part[0] for part in parts])
+        late = concatenate_samples([part[1] for part in parts])
+        calibration = calibrate(model, config, early, mode, name)
+        for q in qs:
+            own, sized = held_back_inside(model, config, late, mode, calibration, q)
+            for label, inside in (("own", own), ("calibrated", sized)):
+                share = inside.mean(axis=0)
+                cells = " | ".join(f"{share[k - 1]:.3f}" for k in STEPS)
+                print(
+                    f"| {name} | {len(early)} / {len(late)} | {q:g} | {label} | "
+                    f"{cells} | {share.min():.3f}-{share.max():.3f} |"
+                )
 
 
 if __name__ == "__main__":
