@@ -93,13 +93,14 @@ def main() -> None:
     steps = " | ".join(f"step {k}" for k in STEPS)
     print(f"| recording | calibration / held back | q | regions | {steps} | lowest-highest |")
     print("|---|---|---|---|" + "---|" * len(STEPS) + "---|")
-    groups: dict[str, list[tuple[Path, SampleSet]]] = defaultdict(list)
+    groups: dict[tuple[str, str], list[tuple[Path, SampleSet]]] = defaultdict(list)
     for description in (d for d in args.datasets.split(",") if d):
         dataset = read_dataset(description)
         for path in dataset.files("test"):
             samples = recording_samples([path], dataset.recording, config.data)
-            groups[site_of(path) if args.by_site else path.name].append((path, samples))
-    for name, recordings in groups.items():
+            key = site_of(path) if args.by_site else path.name  # sites never span datasets
+            groups[(dataset.name, key)].append((path, samples))
+    for (_, name), recordings in groups.items():
         parts = [split_in_time(samples, args.blocks) for _, samples in recordings]
         early = concatenate_samples([part[0] for part in parts])
         late = concatenate_samples([part[1] for part in parts])

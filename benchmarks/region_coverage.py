@@ -66,11 +66,18 @@ def interval(hits: np.ndarray, steps: np.ndarray, draws: int = 1000) -> tuple[fl
     return float(np.percentile(shares, 2.5)), float(np.percentile(shares, 97.5))
 
 
+def own_description(stored: Path) -> Path:
+    """A run's dataset description: the path its config stores (absolute, as trained), or in
+    a clone elsewhere the file of that name in this repository's ``campaign/deployment/``."""
+    here = Path(__file__).resolve().parents[1] / "campaign" / "deployment" / stored.name
+    return stored if stored.exists() or not here.exists() else here
+
+
 def recordings(args: argparse.Namespace, data: DataConfig) -> list[tuple[str, SampleSet]]:
     """(name, samples) of every validation file and every out-of-domain test file."""
     out = []
     if args.own_dataset:  # a run on a dataset of its own: its description's val part
-        own = read_dataset(args.own_dataset)
+        own = read_dataset(own_description(Path(args.own_dataset)))
         validation = [(path, own.recording) for path in own.files("val")]
     else:
         validation = [

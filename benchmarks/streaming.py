@@ -14,7 +14,7 @@ are not timed. By default the default model with its own point forecast (what
 checkpoint's argmax latent: the ratio of the two medians is the figure that holds across
 machines. Prints the median and 90th percentile of the update time per N. ``--profile``
 then prints, per N, where the default predictor's time goes: ``cProfile`` around its updates
-(frames 10 on), the functions with the most cumulative time per update.
+(frames 10 on), the cumulative time per update of the parts in :data:`PROFILED`.
 """
 
 from __future__ import annotations
@@ -29,7 +29,8 @@ import numpy as np
 import torch
 
 from grouptron import Predictor
-from grouptron.constants import DEFAULT_CHECKPOINT, POINT_FORECAST_NAMES
+from grouptron.cli.options import point_forecast_option
+from grouptron.constants import DEFAULT_CHECKPOINT
 
 
 def synthetic_frames(
@@ -56,10 +57,11 @@ def add_predictor_options(parser: argparse.ArgumentParser, most_likely: str | No
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument(
         "--most-likely",
-        choices=POINT_FORECAST_NAMES,
+        type=point_forecast_option,
         default=most_likely,
         help="the Predictor's point forecast (default: the model's own; ml-argmax skips the "
-        "mixture; mean decodes all Z latent values, ml-top10 the 10 most probable)",
+        "mixture; mean decodes all Z latent values, ml-top10 (ml-topK) the 10 (K) most "
+        "probable)",
     )
     parser.add_argument(
         "--latent-values", type=int, help="Predictor(latent_values=...) for --most-likely ml"

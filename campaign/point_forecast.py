@@ -34,6 +34,7 @@ from most_likely import errors_by_top  # noqa: E402
 from grouptron.config import save_config  # noqa: E402
 from grouptron.data.custom import read_dataset  # noqa: E402
 from grouptron.evaluation.uncertainty import Interval, mean_interval  # noqa: E402
+from grouptron.io import write_text_atomically  # noqa: E402
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_checkpoint, save_checkpoint  # noqa: E402
 from grouptron.model.predict import default_point_forecast  # noqa: E402
 
@@ -145,12 +146,12 @@ def write_choice(folder: Path, forecast: str, section: list[str]) -> None:
     save_checkpoint(path, checkpoint)
     save_config(checkpoint.config, folder / "config.json")
     card = folder / "README.md"
-    text = card.read_text()
+    text = card.read_text() if card.exists() else ""
     if SECTION in text:  # a new choice replaces the old section
         before, _, after = text.partition(SECTION)
         rest = after.split("\n## ", 1)
         text = before + ("## " + rest[1] if len(rest) > 1 else "")
-    card.write_text(text.rstrip("\n") + "\n\n" + "\n".join(section) + "\n")
+    write_text_atomically(card, text.rstrip("\n") + "\n\n" + "\n".join(section) + "\n")
 
 
 def main() -> None:
@@ -165,6 +166,11 @@ def main() -> None:
     torch.set_num_threads(args.threads)
     datasets = [Path(p) for p in args.datasets.split(",") if p]
     candidates = [int(k) for k in args.candidates.split(",")]
+    latent_values = load_checkpoint(args.folder / BEST_WEIGHTS_FILE).config.model.latent_modes
+    if not datasets:
+        parser.error("--datasets names no development dataset to choose on")
+    if max(*candidates, REFERENCE) > latent_values or min(candidates) < 1:
+        parser.error(f"each K must be 1 to the model's {latent_values} latent values (and 10)")
     comparisons = compare(args.folder, args.split, datasets, candidates)
     chosen = choose(comparisons)
     command = f"python campaign/point_forecast.py checkpoints/{args.folder.name} --write"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from typing import Final
 
 DT_S: Final = 0.4
@@ -58,7 +59,7 @@ def top_forecast_size(name: str) -> int | None:
     """K of a point forecast named ``ml-topK`` (K of at least 2, written without leading
     zeros), else None."""
     digits = name.removeprefix(TOP_FORECAST_PREFIX)
-    if digits == name or not digits.isdigit() or digits.startswith("0") or int(digits) < 2:
+    if digits == name or not re.fullmatch(r"[1-9][0-9]*", digits) or int(digits) < 2:
         return None
     return int(digits)
 

@@ -128,3 +128,39 @@ def test_a_calibration_of_all_latent_values_does_not_fit_a_few(
     Predictor.from_checkpoint(checkpoint, most_likely="ml", calibration=calibration)
     with pytest.raises(GrouptronError, match="not grouptron with ml-top3"):
         Predictor.from_checkpoint(checkpoint, latent_values=3, calibration=calibration)
+
+
+def test_a_calibration_outlives_a_change_of_stored_settings_but_not_of_weights(
+    tiny_checkpoints: Path, site: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """The file ties itself to the checkpoint's tensors: storing a chosen point forecast in the
+    checkpoint keeps it; other weights, and a file made before (whole-file digest) of
+    unchanged weights, are told apart."""
+    import dataclasses
+    import shutil
+
+    from grouptron.evaluation.calibration import _file_digest, calibration_for, weights_digest
+    from grouptron.model.checkpoint import load_checkpoint, save_checkpoint
+
+    earlier, _ = site
+    folder = tmp_path / "model"
+    shutil.copytree(tiny_checkpoints / "grouptron-eth-backward", folder)
+    path = folder / "best.safetensors"
+    calibration = tmp_path / "site.json"
+    argv = ["calibrate", "--tracks", str(earlier), "--out", str(calibration)]
+    assert main([*argv, "--checkpoint", str(path)]) == 0
+    before = weights_digest(path)
+    stored = load_checkpoint(path)
+    stored.config = dataclasses.replace(stored.config, point_forecast="ml-argmax")
+    save_checkpoint(path, stored)
+    assert weights_digest(path) == before and _file_digest(path) != before
+    loaded = load_checkpoint(path)
+    assert calibration_for(calibration, loaded.config, "ml-argmax", str(path)) is not None
+    older = load_calibration(calibration)
+    older = dataclasses.replace(older, weights_sha256=_file_digest(path))
+    assert calibration_for(older, loaded.config, "ml-argmax", str(path)) is older
+    stored.model_state = {k: v + 1.0 for k, v in stored.model_state.items()}
+    save_checkpoint(path, stored)
+    assert weights_digest(path) != before
+    with pytest.raises(GrouptronError, match="other weights"):
+        calibration_for(calibration, loaded.config, "ml-argmax", str(path))

@@ -14,6 +14,7 @@ from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.predict import (
     POINT_FORECASTS,
     decode_every_latent,
+    forecast_name,
     most_likely_positions,
     point_forecast,
     predict_most_likely,
@@ -74,5 +75,15 @@ def test_names_of_point_forecasts() -> None:
         None,
         None,
     ]
+    assert (
+        top_forecast_size("ml-top\u00b2") is None
+        and top_forecast_size("ml-top\u0661\u0660") is None
+    )
     assert all(is_point_forecast(n) for n in ("ml", "ml-argmax", "mean", "ml-top10", "ml-top3"))
+    assert [forecast_name("ml", k, 25) for k in (1, 2, 10, 25)] == [
+        "ml-argmax",
+        "ml-top2",
+        "ml-top10",
+        "ml",
+    ]
     assert not any(is_point_forecast(n) for n in ("samples", "best-of-20", "ml-top-3", ""))

@@ -83,7 +83,16 @@ def calibration_scores(
 
 
 def weights_digest(path: str | Path) -> str:
-    """SHA-256 of a checkpoint file (what ties a calibration to the weights it was made for)."""
+    """SHA-256 of a checkpoint's tensors (what ties a calibration to the weights it was made
+    for): the bytes after a safetensors file's header, so a change of its stored settings
+    alone (a chosen point forecast) keeps its calibrations."""
+    data = Path(path).read_bytes()
+    header = 8 + int.from_bytes(data[:8], "little") if len(data) >= 8 else 0
+    return hashlib.sha256(data[header:] if header <= len(data) else data).hexdigest()
+
+
+def _file_digest(path: str | Path) -> str:
+    """SHA-256 of the whole file: what calibrations stored before :func:`weights_digest`."""
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
@@ -200,7 +209,10 @@ def calibration_for(
             f"forecast, not {config.model_name} with {point_forecast}; calibrate this one"
         )
     known = bool(checkpoint and loaded.weights_sha256 and Path(checkpoint).is_file())
-    if known and weights_digest(checkpoint) != loaded.weights_sha256:
+    if known and loaded.weights_sha256 not in (
+        weights_digest(checkpoint),
+        _file_digest(checkpoint),
+    ):
         raise GrouptronError(
             f"{named}calibrated for other weights of {loaded.checkpoint} than {checkpoint}; "
             "calibrate this checkpoint"

@@ -110,11 +110,14 @@ def _common_key(
     ablate: Ablation,
 ) -> str:
     digest = hashlib.sha256()
+    # Which forecast is the model's own changes no score: left out, choosing one keeps the
+    # cache (and the keys made before the setting existed).
+    stored = {k: v for k, v in dataclasses.asdict(config).items() if k != "point_forecast"}
     settings = {
         "format": SCORE_CACHE_FORMAT,
         "torch": torch.__version__,
         "numpy": np.__version__,
-        "config": dataclasses.asdict(config),
+        "config": stored,
         "batch_size": batch_size,
         "seed": seed,
         "ablate": list(ablate),

@@ -22,9 +22,10 @@ DEFAULT_CHECKPOINT = constants.DEFAULT_CHECKPOINT
 """The model used where none is named (``Predictor.from_checkpoint()``, ``grouptron predict``,
 ``plot``, ``adapt``): the group-aware residual variant fine-tuned on every ETH/UCY recording and
 real crowds from three other places, strictly causal, with its own point forecast
-(``ml-top10``). Chosen over the same recipe on plain Trajectron++ (residual) by the worst of
-three seeds on the out-of-domain development set; each of its seeds is at most 0.90x constant
-velocity's FDE pooled and with 25+ neighbours, and below it on every recording
+(``ml-top2``, stored with it). Chosen over the same recipe on plain Trajectron++ (residual)
+by the worst of three seeds on the out-of-domain development set; each of its seeds is at
+most 0.90x constant velocity's FDE pooled and with 25+ neighbours, and below it on every
+recording
 (benchmarks/RESULTS.md, "A deployment model"). A model for use: it saw the ETH/UCY test
 recordings, so it never appears in benchmark tables."""
 

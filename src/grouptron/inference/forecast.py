@@ -32,8 +32,8 @@ class Forecast:
         frames: (N,) the frame of every forecast.
         ids: (N,) agent ids (ascending within a frame).
         most_likely: (N, H, 2) the point forecast's positions at steps 1..H after ``frame``
-            (the forecast the predictor was made with: ``ml``, ``ml-argmax``, ``mean`` or
-            ``ml-top10``).
+            (the forecast the predictor was made with: ``ml``, ``ml-argmax``, ``mean``,
+            ``ml-top10`` or ``ml-topK``).
         samples: (N, K, H, 2) sampled futures, or None when none were asked for.
         mixture_log_weights: (N, Z) log p(z|x) of the Z latent values (None when the
             predictor was made with ``mixture=False``; likewise the next two).
@@ -48,7 +48,7 @@ class Forecast:
         filled_points: (N,) positions of that history filled in for missed detections (not
             counted in ``observed_points``), or None.
         point_log_weights: (N, M) log weights of the M latent values the point forecast was
-            made from (10 for ``ml-top10``, 1 for ``ml-argmax``, all Z for ``ml`` and
+            made from (K for ``ml-topK``, 1 for ``ml-argmax``, all Z for ``ml`` and
             ``mean``), renormalised over them; None when not kept (likewise the next two).
         point_means: (N, M, H, 2) their position means.
         point_covariances: (N, M, H, 2, 2) their covariances (m^2).

@@ -206,7 +206,7 @@ class Predictor:
     @property
     def point_forecast_name(self) -> str:
         """The point forecast by its one name (``forecast_name``: ``ml-top10`` rather than
-        ``ml`` of 10; ``ml-topK`` for another number, which no calibration file names)."""
+        ``ml`` of 10, ``ml-argmax`` rather than ``ml`` of 1)."""
         return forecast_name(self.most_likely, self.latent_values, self.config.model.latent_modes)
 
     @property

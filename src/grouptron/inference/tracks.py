@@ -66,8 +66,8 @@ def forecast_scene(
     """Forecast every (pedestrian, step) of ``scene`` with ``min_points`` observed positions in
     a row up to it (default ``history_steps``: the samples the evaluator scores; 2 at least).
 
-    The point forecast (in ``most_likely``) is ``mode``'s (:data:`POINT_FORECASTS`: ``ml`` the
-    evaluator's most likely, ``ml-argmax``, ``mean``); ``samples`` adds ``num_samples``
+    The point forecast (in ``most_likely``) is ``mode``'s (:func:`point_forecast`: ``ml`` the
+    evaluator's most likely, ``ml-argmax``, ``mean``, ``ml-topK``); ``samples`` adds ``num_samples``
     futures per pedestrian drawn from the model (seeded) to the ``ml`` one. Grouptron clusters
     the neighbours first. The forecasts carry no mixture and no scene-wide groups
     (``Predictor`` gives those); ``keep_distribution`` keeps the Gaussians the point forecast

@@ -152,12 +152,14 @@ def predict_most_likely_of_top(
 
 def forecast_name(mode: str, latent_values: int | None, latent_modes: int) -> str:
     """The one name of a point forecast for a model of ``latent_modes`` latent values: ``ml``
-    of all of them is ``ml`` (so is ``ml-top10`` of a model with at most 10), ``ml`` of the 10
-    most probable ``ml-top10``, of another number K ``ml-topK``."""
+    of all of them is ``ml`` (so is ``ml-top10`` of a model with at most 10), ``ml`` of the K
+    most probable ``ml-topK``, of one ``ml-argmax``."""
     kind, M = decoded_latent_values(mode, latent_values, latent_modes)
     if kind != "ml" or latent_modes == M:
         return kind
-    return "ml-top10" if M == TOP_LATENT_VALUES else f"ml-top{M}"
+    if M == 1:  # the mode of one Gaussian is its mean
+        return "ml-argmax"
+    return f"ml-top{M}"
 
 
 def mode_starts(decoded: int, latent_modes: int) -> int:
@@ -172,8 +174,9 @@ def decoded_latent_values(
     """``(kind, M)``: the point forecast ``mode`` as ``ml``, ``ml-argmax`` or ``mean``, and how
     many of the most probable latent values it reads (``ml-top10``: ``ml`` of 10, or of all
     when the model has fewer; ``ml-topK`` likewise; ``ml`` of ``latent_values`` when given)."""
-    if mode.startswith("ml-top"):  # ml-top10, or ml-topK as forecast_name writes it
-        return "ml", min(int(mode.removeprefix("ml-top")), latent_modes)
+    top = constants.top_forecast_size(mode)
+    if top is not None:  # ml-top10, or ml-topK as forecast_name writes it
+        return "ml", min(top, latent_modes)
     if mode == "ml-argmax":
         return mode, 1
     if mode == "mean":

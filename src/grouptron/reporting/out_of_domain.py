@@ -57,8 +57,8 @@ class RecordingRow:
     recording: str
     model: str
     mode: str | None
-    """The point forecast (``ml``, ``ml-argmax``, ``mean``, ``ml-top10``); None for constant
-    velocity."""
+    """The point forecast (``ml``, ``ml-argmax``, ``mean``, ``ml-top10``, ``ml-topK``); None for
+    constant velocity."""
     samples: int
     ade: float
     fde: Interval
@@ -303,7 +303,8 @@ def out_of_domain_markdown(result: OutOfDomain | None) -> list[str]:
         "",
         "Causal checkpoints (named by folder; in brackets the point forecast: `ml` the",
         "benchmark's most likely, `ml-argmax` the most probable latent value's, `mean` the",
-        "p(z|x)-weighted mean, `ml-top10` the most likely of the 10 most probable latent values)",
+        "p(z|x)-weighted mean, `ml-top10` (`ml-topK`) the most likely of the 10 (K) most",
+        "probable latent values)",
         "and constant velocity on recordings from elsewhere, resampled to",
         f"{data.dt_s} s; every person with {data.history_steps} observed and "
         f"{data.horizon_steps} future points (in brackets",

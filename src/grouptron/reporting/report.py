@@ -76,7 +76,9 @@ class ReportSettings:
     def __post_init__(self) -> None:
         unknown = [m for m in self.modes if not is_evaluation_mode(m)]
         if unknown or not self.modes:
-            raise GrouptronError(f"unknown report modes {unknown}; choose from {MODES}")
+            raise GrouptronError(
+                f"unknown report modes {unknown}; choose from {', '.join(MODES)} or ml-topK"
+            )
         if self.diagnostics and "ml" not in self.modes:
             raise GrouptronError("the density and ablation tables need the ml mode")
         if self.nll_max_samples < 0:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from grouptron.constants import top_forecast_size
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.scored import CONSTANT_VELOCITY
 from grouptron.evaluation.uncertainty import Interval, seed_spread
@@ -303,6 +304,10 @@ def _other_modes(
         "nll": "KDE NLL in nats (Scott's bandwidth; 2000 futures per sample; "
         "in brackets: samples scored)",
     }
+    for mode in modes:  # ml-topK for other K, in the order asked
+        top = top_forecast_size(mode) if mode else None
+        if mode and top and mode not in titles:
+            titles[mode] = f"Most likely of the {top} most probable latent values"
     out = []
     for mode, title in titles.items():
         if mode in modes:

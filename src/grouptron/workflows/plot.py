@@ -22,7 +22,6 @@ from grouptron.data.track_files import TrackFile, read_track_file, table_rows
 from grouptron.errors import GrouptronError
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, warn_look_ahead
 from grouptron.inference.predictor import MostLikely, Predictor
-from grouptron.model.predict import default_point_forecast
 from grouptron.presets import describe_group_rule
 from grouptron.viz.files import check_picture_path
 from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tracks_around
@@ -50,7 +49,8 @@ class PlotRequest:
             writes them; steps for a file in seconds); None: the frame with the most people.
         until: animate every step from ``frame`` to this frame.
         time_s: instead of ``frame``, the time in the file's own seconds.
-        forecast: the point forecast drawn (``POINT_FORECAST_NAMES``; None: the model's own).
+        forecast: the point forecast drawn (``POINT_FORECAST_NAMES`` or ``ml-topK``; None: the
+            model's own).
         region: the probability of the drawn regions (None: none).
         samples: sampled futures drawn as thin lines (K).
         seed: of the samples.
@@ -228,7 +228,7 @@ def _panels(
         )  # fmt: skip
         config = predictor.config
         name = f"{config.model_name} ({config.data.derivatives})"
-        label = point_label(request.forecast or default_point_forecast(config))
+        label = point_label(predictor.point_forecast_name)
         rule = describe_group_rule(predictor.group_rule)
         panels.append(
             Panel(name, forecast, history, truth, label, rule, request.region, request.ids)

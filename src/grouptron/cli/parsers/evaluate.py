@@ -57,7 +57,8 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     )
     evaluate.add_argument(
         "--mode",
-        help=f"comma-separated of {', '.join(EVALUATION_MODES)}, or all (default: the "
+        help=f"comma-separated of {', '.join(EVALUATION_MODES)}, ml-topK (ml of the K most "
+        "probable latent values), or all (default: the "
         "checkpoint's own point forecast, the one predict writes)",
     )
     evaluate.add_argument("--seed", type=int, default=0, help="seed of the sampling modes")

@@ -56,7 +56,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     report.add_argument(
         "--mode",
         default="ml,best-of-20,nll",
-        help=f"comma-separated of {', '.join(EVALUATION_MODES)}, or all",
+        help=f"comma-separated of {', '.join(EVALUATION_MODES)}, ml-topK, or all",
     )
     report.add_argument(
         "--nll-max-samples",
@@ -93,8 +93,8 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         metavar="DATASET",
         help="also an out-of-domain section: every causal checkpoint under --checkpoints and "
         "constant velocity on the test part of each dataset description (recordings from "
-        "elsewhere; docs/recordings.md) in each point-forecast --mode (the Python API's: "
-        "ml-top10 for a velocity-residual model, ml-argmax otherwise), and whether the default "
+        "elsewhere; docs/recordings.md) in each point-forecast --mode (ml, ml-argmax, mean, "
+        "ml-top10 or ml-topK), and whether the default "
         "model "
         f"({DEFAULT_CHECKPOINT}) is at or below constant velocity on every recording",
     )
