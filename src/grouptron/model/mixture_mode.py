@@ -199,7 +199,8 @@ def mixture_mode(
         chunk: mixtures per block (blocks keep the temporaries in cache).
 
     Returns:
-        (N, 2) float64 modes, on the device of ``mean``.
+        (N, 2) float64 modes, on the device of ``mean`` (the climb itself runs on the CPU: a
+        few hundred 2-D mixtures are too small for an accelerator to pay off).
     """
     arrays = [t.detach().cpu().double().numpy() for t in (log_weights, mean, cov)]
 
