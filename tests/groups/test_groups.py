@@ -336,3 +336,19 @@ def test_a_largest_group_size_cuts_a_chain_of_close_people(scipy_sized: bool) ->
         agglomerative_groups(distances, "single", max_size=4)
     with pytest.raises(Exception, match="max_group_size"):
         GroupConfig(max_group_size=1)
+
+
+def test_a_cut_at_a_height_ends_when_every_set_has_stopped_or_finished() -> None:
+    """Padded sets cut at a height: once every set still owed merges has stopped at the
+    height and the others have finished, the batch is done (a live crowd reached this state
+    after about 2,000 updates and the empty remainder failed)."""
+    inf = np.inf
+    pair = [[0.0, 0.5, inf], [0.5, 0.0, inf], [inf, inf, 0.0]]  # two real nodes, close
+    far = [[0.0, 9.0, 9.0], [9.0, 0.0, 9.0], [9.0, 9.0, 0.0]]  # three, beyond the height
+    labels = agglomerative_groups_batched(
+        np.array([pair, far]),
+        "single",
+        num_nodes=np.array([2, 3]),
+        max_distance=1.0,
+    )
+    np.testing.assert_array_equal(labels, [[0, 0, 1], [0, 1, 2]])

@@ -129,6 +129,8 @@ def agglomerative_groups_batched(
     stopped = np.zeros(S, dtype=bool)  # beyond max_distance for good
     for merge in range(int(merges.max(initial=0))):  # each merge vectorised over the sets
         rows = np.flatnonzero((merges > merge) & ~stopped)  # the sets still merging
+        if not len(rows):  # the rest stopped at their height, the others are done
+            break
         live = d if len(rows) == S else d[rows]
         flat, height = _closest_pairs(live, below, size[rows], max_size)
         if max_distance is not None:
