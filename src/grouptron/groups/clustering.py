@@ -94,10 +94,9 @@ def agglomerative_groups_batched(
     """Group labels of S independent sets of N nodes, merged in lockstep.
 
     The textbook algorithm vectorised over the stack: each round merges, in every matrix, the
-    closest pair of live clusters and updates the merged cluster's distances by the
-    Lance-Williams rule of the linkage (min, size-weighted mean, max). Without tied distances
-    the partition equals SciPy's (a test checks); with ties the lower pair index wins. One
-    NumPy pass per merge replaces one SciPy call per matrix (thousands of small ones).
+    closest pair of live clusters and updates the merged cluster's distances by the linkage's
+    Lance-Williams rule. Without tied distances the partition equals SciPy's (a test checks);
+    with ties the lower pair index wins. One NumPy pass per merge, not one SciPy call per set.
 
     Args:
         distances: (S, N, N) symmetric, zero diagonals.
@@ -113,8 +112,7 @@ def agglomerative_groups_batched(
             closest pair that fits merges instead): a chain of close people is cut in pieces.
 
     Returns:
-        (S, N) labels in ``0..num_groups-1``, numbered by first member (padding nodes after
-        the real ones, each alone).
+        (S, N) labels numbered by first member (padding nodes after the real ones, alone).
     """
     if method not in LINKAGES:
         raise ValueError(f"unknown linkage {method!r}; choose from {LINKAGES}")
