@@ -86,14 +86,19 @@ def weights_digest(path: str | Path) -> str:
     """SHA-256 of a checkpoint's tensors (what ties a calibration to the weights it was made
     for): the bytes after a safetensors file's header, so a change of its stored settings
     alone (a chosen point forecast) keeps its calibrations."""
-    data = Path(path).read_bytes()
-    header = 8 + int.from_bytes(data[:8], "little") if len(data) >= 8 else 0
-    return hashlib.sha256(data[header:] if header <= len(data) else data).hexdigest()
+    return _digests(Path(path).read_bytes())[0]
 
 
 def _file_digest(path: str | Path) -> str:
     """SHA-256 of the whole file: what calibrations stored before :func:`weights_digest`."""
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    return _digests(Path(path).read_bytes())[1]
+
+
+def _digests(data: bytes) -> tuple[str, str]:
+    """SHA-256 of a checkpoint file's tensors and of the whole file."""
+    header = 8 + int.from_bytes(data[:8], "little") if len(data) >= 8 else 0
+    tensors = data[header:] if header <= len(data) else data
+    return hashlib.sha256(tensors).hexdigest(), hashlib.sha256(data).hexdigest()
 
 
 def calibrate(
@@ -209,10 +214,7 @@ def calibration_for(
             f"forecast, not {config.model_name} with {point_forecast}; calibrate this one"
         )
     known = bool(checkpoint and loaded.weights_sha256 and Path(checkpoint).is_file())
-    if known and loaded.weights_sha256 not in (
-        weights_digest(checkpoint),
-        _file_digest(checkpoint),
-    ):
+    if known and loaded.weights_sha256 not in _digests(Path(checkpoint).read_bytes()):
         raise GrouptronError(
             f"{named}calibrated for other weights of {loaded.checkpoint} than {checkpoint}; "
             "calibrate this checkpoint"

@@ -4,6 +4,7 @@ mean, and samples."""
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable
 
 import numpy as np
@@ -324,13 +325,26 @@ TOP_LATENT_VALUES = 10
 """The latent values of the ``ml-top10`` forecast."""
 
 
+def _most_likely_of_named_top(
+    name: str,
+    model: TrajectronCVAE,
+    batch: Batch,
+    horizon: int,
+    dt_s: float,
+    ablate: Ablation = (),
+) -> torch.Tensor:
+    """(B, H, 2): :func:`predict_most_likely_of_top` of the K latent values ``ml-topK`` names
+    (all of them in a model with fewer)."""
+    _, top = decoded_latent_values(name, None, model.config.latent_modes)
+    return predict_most_likely_of_top(model, batch, horizon, dt_s, ablate, latent_values=top)
+
+
 def predict_most_likely_of_top10(
     model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float, ablate: Ablation = ()
 ) -> torch.Tensor:
     """(B, H, 2): :func:`predict_most_likely_of_top` of the 10 most probable latent values
     (all of them in a model with fewer)."""
-    _, top = decoded_latent_values("ml-top10", None, model.config.latent_modes)
-    return predict_most_likely_of_top(model, batch, horizon, dt_s, ablate, latent_values=top)
+    return _most_likely_of_named_top("ml-top10", model, batch, horizon, dt_s, ablate)
 
 
 POINT_FORECASTS: dict[str, PointForecast] = {
@@ -357,14 +371,7 @@ def point_forecast(name: str) -> PointForecast:
             f"unknown point forecast {name!r}; choose from {', '.join(POINT_FORECASTS)} or "
             "ml-topK (K = 2, 3, ...)"
         )
-
-    def of_top(
-        model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float, ablate: Ablation = ()
-    ) -> torch.Tensor:
-        _, top = decoded_latent_values(name, None, model.config.latent_modes)
-        return predict_most_likely_of_top(model, batch, horizon, dt_s, ablate, latent_values=top)
-
-    return of_top
+    return functools.partial(_most_likely_of_named_top, name)
 
 
 def default_point_forecast(config: ExperimentConfig) -> str:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grouptron.constants import SPLITS, top_forecast_size
+from grouptron.constants import SPLITS, is_point_forecast
 from grouptron.evaluation.results import MEAN_ROW, EvaluationResult, mean_over_splits
 from grouptron.evaluation.scored import CONSTANT_VELOCITY, ScoredRun
 from grouptron.evaluation.uncertainty import (
@@ -36,7 +36,6 @@ from grouptron.reporting.diagnostics import (
 from grouptron.reporting.out_of_domain import OutOfDomain
 
 BOOTSTRAP_SEED = 0
-INTERVAL_MODES = ("ml", "ml-argmax", "mean", "ml-top10", "best-of-20")
 PAIRS = (
     *(
         (name, b)
@@ -154,7 +153,7 @@ def primary_runs(runs: Sequence[ScoredRun]) -> dict[tuple[str, str, str], Scored
 def _values(run: ScoredRun, mode: str, column: str, metric: str) -> Values | None:
     """Per-sample ``metric`` of ``run`` on a split or subset column (None if not scored)."""
     scores = run.scores.get(mode)
-    if scores is None or (mode not in INTERVAL_MODES and not top_forecast_size(mode)):
+    if scores is None or not (is_point_forecast(mode) or mode == "best-of-20"):  # no NLL
         return None
     mask = run.masks.get(None if column == run.entry.split else column, "absent")
     if isinstance(mask, str):
