@@ -5,7 +5,7 @@ Usage:
                                    [--frames 60] [--threads 2]
                                    [--most-likely ml|ml-argmax|mean|ml-top10] [--latent-values K]
                                    [--mixture] [--min-points 2] [--max-missed-steps 2]
-                                   [--regions Q] [--profile]
+                                   [--regions Q] [--calibration FILE] [--profile]
 
 A synthetic scene of N pedestrians walking in pairs and alone through a square sized for about
 one person per 4 m^2 is streamed frame by frame; the first 9 frames (before anyone has 8 steps)
@@ -71,6 +71,9 @@ def add_predictor_options(parser: argparse.ArgumentParser, most_likely: str | No
     parser.add_argument(
         "--max-missed-steps", type=int, default=2, help="Predictor(max_missed_steps=...)"
     )
+    parser.add_argument(
+        "--calibration", help="Predictor(calibration=...): a grouptron calibrate file"
+    )
 
 
 def load_predictor(args: argparse.Namespace, most_likely: str | None = None) -> Predictor:
@@ -82,6 +85,7 @@ def load_predictor(args: argparse.Namespace, most_likely: str | None = None) -> 
         mixture=args.mixture,
         min_points=args.min_points,
         max_missed_steps=args.max_missed_steps,
+        calibration=None if most_likely else args.calibration,  # the yardstick has none
     )
 
 
