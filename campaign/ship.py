@@ -4,7 +4,9 @@ Usage:
     python campaign/ship.py RUN_FOLDER NAME [--replicate] [--variant | --as MODEL]
 
 Copies the card, ``best.safetensors``, ``config.json``, ``curves.png``, the metrics files and
-``selection.json`` of ``RUN_FOLDER`` into ``checkpoints/NAME/``. Training state
+``selection.json`` of ``RUN_FOLDER`` into ``checkpoints/NAME/``. A dataset description's
+absolute path (where the run was trained on a dataset of its own) becomes portable in the
+copy's config, card and weights' metadata (``portable_description``). Training state
 (``last.safetensors``, ``candidates/``) is never shipped, and the run's paused state
 (``campaign/paused/<run>``, README "Training state") is deleted, so the commit that ships a
 run also removes its state. ``--replicate`` marks the card of a seed replicate of a shipped
@@ -17,6 +19,8 @@ run trained with a named model's switches that model's name in the copy (``name_
 from __future__ import annotations
 
 import argparse
+import hashlib
+import json
 import shutil
 import sys
 from pathlib import Path
@@ -66,6 +70,46 @@ def mark_shipped(card: Path, replicate: bool) -> None:
     card.write_text("\n".join(kept if note in kept else [*kept, "", note]) + "\n")
 
 
+def portable_description(stored: str, repo: Path = REPO) -> str:
+    """A run's dataset description (``ExperimentConfig.dataset``) as shipped files name it:
+    an absolute path names a file of the machine it was trained on, so it becomes the path
+    relative to the repository where the file is inside it, else the file's name and the
+    SHA-256 of its content (``corridor.toml#sha256=...``). Anything else is kept as it is."""
+    path = Path(stored)
+    if not path.is_absolute():
+        return stored
+    if path.resolve().is_relative_to(repo.resolve()):
+        return path.resolve().relative_to(repo.resolve()).as_posix()
+    try:
+        digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    except OSError as exc:
+        raise GrouptronError(f"{path}: cannot read the dataset description ({exc})") from None
+    return f"{path.name}#sha256={digest}"
+
+
+def make_portable(folder: Path, repo: Path = REPO) -> None:
+    """Name the dataset description of the run in ``folder`` portably
+    (:func:`portable_description`) in its config, card and ``best.safetensors``. Only the
+    weights' header changes: their tensors keep every byte (the header is padded to 8)."""
+    weights = folder / "best.safetensors"
+    data = weights.read_bytes()
+    end = 8 + int.from_bytes(data[:8], "little")
+    header = json.loads(data[8:end])
+    config = json.loads(header["__metadata__"]["config"])
+    old = config.get("dataset", "")
+    new = portable_description(old, repo)
+    if new == old:
+        return
+    config["dataset"] = new
+    header["__metadata__"]["config"] = json.dumps(config)
+    text = json.dumps(header, separators=(",", ":"), ensure_ascii=False).encode()
+    text += b" " * (-len(text) % 8)  # the tensors start 8-aligned, as safetensors writes
+    weights.write_bytes(len(text).to_bytes(8, "little") + text + data[end:])
+    for name in ("config.json", "README.md"):
+        path = folder / name
+        path.write_text(path.read_text().replace(old, new))
+
+
 def ship(
     run: Path,
     name: str,
@@ -94,6 +138,7 @@ def ship(
     if named:
         rename_run(target, named)  # rewrites the card, so the replicate note comes after it
     mark_shipped(target / "README.md", replicate)
+    make_portable(target)
     shutil.rmtree(paused / run.name, ignore_errors=True)
     return target
 

@@ -4,6 +4,7 @@ and the queue's progress, on small hand-made run folders."""
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import importlib.util
 import json
 import os
@@ -374,3 +375,35 @@ def test_a_chosen_point_forecast_is_stored_with_the_weights_untouched(tmp_path: 
     assert json.loads((folder / "config.json").read_text())["point_forecast"] == "ml-top3"
     card = (folder / "README.md").read_text()
     assert card.count("## Point forecast") == 1 and "| `ml-top2` |" in card
+
+
+def test_shipping_names_a_dataset_description_portably_and_keeps_the_tensors(
+    tmp_path: Path,
+) -> None:
+    script = _script("ship")
+    repo, elsewhere = tmp_path / "repo", tmp_path / "elsewhere"
+    inside, outside = repo / "campaign" / "c.toml", elsewhere / "c.toml"
+    for path in (inside, outside):
+        path.parent.mkdir(parents=True)
+        path.write_text('name = "c"\n')
+    digest = hashlib.sha256(outside.read_bytes()).hexdigest()
+    for description, portable in (
+        (inside, "campaign/c.toml"),
+        (outside, f"c.toml#sha256={digest}"),
+    ):
+        folder = tmp_path / f"run-{description.parent.name}"
+        _run(folder, dataclasses.replace(SCREENED, dataset=str(description)))
+        (folder / "config.json").write_text(json.dumps({"dataset": str(description)}))
+        (folder / "README.md").write_text(f"a dataset of your own, `{description}`\n")
+        weights = folder / "best.safetensors"
+        before = weights.read_bytes()
+        script.make_portable(folder, repo)
+        after = weights.read_bytes()
+        tensors = [data[8 + int.from_bytes(data[:8], "little") :] for data in (before, after)]
+        assert tensors[0] == tensors[1] and int.from_bytes(after[:8], "little") % 8 == 0
+        stored = load_checkpoint(weights)
+        assert stored.config == dataclasses.replace(SCREENED, dataset=portable)
+        assert json.loads((folder / "config.json").read_text()) == {"dataset": portable}
+        assert (folder / "README.md").read_text() == f"a dataset of your own, `{portable}`\n"
+        script.make_portable(folder, repo)  # a portable name stays as it is
+        assert weights.read_bytes() == after
