@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import re
 from typing import Final
 
 DT_S: Final = 0.4
@@ -47,39 +46,9 @@ UNIV_N_PAPER: Final = (40, 45, 50)
 # The command line's vocabulary, here so that `grouptron --help` never imports PyTorch: the
 # modules that implement each name take their lists from these.
 
-POINT_FORECAST_NAMES: Final = ("ml", "ml-argmax", "mean", "ml-top10")
-"""The named point forecasts (``grouptron.model.predict.POINT_FORECASTS`` implements each);
-``ml-topK`` for another K is one too (:func:`top_forecast_size`), scored only when named."""
-
-TOP_FORECAST_PREFIX: Final = "ml-top"
-"""``ml-topK``: the most likely forecast of the K most probable latent values."""
-
-
-def top_forecast_size(name: str) -> int | None:
-    """K of a point forecast named ``ml-topK`` (K of at least 2, written without leading
-    zeros), else None."""
-    digits = name.removeprefix(TOP_FORECAST_PREFIX)
-    if digits == name or not re.fullmatch(r"[1-9][0-9]*", digits) or int(digits) < 2:
-        return None
-    return int(digits)
-
-
-def is_point_forecast(name: str) -> bool:
-    """Whether ``name`` is a point forecast: one of :data:`POINT_FORECAST_NAMES` or
-    ``ml-topK``."""
-    return name in POINT_FORECAST_NAMES or top_forecast_size(name) is not None
-
-
-EVALUATION_MODES: Final = (*POINT_FORECAST_NAMES, "best-of-20", "nll")
-"""What ``evaluate`` scores: each point forecast, the best of 20 samples, the KDE NLL."""
-
-FORECAST_MODES: Final = (*POINT_FORECAST_NAMES, "samples")
-"""What ``predict`` writes: a point forecast, or sampled futures."""
-
-
-def is_evaluation_mode(name: str) -> bool:
-    """Whether ``evaluate`` scores ``name``: one of :data:`EVALUATION_MODES` or ``ml-topK``."""
-    return name in EVALUATION_MODES or top_forecast_size(name) is not None
+EVALUATION_MODES: Final = ("ml", "ml-argmax", "mean", "ml-top10", "best-of-20", "nll")
+"""What ``evaluate`` scores: each named point forecast (``grouptron.point_forecast.NAMED``;
+``ml-topK`` when named), the best of 20 samples, the KDE NLL."""
 
 
 MAX_REGION_Q: Final = 0.99

@@ -6,14 +6,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from grouptron.cli.common import recording_format, show_progress
+from grouptron.cli.common import show_progress, track_file
 from grouptron.workflows.adapt import AdaptRequest, adapt
 
 
 def cmd_adapt(args: argparse.Namespace) -> int:
     """Adapt, then print the held-out scores (or where the adapted weights are)."""
     request = AdaptRequest(
-        files=tuple(Path(f) for f in args.tracks), recording=recording_format(args),
+        files=tuple(Path(f) for f in args.tracks), layout=track_file(args, path=""),
         minutes=args.minutes, holdout_minutes=args.holdout_minutes, checkpoint=args.checkpoint,
         out=args.out, steps=args.steps, lr=args.lr, seed=args.seed, threads=args.threads,
         on_gap=args.on_gap,

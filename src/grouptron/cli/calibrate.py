@@ -17,7 +17,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     conformal radii of the regions for ``--checkpoint``'s point forecast."""
     out = Path(args.out)
     torch.set_num_threads(args.threads)
-    calibration = calibrate_tracks(track_file(args), out, args.checkpoint, args.mode)
+    calibration = calibrate_tracks(track_file(args), out, args.checkpoint, args.forecast)
     held = calibration.uncalibrated_coverage_q90
     print(
         f"wrote {out}: conformal radii of {calibration.checkpoint}'s "

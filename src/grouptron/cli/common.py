@@ -8,8 +8,6 @@ import sys
 from pathlib import Path
 
 from grouptron.config import DataConfig
-from grouptron.constants import FRAMES_PER_STEP
-from grouptron.data.recording import RecordingFormat
 from grouptron.data.spelling import FLAGS
 from grouptron.data.track_files import TrackFile
 
@@ -39,13 +37,6 @@ def own_layout(args: argparse.Namespace) -> bool:
     """Whether the recording options describe a layout of its own rather than an ETH/UCY-style
     file read as it is (:attr:`TrackFile.as_is`)."""
     return not track_file(args, path="").as_is
-
-
-def recording_format(
-    args: argparse.Namespace, frames_per_step: int = FRAMES_PER_STEP
-) -> RecordingFormat:
-    """The layout the recording options describe (:meth:`TrackFile.recording_format`)."""
-    return track_file(args, path="").recording_format(frames_per_step)
 
 
 def data_settings(args: argparse.Namespace) -> DataConfig:

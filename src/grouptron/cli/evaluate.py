@@ -8,7 +8,7 @@ from pathlib import Path
 
 import torch
 
-from grouptron.cli.common import own_layout, recording_format, show_progress
+from grouptron.cli.common import own_layout, show_progress, track_file
 from grouptron.cli.options import eval_modes, parse_splits
 from grouptron.data.custom import read_dataset
 from grouptron.errors import GrouptronError
@@ -49,7 +49,7 @@ def _check_options(args: argparse.Namespace) -> None:
 
 def _source(args: argparse.Namespace) -> Source:
     if args.tracks:
-        return Tracks(tuple(Path(f) for f in args.tracks), recording_format(args))
+        return Tracks(tuple(Path(f) for f in args.tracks), track_file(args, path=""))
     if args.dataset:
         return read_dataset(args.dataset)
     splits = tuple(parse_splits(args.split)) if args.split is not None else None

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.evaluation.calibration import calibration_for
+from grouptron.inference.calibration import calibration_for
 from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.inference.export import (
     ForecastNetwork,

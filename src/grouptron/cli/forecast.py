@@ -23,7 +23,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
     torch.set_num_threads(args.threads)
     request = PredictRequest(
         track_file(args), sys.stdout if to_stdout else Path(args.out), args.checkpoint,
-        mode=args.mode, samples=args.samples, seed=args.seed, regions=args.regions,
+        forecast=args.forecast, samples=args.samples, seed=args.seed, regions=args.regions,
         calibration=args.calibration, min_points=args.min_points, device=args.device,
         progress=show_progress(args),
     )  # fmt: skip
@@ -35,7 +35,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
     # The summary goes to standard error when the forecasts go to standard output.
     print(
         f"wrote {done.count} rows for {len(done.forecast)} (pedestrian, frame) pairs "
-        f"({done.model_name}, {done.derivatives} derivatives, {done.mode}) to "
+        f"({done.model_name}, {done.derivatives} derivatives, {done.kind}) to "
         f"{'standard output' if to_stdout else args.out}",
         file=sys.stderr if to_stdout else sys.stdout,
     )

@@ -10,16 +10,13 @@ from typing import TYPE_CHECKING
 
 from grouptron.constants import (
     EVALUATION_MODES,
-    FORECAST_MODES,
     MAX_REGION_Q,
-    POINT_FORECAST_NAMES,
     SPLITS,
     UNITS_M,
-    is_evaluation_mode,
-    is_point_forecast,
 )
 from grouptron.errors import GrouptronError
 from grouptron.geometry import DERIVATIVE_SCHEMES
+from grouptron.point_forecast import PointForecast, is_evaluation_mode
 
 if TYPE_CHECKING:
     import torch
@@ -205,24 +202,50 @@ def plot_region_probability(value: str) -> float | None:
     return qs[0]
 
 
-def point_forecast_option(value: str) -> str:
+def point_forecast_option(value: str) -> PointForecast:
     """A point forecast named on the command line: ml, ml-argmax, mean, ml-top10 or ml-topK."""
-    if not is_point_forecast(value):
-        raise argparse.ArgumentTypeError(
-            f"{value!r} is no point forecast: choose from {', '.join(POINT_FORECAST_NAMES)} or "
-            "ml-topK (K = 2, 3, ...)"
-        )
-    return value
+    try:
+        return PointForecast.parse(value, option="--forecast")
+    except GrouptronError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
-def forecast_option(value: str) -> str:
-    """What ``predict`` writes: a point forecast (:func:`point_forecast_option`) or samples."""
-    if value != "samples" and not is_point_forecast(value):
-        raise argparse.ArgumentTypeError(
-            f"{value!r} is no forecast: choose from {', '.join(FORECAST_MODES)} or ml-topK "
-            "(K = 2, 3, ...)"
-        )
-    return value
+def forecast_option(value: str) -> PointForecast | str:
+    """What ``predict`` writes: a point forecast (:func:`point_forecast_option`) or
+    ``samples``."""
+    return value if value == "samples" else point_forecast_option(value)
+
+
+class OlderSpelling(argparse.Action):
+    """An option's older spelling (``--mode`` of ``--forecast``): kept out of ``--help``, it
+    sets the same value and says once on standard error what the option is called now."""
+
+    def __init__(self, option_strings: list[str], dest: str, **kwargs: object) -> None:
+        self.now_called = str(kwargs.pop("now_called"))
+        kwargs.setdefault("help", argparse.SUPPRESS)
+        super().__init__(option_strings, dest, **kwargs)  # type: ignore[arg-type]
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: object,
+        option_string: str | None = None,
+    ) -> None:
+        """Store ``values`` under the option's name of today, saying so."""
+        print(f"grouptron: {option_string} is now called {self.now_called}", file=sys.stderr)
+        setattr(namespace, self.dest, values)
+
+
+def add_forecast_option(parser: argparse.ArgumentParser, help_text: str, *, samples: bool) -> None:
+    """``--forecast`` (a point forecast, or ``samples`` where ``samples``) and its older
+    spelling ``--mode``, both into ``args.forecast`` (None: the model's own)."""
+    kind = forecast_option if samples else point_forecast_option
+    choices = "ml,ml-argmax,mean,ml-top10,ml-topK" + (",samples" if samples else "")
+    parser.add_argument("--forecast", type=kind, metavar="{" + choices + "}", help=help_text)
+    parser.add_argument(
+        "--mode", dest="forecast", type=kind, action=OlderSpelling, now_called="--forecast"
+    )
 
 
 def eval_modes(value: str) -> tuple[str, ...]:

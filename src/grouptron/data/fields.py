@@ -54,23 +54,67 @@ def read_text_file(path: Path) -> str:
 
 KNOWN_COLUMNS = ("frame", "id", "x", "y", "t")
 """Column names a layout gives meaning to: a header that uses them can be checked."""
+_HEADER_NAMES = {
+    "t": ("t", "time", "times", "timestamp", "sec", "secs", "second", "seconds", "time_s", "t_s"),
+    "frame": ("frame", "frames", "frame_id", "frameid", "frame_number", "frame_num", "f"),
+    "id": (
+        "id", "person", "person_id", "ped", "ped_id", "pedestrian", "pedestrian_id", "track",
+        "track_id", "trackid", "agent", "agent_id", "object", "object_id", "target", "target_id",
+    ),
+    "x": ("x", "pos_x", "position_x", "px", "x_pos"),
+    "y": ("y", "pos_y", "position_y", "py", "y_pos"),
+}  # fmt: skip
+_UNIT_SUFFIX = re.compile(r"^(.*?)[_ ]?\(?(m|cm|mm)\)?$")
+
+
+def header_column(field: str) -> tuple[str, str | None]:
+    """What a header's name says (``person`` -> ``("id", None)``, ``x_cm`` -> ``("x", "cm")``):
+    the column it names (``-``: none the layout knows) and the units of an x or y."""
+    name = field.strip().strip("\"'").lower()
+    found = next((c for c, names in _HEADER_NAMES.items() if name in names), None)
+    if found is not None:
+        return found, None
+    match = _UNIT_SUFFIX.match(name)
+    if match and match.group(1):
+        stem = next((c for c, names in _HEADER_NAMES.items() if match.group(1) in names), "-")
+        return stem, match.group(2) if stem in ("x", "y") else None
+    return "-", None
+
+
+def _role(column: str) -> str:
+    """What a column holds: ``time`` for both time columns, else its own name."""
+    return "time" if column in ("t", "frame") else column
 
 
 def refuse_header_disagreement(
-    source: Path, header: Sequence[str], columns: Sequence[str], number: int, hint: str
+    source: Path,
+    header: Sequence[str],
+    columns: Sequence[str],
+    number: int,
+    hint: str,
+    *,
+    time_as_frames: bool = False,
 ) -> None:
     """Refuse a header line whose names contradict the columns the file is read with (a file
-    whose header says ``frame id y x`` read as ``frame id x y`` would be silently mirrored);
-    names the layout does not know (``timestamp``, ``z``) are not judged."""
-    names = [field.strip("\"'").lower() for field in header]
-    for index, (name, column) in enumerate(zip(names, columns, strict=False)):
-        if name in KNOWN_COLUMNS and column in KNOWN_COLUMNS and name != column:
-            raise DataFormatError(
-                source,
-                f"the header names column {index + 1} {name!r}, but it is read as {column!r} "
-                f"(columns {','.join(columns)}){hint}",
-                number,
-            )
+    whose header says ``frame id y x`` read as ``frame id x y`` would be silently mirrored;
+    ``person,time_s,x,y`` read as ``frame,id,x,y`` would take times for ids); names the layout
+    does not know (``height``, ``z``) are not judged. ``time_as_frames``: a frame rate was
+    given, so a column of times (seconds, milliseconds) may be read as frame numbers."""
+    for index, (field, column) in enumerate(zip(header, columns, strict=False)):
+        name = header_column(field)[0]
+        said = field.strip().strip("\"'")
+        if name == "-" or column not in KNOWN_COLUMNS or name == column:
+            continue
+        if _role(name) == _role(column):  # 't' and 'frame': only the names themselves judged
+            if said.lower() != name or (time_as_frames and name == "t"):
+                continue
+        shown = repr(name) if said.lower() == name else f"{said!r} ({name})"
+        raise DataFormatError(
+            source,
+            f"the header names column {index + 1} {shown}, but it is read as {column!r} "
+            f"(columns {','.join(columns)}){hint}",
+            number,
+        )
 
 
 def split_fields(source: Path, line: str, number: int) -> list[str]:

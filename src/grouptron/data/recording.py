@@ -16,7 +16,6 @@ import logging
 import math
 import re
 import warnings
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from numbers import Real
 from pathlib import Path
@@ -414,36 +413,3 @@ def read_resampled(
     if fmt.check_speed:
         check_plausible(recording, fmt)
     return resample(recording, fmt, dt_s, on_gap)
-
-
-def load_tracks(
-    path: str | Path,
-    *,
-    columns: str | Iterable[str] = "frame,id,x,y",
-    fps: float | None = None,
-    units: str = "m",
-    max_gap_s: float = 0.8,
-    check_speed: bool = True,
-) -> np.ndarray:
-    """A recording of any layout as (R, 4) rows ``frame, id, x, y`` for ``Predictor``: metres,
-    resampled to 0.4 s steps, frames numbered 10 per step from the recording's first time (the
-    ETH/UCY convention the checkpoints use). The options are those of ``evaluate --tracks``.
-
-        rows = load_tracks("corridor.txt", columns="id,frame,x,y,z", fps=16, units="cm")
-        forecast = Predictor.from_checkpoint("grouptron-univ-backward").predict(rows)
-    """
-    if not isinstance(columns, str):
-        names = list(columns) if isinstance(columns, Iterable) else [columns]
-        if not all(isinstance(name, str) for name in names):
-            raise GrouptronError(f"columns must be a string or a list of names, not {columns!r}")
-        columns = ",".join(names)
-    fmt = RecordingFormat(
-        columns=parse_columns(columns),
-        fps=fps,
-        units=units,
-        max_gap_s=max_gap_s,
-        check_speed=check_speed,
-    )
-    table = read_resampled(Path(path), fmt)
-    frame = (table.step * FRAMES_PER_STEP).astype(np.float64)
-    return np.column_stack([frame, table.ped_id.astype(np.float64), table.pos_m])

@@ -1,14 +1,16 @@
-"""One track file and how to read it, whatever it is: an ETH/UCY-style ``frame id x y`` file
+"""Tracks and how to read them, whatever they are: an ETH/UCY-style ``frame id x y`` file
 read as it is, a recording in a layout of its own (resampled to 0.4 s steps), TrajNet++
-``.ndjson``, or a topic of a ROS 2 bag (``.mcap``). The commands that read ``--tracks``
-(``predict``, ``plot``, ``calibrate``, ``groups``) describe it as a :class:`TrackFile`.
+``.ndjson``, or a topic of a ROS 2 bag (``.mcap``). Every command that reads ``--tracks`` and
+``load_tracks`` describe them as a :class:`TrackSource`, and :data:`READERS`, keyed by the
+file's suffix, is the one place that picks a reader.
 
-    table, bag = read_track_file(TrackFile("corridor.txt", columns="t,id,x,y", units="cm"))
+    table, bag = read_track_file(TrackSource("corridor.txt", columns="t,id,x,y", units="cm"))
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -22,11 +24,11 @@ from grouptron.errors import GrouptronError
 
 
 @dataclass(frozen=True)
-class TrackFile:
-    """A track file and how it is laid out (the recording options of the commands).
+class TrackSource:
+    """Track files and how they are laid out (the recording options of the commands).
 
     Attributes:
-        path: the file, as messages name it.
+        path: the file, as messages name it (several files read alike: :meth:`files`).
         columns: its columns, comma-separated (``"t,id,x,y"``; :class:`RecordingFormat`);
             None: ``frame,id,x,y`` exactly.
         fps: frames per second of a ``frame`` column (None: 10 frames per 0.4 s step).
@@ -61,7 +63,30 @@ class TrackFile:
     @property
     def is_bag(self) -> bool:
         """Whether the file is a ROS 2 bag (``.mcap``)."""
-        return Path(self.path).suffix == ".mcap"
+        return reader_of(self.path) is _read_bag
+
+    @classmethod
+    def from_format(cls, path: str | Path, fmt: RecordingFormat) -> TrackSource:
+        """``path`` read as a parsed layout says (a dataset description's ``[format]``)."""
+        if fmt.as_is:
+            return cls(path, check_speed=fmt.check_speed, spelling=fmt.spelling)
+        return cls(
+            path,
+            columns=",".join(fmt.columns),
+            fps=fmt.fps,
+            units=fmt.units,
+            max_gap_s=fmt.max_gap_s,
+            check_speed=fmt.check_speed,
+            spelling=fmt.spelling,
+        )
+
+    def of(self, path: str | Path) -> TrackSource:
+        """Another file read the same way."""
+        return replace(self, path=path)
+
+    def files(self, paths: Iterable[str | Path]) -> tuple[TrackSource, ...]:
+        """Each of ``paths`` read the same way."""
+        return tuple(self.of(path) for path in paths)
 
     @property
     def as_is(self) -> bool:
@@ -101,23 +126,35 @@ class TrackFile:
         )
 
 
+Reader = Callable[["TrackSource", int, float], tuple[TrackTable, "BagTracks | None"]]
+"""(source, frames per step of a file read as it is, seconds per step) -> the table, and a
+bag's tracks."""
+
+
 def read_track_file(
-    source: TrackFile, frames_per_step: int = FRAMES_PER_STEP
+    source: TrackSource, frames_per_step: int = FRAMES_PER_STEP, dt_s: float = DT_S
 ) -> tuple[TrackTable, BagTracks | None]:
-    """The file as a table, and what was read from a bag (None for a file of rows).
+    """The file as a table, and what was read from a bag (None for a file of rows), by the
+    reader of its suffix (:data:`READERS`).
 
     An ETH/UCY-style file is read as it is with ``source.frames_per_step`` (else
     ``frames_per_step``) frames per step; a layout of its own and TrajNet++ ``.ndjson`` are
     resampled to 0.4 s steps, in the file's own frame numbers where a step is a whole number
     of them, else in steps; a bag's ``topic`` is resampled from its first stamp."""
-    if source.is_bag:
-        return _read_bag(source)
+    return reader_of(source.path)(source, frames_per_step, dt_s)
+
+
+def _read_rows(source: TrackSource, frames_per_step: int, dt_s: float) -> tuple[TrackTable, None]:
+    """A text file of rows (or TrajNet++ ``.ndjson``, which brings its own layout)."""
     per_step = source.frames_per_step or frames_per_step
     fmt = source.recording_format(per_step)
-    return read_table(Path(source.path), fmt, per_step, source.on_gap), None
+    return read_table(Path(source.path), fmt, per_step, source.on_gap, dt_s), None
 
 
-def _read_bag(source: TrackFile) -> tuple[TrackTable, BagTracks]:
+def _read_bag(
+    source: TrackSource, frames_per_step: int, dt_s: float
+) -> tuple[TrackTable, BagTracks]:
+    """A topic of tracked people of a ROS 2 bag (resampled from its first stamp)."""
     if not source.topic:
         raise GrouptronError(
             f"{source.path} is a ROS 2 bag: name the topic of tracked people "
@@ -135,6 +172,42 @@ def _read_bag(source: TrackFile) -> tuple[TrackTable, BagTracks]:
     )
 
 
+READERS: dict[str, Reader] = {".mcap": _read_bag, ".ndjson": _read_rows, "": _read_rows}
+"""The reader of each file suffix (``""``: any other, text rows): the one place that picks."""
+
+
+def reader_of(path: str | Path) -> Reader:
+    """The reader of ``path``'s suffix (text rows for one it does not name)."""
+    return READERS.get(Path(path).suffix.lower(), READERS[""])
+
+
+def load_tracks(source: TrackSource | str | Path, **layout: object) -> np.ndarray:
+    """Tracks of any kind (a ROS 2 bag too) as (R, 4) rows ``frame, id, x, y`` for
+    ``Predictor``: metres, resampled to 0.4 s steps, frames numbered 10 per step from the
+    recording's first time (the ETH/UCY convention the checkpoints use). ``layout`` are the
+    fields of :class:`TrackSource` (``columns`` also as a list of names).
+
+        rows = load_tracks("corridor.txt", columns="id,frame,x,y,z", fps=16, units="cm")
+        forecast = Predictor.from_checkpoint("grouptron-univ-backward").predict(rows)
+    """
+    if not isinstance(source, TrackSource):
+        columns = layout.pop("columns", "frame,id,x,y")
+        if not isinstance(columns, str):
+            names = list(columns) if isinstance(columns, Iterable) else [columns]
+            if not all(isinstance(name, str) for name in names):
+                raise GrouptronError(
+                    f"columns must be a string or a list of names, not {columns!r}"
+                )
+            columns = ",".join(str(name) for name in names)
+        unknown = sorted(set(layout) - {f for f in TrackSource.__dataclass_fields__})
+        if unknown:
+            raise GrouptronError(f"load_tracks takes no {', '.join(unknown)}")
+        source = TrackSource(source, columns=columns, **layout)  # type: ignore[arg-type]
+    table, _ = read_track_file(source)
+    frame = (table.step * FRAMES_PER_STEP).astype(np.float64)
+    return np.column_stack([frame, table.ped_id.astype(np.float64), table.pos_m])
+
+
 def table_rows(table: TrackTable) -> np.ndarray:
     """(R, 4) ``frame, id, x, y`` of a table (``Predictor``'s rows), each person's earlier
     tracks (split at a gap or a jump) under fresh ids, so that a predictor does not join them
@@ -146,3 +219,7 @@ def table_rows(table: TrackTable) -> np.ndarray:
     fresh = float(ids.max()) + 1 + table.track
     ids = np.where(last_track[table.track], ids, fresh)
     return np.column_stack([table.frame, ids, table.pos_m]).astype(np.float64)
+
+
+TrackFile = TrackSource
+"""The older name of :class:`TrackSource`."""

@@ -12,7 +12,6 @@ from tqdm import tqdm
 from grouptron import constants
 from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import ExperimentConfig
-from grouptron.constants import is_point_forecast
 from grouptron.data.samples import SampleSet
 from grouptron.evaluation import metrics
 from grouptron.groups.assign import SampleGroups
@@ -20,12 +19,12 @@ from grouptron.model.batch import batches
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.predict import (
     Ablation,
-    decode_every_latent,
+    decode,
     mixture_mean_positions,
-    most_likely_positions,
-    point_forecast,
+    predict_point,
     predict_samples,
 )
+from grouptron.point_forecast import PointForecast, is_evaluation_mode, is_point_forecast
 
 MODES = constants.EVALUATION_MODES
 BEST_OF = 20
@@ -139,7 +138,7 @@ def score_samples(
     same whichever other modes are asked with it. Grouptron needs the samples' ``groups``. The
     model must already be on ``device``.
     """
-    unknown = {m for m in modes if not constants.is_evaluation_mode(m)}
+    unknown = {m for m in modes if not is_evaluation_mode(m)}
     if unknown:
         raise ValueError(f"unknown evaluation modes {sorted(unknown)}")
     model.eval()
@@ -163,9 +162,9 @@ def score_samples(
             batch = batch.to(device)
             truth = batch.fut_rel_m.double().cpu().numpy()  # (B, H, 2)
             if is_point_forecast(mode):
-                predict = point_forecast(mode)
-                pred = predict(model, batch, horizon, dt, ablate).double().cpu().numpy()
-                _store(values, index, count, metrics.point_scores(pred, truth))
+                named = PointForecast.parse(mode)
+                point = predict_point(model, batch, named, horizon, dt, ablate)
+                _store(values, index, count, metrics.point_scores(point.double().numpy(), truth))
                 continue
             k = BEST_OF if mode == "best-of-20" else NLL_SAMPLES
             draws = predict_samples(
@@ -218,10 +217,10 @@ def _score_shared_decode(
     ):
         batch = batch.to(device)
         truth = batch.fut_rel_m.double().cpu().numpy()  # (B, H, 2)
-        encoding, velocity = decode_every_latent(model, batch, horizon, ablate)
-        predictions = {
-            "ml": most_likely_positions(encoding, velocity, horizon, dt),
-            "mean": mixture_mean_positions(encoding, velocity, dt),
+        decoded = decode(model, batch, PointForecast("ml"), horizon, dt, ablate=ablate)
+        predictions = {  # ml decodes all Z, whose weighted mean is the mean forecast
+            "ml": decoded.point,
+            "mean": mixture_mean_positions(decoded.encoding, decoded.velocity, dt),
         }
         for mode, values in scores.items():
             pred = predictions[mode].double().cpu().numpy()  # (B, H, 2)

@@ -14,10 +14,10 @@ from grouptron.config import DataConfig, ExperimentConfig
 from grouptron.constants import ALL_LOCATIONS
 from grouptron.data.custom import read_dataset
 from grouptron.data.download import file_sha256, shipped_checksums
-from grouptron.data.recording import RecordingFormat, read_table
 from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
 from grouptron.data.scene import build_scene
 from grouptron.data.subsets import density_masks, time_step_ids
+from grouptron.data.track_files import TrackSource, read_track_file
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
 from grouptron.evaluation.results import EvaluationResult, score_rows
@@ -29,19 +29,21 @@ POOLED = "all files"
 CONSTANT_VELOCITY = "constant-velocity"
 
 
-def recording_samples(files: Sequence[Path], fmt: RecordingFormat, config: DataConfig) -> SampleSet:
+def recording_samples(sources: Sequence[TrackSource], config: DataConfig) -> SampleSet:
     """The test-like samples (all ``history_steps`` observed, a full future) of every file,
-    one scene per file (``scene_index`` = the file's position in ``files``)."""
+    one scene per file (``scene_index`` = the file's position in ``sources``)."""
     parts = []
-    for path in files:
-        table = read_table(Path(path), fmt, config.frames_per_step, config.on_gap, config.dt_s)
-        scene = build_scene(table, config, name=Path(path).name)
+    for source in sources:
+        source = dataclasses.replace(source, on_gap=config.on_gap)
+        table, _ = read_track_file(source, config.frames_per_step, config.dt_s)
+        scene = build_scene(table, config, name=Path(source.path).name)
         parts.append(scene_samples(scene, config, config.history_steps))  # renumbered below
     samples = concatenate_samples(parts)
     if not len(samples):
         raise GrouptronError(
-            f"no pedestrian in {', '.join(str(f) for f in files)} has {config.history_steps} "
-            f"observed and {config.horizon_steps} future steps of {config.dt_s} s"
+            f"no pedestrian in {', '.join(str(s.path) for s in sources)} has "
+            f"{config.history_steps} observed and {config.horizon_steps} future steps of "
+            f"{config.dt_s} s"
         )
     return samples
 
@@ -125,8 +127,7 @@ def _rows(
 
 
 def evaluate_recordings(
-    files: Sequence[Path],
-    fmt: RecordingFormat,
+    sources: Sequence[TrackSource],
     *,
     model: TrajectronCVAE | None,
     experiment: ExperimentConfig | None,
@@ -144,7 +145,8 @@ def evaluate_recordings(
     velocity's rows on the same samples after the model's. ``data`` is the checkpoint's data
     settings (or the baseline's); the network runs on ``device`` with the ``ablate`` inputs
     taken away."""
-    samples = recording_samples(files, fmt, data)
+    samples = recording_samples(sources, data)
+    files = [Path(source.path) for source in sources]
     template = EvaluationResult("", CONSTANT_VELOCITY, None, 0, 0.0, 0.0)
     template = dataclasses.replace(template, derivatives=data.derivatives)
     if model is None or experiment is None:

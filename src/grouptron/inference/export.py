@@ -22,7 +22,7 @@ from grouptron.data.reader import table_from_values
 from grouptron.data.samples import scene_samples
 from grouptron.data.scene import build_scene
 from grouptron.errors import GrouptronError
-from grouptron.evaluation.calibration import calibration_document
+from grouptron.inference.calibration import RegionCalibration, calibration_document
 from grouptron.io import refuse_folder, save_atomically
 from grouptron.model.batch import Batch, GroupBatch, make_batch
 from grouptron.model.cvae import TrajectronCVAE
@@ -33,7 +33,6 @@ from grouptron.model.gaussians import (
     positions_from_velocities,
 )
 from grouptron.model.predict import decode_every_latent, default_point_forecast
-from grouptron.model.regions import RegionCalibration
 
 EXPORT_FORMATS = constants.EXPORT_FORMATS
 BASE_INPUTS = ("hist_st", "hist_mask", "nbr_sum_st", "edge_scale")
@@ -210,7 +209,7 @@ def contract_metadata(config: ExperimentConfig) -> dict[str, str]:
         "grouptron.edge_ramp_weights": json.dumps(list(data.edge_ramp_weights)),
         "grouptron.inputs": json.dumps(list(ForecastNetwork.names_for(config))),
         "grouptron.outputs": json.dumps(list(OUTPUTS)),
-        "grouptron.point_forecast": default_point_forecast(config),
+        "grouptron.point_forecast": default_point_forecast(config).name,
     }
 
 

@@ -10,13 +10,9 @@ import numpy as np
 
 from grouptron.data.time_base import TimeBase
 from grouptron.errors import GrouptronError
-from grouptron.model.regions import (
-    MAX_COVERAGE,
-    RegionCalibration,
-    Regions,
-    calibrated_regions,
-    prediction_regions,
-)
+from grouptron.inference.calibration import RegionCalibration
+from grouptron.model.mixture import Mixture
+from grouptron.model.regions import MAX_COVERAGE, Regions, calibrated_regions, prediction_regions
 
 log = logging.getLogger(__name__)
 
@@ -31,14 +27,16 @@ class Forecast:
             when they come from several frames (a whole file).
         frames: (N,) the frame of every forecast.
         ids: (N,) agent ids (ascending within a frame).
-        most_likely: (N, H, 2) the point forecast's positions at steps 1..H after ``frame``
-            (the forecast the predictor was made with: ``ml``, ``ml-argmax``, ``mean``,
-            ``ml-top10`` or ``ml-topK``).
+        point: (N, H, 2) the point forecast's positions at steps 1..H after ``frame`` (the
+            forecast the predictor was made with: ``ml``, ``ml-argmax``, ``mean`` or
+            ``ml-topK``); ``most_likely`` is its older name.
         samples: (N, K, H, 2) sampled futures, or None when none were asked for.
-        mixture_log_weights: (N, Z) log p(z|x) of the Z latent values (None when the
-            predictor was made with ``mixture=False``; likewise the next two).
-        mixture_means: (N, Z, H, 2) position means of each latent value's Gaussians.
-        mixture_covariances: (N, Z, H, 2, 2) their covariances (m^2).
+        distribution: the Gaussians of the M latent values the point forecast was made from
+            (K for ``ml-topK``, 1 for ``ml-argmax``, all Z for ``ml`` and ``mean``), their
+            weights renormalised over them, in the input's coordinates; what ``regions`` draws
+            from; None when not kept.
+        mixture: the Gaussians of all Z latent values and their weights p(z|x) (None unless
+            the predictor was made with ``mixture=True``).
         group: (N,) scene-wide group of every agent at ``frame`` (agglomerative clustering of
             everyone present on their histories by the predictor's ``group_rule``: the model's
             own for a model that reads groups, else the distance threshold of ``grouptron
@@ -47,11 +45,6 @@ class Forecast:
             ``history_steps``; fewer for agents seen only recently), or None.
         filled_points: (N,) positions of that history filled in for missed detections (not
             counted in ``observed_points``), or None.
-        point_log_weights: (N, M) log weights of the M latent values the point forecast was
-            made from (K for ``ml-topK``, 1 for ``ml-argmax``, all Z for ``ml`` and
-            ``mean``), renormalised over them; None when not kept (likewise the next two).
-        point_means: (N, M, H, 2) their position means.
-        point_covariances: (N, M, H, 2, 2) their covariances (m^2).
         calibration: conformal radii of a site's recording (``grouptron calibrate``) that
             ``regions`` takes instead of the distribution's own, or None.
     """
@@ -59,18 +52,19 @@ class Forecast:
     frame: int | None
     frames: np.ndarray
     ids: np.ndarray
-    most_likely: np.ndarray
-    samples: np.ndarray | None
-    mixture_log_weights: np.ndarray | None
-    mixture_means: np.ndarray | None
-    mixture_covariances: np.ndarray | None
-    group: np.ndarray | None
+    point: np.ndarray
+    samples: np.ndarray | None = None
+    distribution: Mixture | None = None
+    mixture: Mixture | None = None
+    group: np.ndarray | None = None
     observed_points: np.ndarray | None = None
     filled_points: np.ndarray | None = None
-    point_log_weights: np.ndarray | None = None
-    point_means: np.ndarray | None = None
-    point_covariances: np.ndarray | None = None
     calibration: RegionCalibration | None = None
+
+    @property
+    def most_likely(self) -> np.ndarray:
+        """(N, H, 2) the point forecast (``point``; the older name)."""
+        return self.point
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -91,7 +85,7 @@ class Forecast:
         qQ_angle_rad`` (point forecasts only)."""
         if sampled and self.samples is None:
             raise GrouptronError("this forecast holds no samples")
-        positions = self.samples if sampled else self.most_likely[:, None]
+        positions = self.samples if sampled else self.point[:, None]
         assert positions is not None
         S, K, H, _ = positions.shape  # (N, K, H, 2)
         s, k, h = (a.ravel() for a in np.indices((S, K, H)))
@@ -105,7 +99,7 @@ class Forecast:
         if time_base is not None:
             columns.append(time_base.seconds(self.frames)[s])
             header.append("t_s")
-            formats.append("%.3f")
+            formats.append("%.16g")
         if sampled:
             columns.append(k)
             header.append("sample")
@@ -125,7 +119,7 @@ class Forecast:
         mixture of its latent values' Gaussians): ``Regions`` of (N, H) semi-axes and angles.
         Their coverage on recordings is measured, not promised (benchmarks/RESULTS.md); with
         a ``calibration`` (q = 0.01, 0.02, ... 0.99) their size is the site's conformal one."""
-        if self.point_means is None or self.point_log_weights is None:
+        if self.distribution is None:
             raise GrouptronError(
                 "this forecast holds no distribution to draw regions from (whole-file "
                 "forecasts keep it when made with keep_distribution=True)"
@@ -134,17 +128,10 @@ class Forecast:
             raise GrouptronError(
                 f"a region's probability q must be in (0, {MAX_COVERAGE}], not {q}"
             )
-        assert self.point_covariances is not None
-        arrays = (
-            self.most_likely,
-            self.point_log_weights,
-            self.point_means,
-            self.point_covariances,
-        )
         if self.calibration is not None:
-            return calibrated_regions(*arrays, q, self.calibration.radius(q))
+            return calibrated_regions(self.point, self.distribution, q, self.calibration.radius(q))
         _say_regions_are_uncalibrated()
-        return prediction_regions(*arrays, q)
+        return prediction_regions(self.point, self.distribution, q)
 
 
 @functools.cache
@@ -158,23 +145,19 @@ def _say_regions_are_uncalibrated() -> None:
 
 
 def empty_forecast(
-    frame: int, horizon: int, latent_modes: int, decoded: int, num_samples: int, mixture: bool
+    frame: int, horizon: int, latent_values: int, decoded: int, num_samples: int, mixture: bool
 ) -> Forecast:
     """A forecast of nobody at ``frame``, with arrays of the shapes a full one would have."""
-    H, Z, M = horizon, latent_modes, decoded
+    H = horizon
     return Forecast(
         frame=frame,
         frames=np.zeros(0, dtype=np.int64),
         ids=np.zeros(0, dtype=np.int64),
-        most_likely=np.zeros((0, H, 2)),
+        point=np.zeros((0, H, 2)),
         samples=np.zeros((0, num_samples, H, 2)) if num_samples else None,
-        mixture_log_weights=np.zeros((0, Z)) if mixture else None,
-        mixture_means=np.zeros((0, Z, H, 2)) if mixture else None,
-        mixture_covariances=np.zeros((0, Z, H, 2, 2)) if mixture else None,
+        distribution=Mixture.empty(decoded, H),
+        mixture=Mixture.empty(latent_values, H) if mixture else None,
         group=np.zeros(0, dtype=np.int64),
         observed_points=np.zeros(0, dtype=np.int64),
         filled_points=np.zeros(0, dtype=np.int64),
-        point_log_weights=np.zeros((0, M)),
-        point_means=np.zeros((0, M, H, 2)),
-        point_covariances=np.zeros((0, M, H, 2, 2)),
     )

@@ -23,7 +23,6 @@ import numpy as np
 import torch
 
 from grouptron.config import ExperimentConfig
-from grouptron.constants import is_point_forecast, top_forecast_size
 from grouptron.data import glitches
 from grouptron.data.gaps import bridge_gaps, filled_in_histories
 from grouptron.data.reader import table_from_values
@@ -31,10 +30,11 @@ from grouptron.data.samples import SampleSet, scene_samples
 from grouptron.data.scene import Scene, build_scene
 from grouptron.devices import available_device
 from grouptron.errors import GrouptronError
-from grouptron.evaluation.calibration import calibration_for
 from grouptron.groups.assign import assign_groups_at_step
 from grouptron.groups.scene import groups_at_step
+from grouptron.inference.calibration import RegionCalibration, calibration_for
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
+from grouptron.inference.engine import EngineOptions, forecast_samples
 from grouptron.inference.forecast import Forecast, empty_forecast
 from grouptron.inference.inputs import (
     as_track_array,
@@ -45,28 +45,15 @@ from grouptron.inference.inputs import (
     refuse_future_neighbours,
 )
 from grouptron.inference.stream import StreamSession
-from grouptron.model.batch import Batch, batches
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import uses_groups
-from grouptron.model.predict import (
-    POINT_FORECASTS,
-    ForecastGaussians,
-    default_point_forecast,
-    forecast_name,
-    point_forecast_and_gaussians,
-    point_forecast_and_mixture,
-    predict_samples,
-)
-from grouptron.model.regions import RegionCalibration
+from grouptron.model.predict import default_point_forecast
+from grouptron.point_forecast import PointForecast
 from grouptron.presets import DETECTION_GROUPS
 
 log = logging.getLogger(__name__)
 
-MostLikely = str  # a point forecast: ml, ml-argmax, mean, ml-top10 or ml-topK
-MOST_LIKELY_CHOICES = tuple(POINT_FORECASTS)
-OLDER_NAMES = {"mixture-mode": "ml", "argmax-latent": "ml-argmax"}
-"""Names these choices had before the vocabulary was unified (still accepted)."""
 MAX_SAMPLES = 10_000
 """Sampled futures per agent at most: more only fill memory (1.9 MB an agent)."""
 
@@ -75,18 +62,16 @@ class Predictor:
     """A trained Trajectron++ or Grouptron model ready to forecast tracks.
 
     Args:
-        most_likely: None (the default): the model's own (``default_point_forecast``: the
-            one stored with it, ``"ml-top2"`` for the default model; else ``"ml-top10"`` for a
-            velocity-residual decoder, ``"ml-argmax"`` otherwise), or ``"ml"`` when
-            ``latent_values`` is given. ``"ml-argmax"``: the means of the most probable latent
-            value only, the fast choice for a control loop; ``"ml"``: per step the mode of the
-            p(z|x)-weighted mixture of the latent values' Gaussians, integrated (with all Z,
-            the benchmark's most likely trajectory; ``ml-argmax`` is about 5% worse in FDE on
-            validation). ``"mean"``: the p(z|x)-weighted mean of every latent value's
-            trajectory. ``"ml-top10"`` (``"ml-topK"``): ``"ml"`` with ``latent_values=10``
-            (K).
-        latent_values: for ``"ml"``, the mixture of only this many of the most probable
-            latent values (None: all Z); only these are decoded unless ``mixture`` is asked for.
+        forecast: the point forecast (a ``PointForecast`` or its name): ``ml-argmax``, the
+            means of the most probable latent value only, the fast choice for a control loop;
+            ``ml``: per step the mode of the p(z|x)-weighted mixture of the latent values'
+            Gaussians, integrated (the benchmark's most likely trajectory); ``ml-topK``: ``ml``
+            of the K most probable latent values only; ``mean``: the p(z|x)-weighted mean of
+            every latent value's trajectory. None (the default): the model's own
+            (``default_point_forecast``: the one stored with it, ``ml-top2`` for the default
+            model; else ``ml-top10`` for a velocity-residual decoder, ``ml-argmax``
+            otherwise). ``most_likely`` is its older name, and ``latent_values=K`` an older
+            way to name ``ml-topK`` (both still accepted, with a warning).
         mixture: also return the mixture parameters (decodes all Z latent values; slower).
         check_speed: refuse tracks whose median speed no pedestrian walks (wrong units), and
             repair jumps faster than anyone runs (``grouptron.data.glitches``).
@@ -109,27 +94,18 @@ class Predictor:
         model: TrajectronCVAE,
         config: ExperimentConfig,
         source: str = "",
-        most_likely: MostLikely | None = None,
+        forecast: PointForecast | str | None = None,
         *,
-        latent_values: int | None = None,
         mixture: bool = False,
         check_speed: bool = True,
         device: str | torch.device = "cpu",
         min_points: int = 2,
         max_missed_steps: int = 2,
         calibration: str | Path | RegionCalibration | None = None,
+        **older: Any,
     ) -> None:
-        own = "ml" if latent_values else default_point_forecast(config)
-        named: Any = own if most_likely is None else most_likely
-        if isinstance(named, str):
-            named = OLDER_NAMES.get(named, named)
-        if not isinstance(named, str) or not is_point_forecast(named):
-            raise GrouptronError(
-                f"most_likely must be one of {', '.join(MOST_LIKELY_CHOICES)} or ml-topK, "
-                f"not {most_likely!r}"
-            )
-        most_likely = named
         refuse_future_neighbours(config.data, source)
+        self.forecast = _chosen_forecast(forecast, config, **older)
         self.device = available_device(device)
         self.model = model.eval().to(self.device)
         self.config = config
@@ -137,32 +113,12 @@ class Predictor:
         # A model that reads groups colours by what it reads; any other by the rule chosen on
         # human labels (C(N) merges standing strangers).
         self.group_rule = config.groups if uses_groups(config) else DETECTION_GROUPS
-        Z = config.model.latent_modes
-        if latent_values is not None:
-            latent_values = integer_argument(latent_values, "latent_values", 1, Z)
-        if most_likely == "mean" and latent_values not in (None, Z):
-            raise GrouptronError("latent_values is for most_likely='ml'; the mean uses all")
-        if most_likely == "ml-argmax" and latent_values not in (None, 1):
-            raise GrouptronError(
-                "latent_values is for most_likely='ml'; 'ml-argmax' decodes one latent value"
-            )
-        named_top = top_forecast_size(most_likely)
-        if named_top:  # ml-topK: a name for ml of the K most probable latent values
-            top = min(named_top, Z)
-            if latent_values not in (None, top):
-                raise GrouptronError(
-                    f"most_likely={most_likely!r} decodes {top} latent values, not "
-                    f"latent_values={latent_values}"
-                )
-            most_likely, latent_values = "ml", top
-        self.most_likely = most_likely
-        self.latent_values = latent_values
         self.mixture = mixture
         self.check_speed = check_speed
         history = config.data.history_steps
         self.min_points = integer_argument(min_points, "min_points", 2, history)
         self.max_missed_steps = integer_argument(max_missed_steps, "max_missed_steps", 0)
-        self.calibration = calibration_for(calibration, config, self.point_forecast_name, source)
+        self.calibration = calibration_for(calibration, config, self.forecast, source)
         self._warned_central = False
 
     @classmethod
@@ -171,50 +127,28 @@ class Predictor:
         name_or_path: str | Path = DEFAULT_CHECKPOINT,
         checkpoints_dir: str | Path | None = None,
         threads: int | None = None,
-        most_likely: MostLikely | None = None,
-        *,
-        latent_values: int | None = None,
-        mixture: bool = False,
-        check_speed: bool = True,
-        device: str | torch.device = "cpu",
-        min_points: int = 2,
-        max_missed_steps: int = 2,
-        calibration: str | Path | RegionCalibration | None = None,
+        forecast: PointForecast | str | None = None,
+        **options: Any,
     ) -> Predictor:
         """Load a ``.safetensors`` checkpoint (never a pickle) by path or shipped name
-        (default: :data:`DEFAULT_CHECKPOINT`)."""
+        (default: :data:`DEFAULT_CHECKPOINT`); ``options`` are the constructor's."""
         if threads is not None:
             threads = integer_argument(threads, "threads", 1)
         path = resolve_checkpoint(name_or_path, checkpoints_dir)
         model, config = load_trained_model(path)
         if threads is not None:
             torch.set_num_threads(threads)
-        return cls(
-            model,
-            config,
-            str(path),
-            most_likely=most_likely,
-            latent_values=latent_values,
-            mixture=mixture,
-            check_speed=check_speed,
-            device=device,
-            min_points=min_points,
-            max_missed_steps=max_missed_steps,
-            calibration=calibration,
-        )
+        return cls(model, config, str(path), forecast, **options)
 
     @property
     def point_forecast_name(self) -> str:
-        """The point forecast by its one name (``forecast_name``: ``ml-top10`` rather than
-        ``ml`` of 10, ``ml-argmax`` rather than ``ml`` of 1)."""
-        return forecast_name(self.most_likely, self.latent_values, self.config.model.latent_modes)
+        """The point forecast's one name (``ml-top10``, ``ml-argmax``, ...)."""
+        return self.forecast.name
 
     @property
     def decoded_latent_values(self) -> int:
         """How many latent values the point forecast decodes (the mean: all of them)."""
-        if self.most_likely == "ml-argmax":
-            return 1
-        return self.latent_values or self.config.model.latent_modes
+        return self.forecast.latent_values(self.config.model.latent_values)
 
     @property
     def history_steps(self) -> int:
@@ -347,7 +281,6 @@ class Predictor:
             calibration=self.calibration,
         )
 
-    @torch.inference_mode()
     def _run(
         self,
         scene: Scene,
@@ -358,62 +291,39 @@ class Predictor:
         num_samples: int,
         seed: int,
     ) -> Forecast:
-        data, H, dt = self.config.data, self.config.data.horizon_steps, self.config.data.dt_s
+        data = self.config.data
         # The step's distances serve both the scene-wide groups and every sample's own.
         found = groups_at_step(scene, self.group_rule, step, data.history_steps)
         groups = None
         if uses_groups(self.config) and found is not None:
             groups = assign_groups_at_step(samples, found.tracks, found.distances, self.group_rule)
-        ((_, batch),) = batches(samples, self.config, len(samples), groups)
-        batch = batch.to(self.device)
-        point, own, mixture = self._most_likely_and_mixture(batch)
-        drawn = None
-        if num_samples:
-            generator = torch.Generator(device=self.device).manual_seed(seed)
-            drawn = predict_samples(
-                self.model, batch, H, dt, num_samples=num_samples, generator=generator
-            )
+        options = EngineOptions(
+            mixture=self.mixture,
+            num_samples=num_samples,
+            seed=seed,
+            batch_size=len(samples),
+            device=self.device,
+        )
+        made = forecast_samples(self.model, self.config, samples, self.forecast, groups, options)
         origin = samples.pos_now_scene_m.astype(np.float64) + scene.centre_world_m  # (N, 2)
         group_of_track = np.full(scene.num_tracks, -1)
         if found is not None:
             group_of_track[found.tracks] = found.labels
         ids = scene.ped_id[samples.track]
         order = np.argsort(ids, kind="stable")
-        mix_w, mix_mu, mix_cov = _ordered(
-            None if mixture is None else mixture.as_arrays(origin), order
-        )
-        own_w, own_mu, own_cov = _ordered(own.as_arrays(origin), order)
+        assert made.distribution is not None
         return Forecast(
             frame=frame,
             frames=np.full(len(ids), frame, dtype=np.int64),
             ids=ids[order],
-            most_likely=(point.double().cpu().numpy() + origin[:, None])[order],
-            samples=None
-            if drawn is None
-            else (drawn.double().cpu().numpy() + origin[:, None, None])[order],
-            mixture_log_weights=mix_w,
-            mixture_means=mix_mu,
-            mixture_covariances=mix_cov,
+            point=(made.point + origin[:, None])[order],
+            samples=None if made.samples is None else (made.samples + origin[:, None, None])[order],
+            distribution=made.distribution.moved(origin).rows(order),
+            mixture=None if made.mixture is None else made.mixture.moved(origin).rows(order),
             group=group_of_track[samples.track][order],
             observed_points=samples.hist_mask.sum(axis=1)[order],  # filled ones counted too
             filled_points=np.zeros(len(ids), dtype=np.int64),
-            point_log_weights=own_w,
-            point_means=own_mu,
-            point_covariances=own_cov,
         )
-
-    def _most_likely_and_mixture(
-        self, batch: Batch
-    ) -> tuple[torch.Tensor, ForecastGaussians, ForecastGaussians | None]:
-        """(N, H, 2) point forecast offsets from now, the Gaussians it was made from and, if
-        asked for, those of all Z latent values."""
-        H, dt, mode = self.config.data.horizon_steps, self.config.data.dt_s, self.most_likely
-        if self.mixture:
-            return point_forecast_and_mixture(self.model, batch, H, dt, mode, self.latent_values)
-        point, own = point_forecast_and_gaussians(
-            self.model, batch, H, dt, mode, self.latent_values
-        )
-        return point, own, None
 
     def check_plausible(self, values: np.ndarray, min_pairs: int = 1) -> bool:
         """Refuse (R, 4) tracks whose median speed no pedestrian walks (wrong units or frame
@@ -423,7 +333,7 @@ class Predictor:
         return check_walking_speed(values, self.config.data, self.frames_per_step, min_pairs)
 
     def _empty(self, frame: int, num_samples: int) -> Forecast:
-        data, Z = self.config.data, self.config.model.latent_modes
+        data, Z = self.config.data, self.config.model.latent_values
         M = self.decoded_latent_values
         empty = empty_forecast(frame, data.horizon_steps, Z, M, num_samples, self.mixture)
         return dataclasses.replace(empty, calibration=self.calibration)
@@ -440,11 +350,33 @@ class Predictor:
             )
 
 
-def _ordered(
-    arrays: tuple[np.ndarray, np.ndarray, np.ndarray] | None, order: np.ndarray
-) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
-    """Each array's rows in ``order`` (three Nones for no arrays)."""
-    if arrays is None:
-        return None, None, None
-    first, second, third = (a[order] for a in arrays)
-    return first, second, third
+def _chosen_forecast(
+    named: PointForecast | str | None,
+    config: ExperimentConfig,
+    most_likely: str | None = None,
+    latent_values: int | None = None,
+) -> PointForecast:
+    """The point forecast a predictor makes: ``named``, else the model's own; the older
+    keywords ``most_likely`` (its older name) and ``latent_values=K`` (``ml-topK``) with a
+    warning."""
+    if most_likely is not None:
+        warnings.warn("most_likely= is now called forecast=", FutureWarning, stacklevel=4)
+        if named is not None:
+            raise GrouptronError("give forecast= or its older name most_likely=, not both")
+        named = most_likely
+    if named is not None:
+        forecast = PointForecast.parse(named)
+    elif latent_values is not None:  # latent_values=K alone asks for ml of K (ml-topK)
+        forecast = PointForecast("ml")
+    else:
+        forecast = default_point_forecast(config)
+    if latent_values is not None:
+        warnings.warn(
+            "latent_values=K is now named as forecast='ml-topK'", FutureWarning, stacklevel=4
+        )
+        K = integer_argument(latent_values, "latent_values", 1, config.model.latent_values)
+        plain_ml = forecast == PointForecast("ml")  # ml of K latent values is ml-topK
+        if not plain_ml and forecast.latent_values(config.model.latent_values) != K:
+            raise GrouptronError(f"forecast={str(named)!r} does not decode {K} latent values")
+        forecast = PointForecast("ml", K)
+    return forecast.for_model(config.model.latent_values)

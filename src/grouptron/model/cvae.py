@@ -97,10 +97,10 @@ class TrajectronCVAE(nn.Module):
         self.future_initial_c = nn.Linear(c.state_dim, c.future_hidden)
         future_dim = 4 * c.future_hidden  # [h_fwd; h_bwd; c_fwd; c_bwd]
         self.p_z_hidden = nn.Linear(self.condition_dim, c.p_z_hidden)
-        self.p_z_logits = nn.Linear(c.p_z_hidden, c.latent_modes)
-        self.q_z_logits = nn.Linear(self.condition_dim + future_dim, c.latent_modes)
+        self.p_z_logits = nn.Linear(c.p_z_hidden, c.latent_values)
+        self.q_z_logits = nn.Linear(self.condition_dim + future_dim, c.latent_values)
         self.decoder = HoistedGRUDecoder(
-            c.latent_modes, self.condition_dim, c.action_dim, c.decoder_hidden
+            c.latent_values, self.condition_dim, c.action_dim, c.decoder_hidden
         )
         self.initial_action = nn.Linear(c.state_dim, c.action_dim)
         self.gaussian_head = nn.Linear(c.decoder_hidden, 5)  # mu (2), log sigma (2), corr (1)
@@ -207,7 +207,7 @@ class TrajectronCVAE(nn.Module):
         """
         c = self.config
         B = x.shape[0]
-        M = c.latent_modes if z_index is None else z_index.shape[1]
+        M = c.latent_values if z_index is None else z_index.shape[1]
         gates_zx = self.decoder.input_gates(x, z_index).reshape(B * M, -1)  # (B*M, 3h)
         h = self.decoder.initial_state(x, z_index).reshape(B * M, -1)  # (B*M, h)
         action = self.initial_action(state_now_st)[:, None, :].expand(B, M, -1).reshape(B * M, -1)

@@ -41,12 +41,12 @@ class HoistedGRUDecoder(nn.Module):
     so the mathematics is the plain GRU's.
     """
 
-    def __init__(self, latent_modes: int, condition_dim: int, action_dim: int, hidden: int):
+    def __init__(self, latent_values: int, condition_dim: int, action_dim: int, hidden: int):
         super().__init__()
-        self.latent_modes = latent_modes
+        self.latent_values = latent_values
         self.condition_dim = condition_dim
-        self.cell = nn.GRUCell(latent_modes + condition_dim + action_dim, hidden)
-        self.initial_h = nn.Linear(latent_modes + condition_dim, hidden)
+        self.cell = nn.GRUCell(latent_values + condition_dim + action_dim, hidden)
+        self.initial_h = nn.Linear(latent_values + condition_dim, hidden)
 
     @staticmethod
     def _latent_rows(w_z: torch.Tensor, z_index: torch.Tensor | None) -> torch.Tensor:
@@ -59,21 +59,21 @@ class HoistedGRUDecoder(nn.Module):
 
     def input_gates(self, x: torch.Tensor, z_index: torch.Tensor | None) -> torch.Tensor:
         """(B, Dx) condition and (B, M) latent values (None: all Z) -> (B, M, 3*hidden)."""
-        Z, Dx = self.latent_modes, self.condition_dim
+        Z, Dx = self.latent_values, self.condition_dim
         w_x = self.cell.weight_ih[:, Z : Z + Dx]  # (3h, Dx)
         from_x = x @ w_x.T + self.cell.bias_ih  # (B, 3h)
         return from_x[:, None, :] + self._latent_rows(self.cell.weight_ih[:, :Z], z_index)
 
     def initial_state(self, x: torch.Tensor, z_index: torch.Tensor | None) -> torch.Tensor:
         """(B, M, hidden) h_0 = Linear([z; x]), M = Z when ``z_index`` is None."""
-        Z = self.latent_modes
+        Z = self.latent_values
         from_x = x @ self.initial_h.weight[:, Z:].T + self.initial_h.bias  # (B, h)
         return from_x[:, None, :] + self._latent_rows(self.initial_h.weight[:, :Z], z_index)
 
     def step(self, gates_zx: torch.Tensor, action: torch.Tensor, h: torch.Tensor) -> torch.Tensor:
         """One GRU step on rows: (R, 3h) constant gates, (R, A) previous action, (R, h) state."""
         hidden = self.cell.hidden_size
-        w_a = self.cell.weight_ih[:, self.latent_modes + self.condition_dim :]  # (3h, A)
+        w_a = self.cell.weight_ih[:, self.latent_values + self.condition_dim :]  # (3h, A)
         gates_in = torch.addmm(gates_zx, action, w_a.T)
         gates_h = torch.addmm(self.cell.bias_hh, h, self.cell.weight_hh.T)
         # reset and update gates in one sigmoid: each operation's fixed cost counts at the

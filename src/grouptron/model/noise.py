@@ -58,7 +58,7 @@ def draw_training_noise(
     """Draw a step's noise from the global torch RNG (seeded and saved with the run); ``extra``
     dropout sites (a variant's) are drawn last, so runs without them draw what they always did."""
     dropout = {site: torch.rand(batch_size, size) for site, size in dropout_sizes(config).items()}
-    decoder = torch.randn(batch_size, config.latent_modes, horizon, 2)
+    decoder = torch.randn(batch_size, config.latent_values, horizon, 2)
     for site, size in (extra or {}).items():
         dropout[site] = torch.rand(batch_size, size)
     return TrainingNoise(dropout, decoder)

@@ -1,13 +1,13 @@
-"""Predictions of a trained CVAE: most likely (mixture mode or argmax latent), the mixture's
-mean, and samples."""
+"""The forecasting engine: what a trained CVAE predicts for a batch. :func:`decode` makes a
+point forecast (any :class:`PointForecast`) with the Gaussians it was made from and, when
+asked, those of every latent value; :func:`predict_samples` draws futures. Every path that
+forecasts (the Python API, live sessions, whole files, calibration, evaluation, export) calls
+these, so that one forecast is made one way."""
 
 from __future__ import annotations
 
 import dataclasses
-import functools
-from collections.abc import Callable
 
-import numpy as np
 import torch
 
 from grouptron import constants
@@ -20,14 +20,14 @@ from grouptron.model.gaussians import (
     position_covariances,
     positions_from_velocities,
 )
+from grouptron.model.mixture import Mixture
 from grouptron.model.mixture_mode import mixture_mode
+from grouptron.point_forecast import PointForecast
 
 ABLATIONS = constants.ABLATIONS
 """Inputs an evaluation can take away to see what a model uses: ``edges`` zeroes the
 neighbour input of the edge encoder, ``scene`` zeroes Grouptron's scene encoding E_scene."""
 Ablation = tuple[str, ...]
-PointForecast = Callable[[TrajectronCVAE, Batch, int, float, Ablation], torch.Tensor]
-"""(model, batch, horizon steps, dt in s, ablation) -> (B, H, 2) positions relative to t."""
 
 
 def encode_prior(model: TrajectronCVAE, batch: Batch, ablate: Ablation = ()) -> Encoding:
@@ -48,18 +48,6 @@ def encode_prior(model: TrajectronCVAE, batch: Batch, ablate: Ablation = ()) -> 
             raise GrouptronError("--ablate scene needs a model with a scene encoding (Grouptron)")
         x = torch.cat([x[:, :-width], torch.zeros_like(x[:, -width:])], dim=-1)
     return model.encode(batch, x, with_future=False, logit_clip=None)
-
-
-def predict_most_likely(
-    model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float, ablate: Ablation = ()
-) -> torch.Tensor:
-    """The reference's most-likely prediction, (B, H, 2) positions relative to ``t``.
-
-    Every latent value is decoded feeding back its mean; at each step the velocity is the mode
-    of the Z-component mixture weighted by p(z|x); velocities are integrated to positions.
-    """
-    encoding, velocity = decode_every_latent(model, batch, horizon, ablate)
-    return most_likely_positions(encoding, velocity, horizon, dt_s)
 
 
 def decode_every_latent(
@@ -104,20 +92,6 @@ def most_likely_positions(
     return positions_from_velocities(mode, dt_s).float()
 
 
-def predict_mixture_mean(
-    model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float, ablate: Ablation = ()
-) -> torch.Tensor:
-    """(B, H, 2): the p(z|x)-weighted mean of every latent value's trajectory (each decoded
-    following its means), relative to ``t``.
-
-    The mean, unlike the per-step mixture mode, never jumps between latent values from one step
-    to the next; it is the mean of the mixture these decoded trajectories make (under that
-    mixture, the forecast with the least expected squared error).
-    """
-    encoding, velocity = decode_every_latent(model, batch, horizon, ablate)
-    return mixture_mean_positions(encoding, velocity, dt_s)
-
-
 def mixture_mean_positions(
     encoding: Encoding, velocity: VelocityGaussians, dt_s: float
 ) -> torch.Tensor:
@@ -128,61 +102,11 @@ def mixture_mean_positions(
     return positions_from_velocities(mean_velocity, dt_s).float()
 
 
-def predict_most_likely_of_top(
-    model: TrajectronCVAE,
-    batch: Batch,
-    horizon: int,
-    dt_s: float,
-    ablate: Ablation = (),
-    *,
-    latent_values: int,
-) -> torch.Tensor:
-    """(B, H, 2): the most likely prediction of the mixture of only the ``latent_values`` most
-    probable latent values (each decoded following its means; the mode per step, integrated).
-
-    All Z values is :func:`predict_most_likely`, one is :func:`predict_argmax_latent`; a few
-    come close to all at a fraction of the cost (benchmarks/most_likely.py).
-    """
-    encoding = encode_prior(model, batch, ablate)
-    top_logits, top = encoding.p_logits.topk(latent_values, dim=-1)  # (B, M)
-    velocity = model.decode(encoding.x, batch.state_now_st, top, horizon, feedback="mean")
-    trimmed = Encoding(x=encoding.x, p_logits=top_logits, q_logits=None)
-    starts = mode_starts(latent_values, model.config.latent_modes)
-    return most_likely_positions(trimmed, velocity, horizon, dt_s, starts)
-
-
-def forecast_name(mode: str, latent_values: int | None, latent_modes: int) -> str:
-    """The one name of a point forecast for a model of ``latent_modes`` latent values: ``ml``
-    of all of them is ``ml`` (so is ``ml-top10`` of a model with at most 10), ``ml`` of the K
-    most probable ``ml-topK``, of one ``ml-argmax``."""
-    kind, M = decoded_latent_values(mode, latent_values, latent_modes)
-    if kind != "ml" or latent_modes == M:
-        return kind
-    if M == 1:  # the mode of one Gaussian is its mean
-        return "ml-argmax"
-    return f"ml-top{M}"
-
-
-def mode_starts(decoded: int, latent_modes: int) -> int:
-    """Climbs per mixture for the mode of ``decoded`` of the ``latent_modes`` latent values:
-    the benchmark's :data:`MODE_STARTS` for all of them, :data:`TOP_MODE_STARTS` for fewer."""
-    return TOP_MODE_STARTS if decoded < latent_modes else MODE_STARTS
-
-
-def decoded_latent_values(
-    mode: str, latent_values: int | None, latent_modes: int
-) -> tuple[str, int]:
-    """``(kind, M)``: the point forecast ``mode`` as ``ml``, ``ml-argmax`` or ``mean``, and how
-    many of the most probable latent values it reads (``ml-top10``: ``ml`` of 10, or of all
-    when the model has fewer; ``ml-topK`` likewise; ``ml`` of ``latent_values`` when given)."""
-    top = constants.top_forecast_size(mode)
-    if top is not None:  # ml-top10, or ml-topK as forecast_name writes it
-        return "ml", min(top, latent_modes)
-    if mode == "ml-argmax":
-        return mode, 1
-    if mode == "mean":
-        return mode, latent_modes
-    return "ml", latent_values or latent_modes
+def mode_starts(decoded: int, latent_values: int) -> int:
+    """Climbs per mixture for the mode of ``decoded`` of a model's ``latent_values`` latent
+    values: the benchmark's :data:`MODE_STARTS` for all of them, :data:`TOP_MODE_STARTS` for
+    fewer."""
+    return TOP_MODE_STARTS if decoded < latent_values else MODE_STARTS
 
 
 def top_latent_values(
@@ -204,17 +128,16 @@ def most_likely_of_decoded_top(
     encoding: Encoding, velocity: VelocityGaussians, latent_values: int, dt_s: float
 ) -> torch.Tensor:
     """(B, H, 2): the most likely forecast of the ``latent_values`` most probable of all Z
-    decoded latent values, as :func:`predict_most_likely_of_top` makes it (all Z: ``ml``)."""
+    decoded latent values, as :func:`decode` makes ``ml-topK`` (all Z: ``ml``)."""
     Z, horizon = velocity.mean.shape[1], velocity.mean.shape[2]
     top = top_latent_values(encoding, velocity, latent_values)
     return most_likely_positions(*top, horizon, dt_s, mode_starts(latent_values, Z))
 
 
 @dataclasses.dataclass(frozen=True)
-class ForecastGaussians:
-    """The position Gaussians of the M latent values a point forecast was made from (10 for
-    ``ml-top10``, 1 for ``ml-argmax``, all Z for ``ml`` and ``mean``): the forecast's own
-    distribution, from which prediction regions are drawn (``model/regions.py``).
+class Gaussians:
+    """The position Gaussians of M decoded latent values, relative to ``t``: a forecast's
+    distribution as the network makes it (:meth:`mixture` turns it into a :class:`Mixture`).
 
     Attributes:
         log_weights: (B, M) log p(z|x) renormalised over the M values.
@@ -226,79 +149,93 @@ class ForecastGaussians:
     means: torch.Tensor
     covariances: torch.Tensor
 
-    def as_arrays(self, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Float64 NumPy: (B, M) log weights, (B, M, H, 2) means moved to the (B, 2)
-        ``origin`` and (B, M, H, 2, 2) covariance matrices."""
-        means = self.means.double().cpu().numpy() + origin[:, None, None, :]
-        covariances = covariance_matrices(self.covariances).double().cpu().numpy()
-        return self.log_weights.double().cpu().numpy(), means, covariances
+    def mixture(self) -> Mixture:
+        """Float64 NumPy, relative to ``t``, covariances as (B, M, H, 2, 2) matrices."""
+        return Mixture(
+            log_weights=self.log_weights.double().cpu().numpy(),
+            means=self.means.double().cpu().numpy(),
+            covariances=covariance_matrices(self.covariances).double().cpu().numpy(),
+        )
 
 
-def point_forecast_and_gaussians(
-    model: TrajectronCVAE,
-    batch: Batch,
-    horizon: int,
-    dt_s: float,
-    mode: str,
-    latent_values: int | None = None,
-) -> tuple[torch.Tensor, ForecastGaussians]:
-    """(B, H, 2) point forecast ``mode`` (``ml`` of the ``latent_values`` most probable latent
-    values when given) and the Gaussians it was made from, decoding only those."""
-    Z = model.config.latent_modes
-    kind, M = decoded_latent_values(mode, latent_values, Z)
-    encoding = encode_prior(model, batch)
-    z_index = None  # all of them
-    if M < Z:
-        logits, z_index = encoding.p_logits.topk(M, dim=-1)  # (B, M)
-        encoding = Encoding(x=encoding.x, p_logits=logits, q_logits=None)
-    velocity = model.decode(encoding.x, batch.state_now_st, z_index, horizon, feedback="mean")
-    if kind == "mean":
-        point = mixture_mean_positions(encoding, velocity, dt_s)
-    else:
-        point = most_likely_positions(encoding, velocity, horizon, dt_s, mode_starts(M, Z))
-    return point, forecast_gaussians(encoding, velocity, dt_s)
-
-
-def point_forecast_and_mixture(
-    model: TrajectronCVAE,
-    batch: Batch,
-    horizon: int,
-    dt_s: float,
-    mode: str,
-    latent_values: int | None = None,
-) -> tuple[torch.Tensor, ForecastGaussians, ForecastGaussians]:
-    """:func:`point_forecast_and_gaussians` and the Gaussians of all Z latent values, from one
-    decoding of all of them (the forecast is the same)."""
-    Z = model.config.latent_modes
-    kind, M = decoded_latent_values(mode, latent_values, Z)
-    encoding, velocity = decode_every_latent(model, batch, horizon)
-    every = forecast_gaussians(encoding, velocity, dt_s)
-    if kind == "mean":
-        return mixture_mean_positions(encoding, velocity, dt_s), every, every
-    top = top_latent_values(encoding, velocity, M)
-    point = most_likely_positions(*top, horizon, dt_s, mode_starts(M, Z))
-    return point, forecast_gaussians(*top, dt_s), every
-
-
-def forecast_gaussians(
-    encoding: Encoding, velocity: VelocityGaussians, dt_s: float
-) -> ForecastGaussians:
+def _gaussians(encoding: Encoding, velocity: VelocityGaussians, dt_s: float) -> Gaussians:
     """The decoded latent values' velocity Gaussians as position Gaussians."""
-    return ForecastGaussians(
+    return Gaussians(
         log_weights=torch.log_softmax(encoding.p_logits, dim=-1),
         means=positions_from_velocities(velocity.mean, dt_s),
         covariances=position_covariances(velocity.cov, dt_s),
     )
 
 
-def predict_argmax_latent(
-    model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float, ablate: Ablation = ()
-) -> torch.Tensor:
-    """(B, H, 2): decode only the most probable latent value and follow its means."""
+@dataclasses.dataclass(frozen=True)
+class Decoded:
+    """A batch's point forecast and what it was made from, relative to ``t``.
+
+    Attributes:
+        point: (B, H, 2) the point forecast's positions.
+        encoding, velocity: p(z|x) and the velocity Gaussians of the M latent values it was
+            made from (most probable first; all Z for ``ml`` and ``mean``).
+        every: those of all Z latent values, when asked for (else None).
+        dt_s: seconds per step.
+    """
+
+    point: torch.Tensor
+    encoding: Encoding
+    velocity: VelocityGaussians
+    every: tuple[Encoding, VelocityGaussians] | None
+    dt_s: float
+
+    def distribution(self) -> Gaussians:
+        """The position Gaussians the point forecast was made from."""
+        return _gaussians(self.encoding, self.velocity, self.dt_s)
+
+    def mixture(self) -> Gaussians | None:
+        """The position Gaussians of all Z latent values (None when not decoded)."""
+        return None if self.every is None else _gaussians(*self.every, self.dt_s)
+
+
+def decode(
+    model: TrajectronCVAE,
+    batch: Batch,
+    forecast: PointForecast,
+    horizon: int,
+    dt_s: float,
+    *,
+    every: bool = False,
+    ablate: Ablation = (),
+) -> Decoded:
+    """The point forecast ``forecast`` of a batch, decoding only the latent values it reads
+    (all Z with ``every``, from which the same forecast is made)."""
+    Z = model.config.latent_values
+    M = forecast.latent_values(Z)
     encoding = encode_prior(model, batch, ablate)
-    z_index = encoding.p_logits.argmax(dim=-1, keepdim=True)  # (B, 1)
-    velocity = model.decode(encoding.x, batch.state_now_st, z_index, horizon, feedback="mean")
-    return positions_from_velocities(velocity.mean[:, 0], dt_s)
+    if every or M == Z:
+        velocity = model.decode(encoding.x, batch.state_now_st, None, horizon, feedback="mean")
+        whole = (encoding, velocity)
+        if M < Z:
+            encoding, velocity = top_latent_values(encoding, velocity, M)
+    else:
+        whole = None
+        logits, z_index = encoding.p_logits.topk(M, dim=-1)  # (B, M), most probable first
+        encoding = Encoding(x=encoding.x, p_logits=logits, q_logits=None)
+        velocity = model.decode(encoding.x, batch.state_now_st, z_index, horizon, feedback="mean")
+    if forecast.kind == "mean":
+        point = mixture_mean_positions(encoding, velocity, dt_s)
+    else:
+        point = most_likely_positions(encoding, velocity, horizon, dt_s, mode_starts(M, Z))
+    return Decoded(point, encoding, velocity, whole if every else None, dt_s)
+
+
+def predict_point(
+    model: TrajectronCVAE,
+    batch: Batch,
+    forecast: PointForecast,
+    horizon: int,
+    dt_s: float,
+    ablate: Ablation = (),
+) -> torch.Tensor:
+    """(B, H, 2) the point forecast ``forecast`` relative to ``t`` (:func:`decode`'s)."""
+    return decode(model, batch, forecast, horizon, dt_s, ablate=ablate).point
 
 
 def predict_samples(
@@ -321,60 +258,7 @@ def predict_samples(
     return positions_from_velocities(velocity.fed_back, dt_s)
 
 
-TOP_LATENT_VALUES = 10
-"""The latent values of the ``ml-top10`` forecast."""
-
-
-def _most_likely_of_named_top(
-    name: str,
-    model: TrajectronCVAE,
-    batch: Batch,
-    horizon: int,
-    dt_s: float,
-    ablate: Ablation = (),
-) -> torch.Tensor:
-    """(B, H, 2): :func:`predict_most_likely_of_top` of the K latent values ``ml-topK`` names
-    (all of them in a model with fewer)."""
-    _, top = decoded_latent_values(name, None, model.config.latent_modes)
-    return predict_most_likely_of_top(model, batch, horizon, dt_s, ablate, latent_values=top)
-
-
-def predict_most_likely_of_top10(
-    model: TrajectronCVAE, batch: Batch, horizon: int, dt_s: float, ablate: Ablation = ()
-) -> torch.Tensor:
-    """(B, H, 2): :func:`predict_most_likely_of_top` of the 10 most probable latent values
-    (all of them in a model with fewer)."""
-    return _most_likely_of_named_top("ml-top10", model, batch, horizon, dt_s, ablate)
-
-
-POINT_FORECASTS: dict[str, PointForecast] = {
-    "ml": predict_most_likely,
-    "ml-argmax": predict_argmax_latent,
-    "mean": predict_mixture_mean,
-    "ml-top10": predict_most_likely_of_top10,
-}
-"""The named single-trajectory forecasts: the mixture mode per step (the benchmark's most
-likely), the most probable latent value's means, the p(z|x)-weighted mean trajectory, and the
-mixture mode of only the 10 most probable latent values (as close to ``ml`` on ETH/UCY
-validation data, cheaper, and steadier on recordings from elsewhere: benchmarks/RESULTS.md).
-:func:`point_forecast` adds ``ml-topK`` for any K."""
-assert tuple(POINT_FORECASTS) == constants.POINT_FORECAST_NAMES  # the command line's names
-
-
-def point_forecast(name: str) -> PointForecast:
-    """The forecast named ``name``: one of :data:`POINT_FORECASTS`, or ``ml-topK`` (the most
-    likely forecast of the K most probable latent values, all of them in a model with fewer)."""
-    if name in POINT_FORECASTS:
-        return POINT_FORECASTS[name]
-    if constants.top_forecast_size(name) is None:
-        raise GrouptronError(
-            f"unknown point forecast {name!r}; choose from {', '.join(POINT_FORECASTS)} or "
-            "ml-topK (K = 2, 3, ...)"
-        )
-    return functools.partial(_most_likely_of_named_top, name)
-
-
-def default_point_forecast(config: ExperimentConfig) -> str:
+def default_point_forecast(config: ExperimentConfig) -> PointForecast:
     """The point forecast to use when none is named: the one stored with the trained model
     (``ExperimentConfig.point_forecast``, chosen after training on validation and development
     data), else ``ml-top10`` for a velocity-residual decoder and ``ml-argmax`` (the fastest)
@@ -384,5 +268,7 @@ def default_point_forecast(config: ExperimentConfig) -> str:
     0.90-0.93x), plain Trajectron++'s ``ml-top10`` up to 1.30x with 25+ neighbours
     (benchmarks/RESULTS.md)."""
     if config.point_forecast:
-        return config.point_forecast
-    return "ml-top10" if config.model.velocity_residual else "ml-argmax"
+        named = PointForecast.parse(config.point_forecast)
+    else:
+        named = PointForecast("ml", 10 if config.model.velocity_residual else 1)
+    return named.for_model(config.model.latent_values)

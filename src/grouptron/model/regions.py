@@ -12,12 +12,12 @@ quantile).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from grouptron.constants import MAX_REGION_Q
-from grouptron.errors import GrouptronError
+from grouptron.model.mixture import Mixture
 
 POINTS = 128
 """Lattice points per component: point ``p`` holds ``(p + 0.5) / POINTS`` of the standard
@@ -145,27 +145,20 @@ def ellipse_axes(shape: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, ...
     return major, minor, angle
 
 
-def prediction_regions(
-    centre: np.ndarray,
-    log_weights: np.ndarray,
-    means: np.ndarray,
-    covs: np.ndarray,
-    q: float,
-) -> Regions:
+def prediction_regions(centre: np.ndarray, mixture: Mixture, q: float) -> Regions:
     """Per forecast and step, the ellipse around ``centre`` holding mass ``q`` of the mixture.
 
     Args:
         centre: (N, H, 2) point forecasts.
-        log_weights: (N, M) log weights of the mixture's components (normalised here).
-        means: (N, M, H, 2) component position means.
-        covs: (N, M, H, 2, 2) their covariances.
+        mixture: the distribution each was made from (N people, M components).
         q: the probability each ellipse holds, in (0, MAX_COVERAGE].
     """
-    weights = _weights(log_weights)
+    weights = _weights(mixture.log_weights)
     parts = []
     for start in range(0, len(centre), CHUNK):
         block = slice(start, start + CHUNK)
-        c, w, mu, cov = centre[block], weights[block], means[block], covs[block]
+        c, w = centre[block], weights[block]
+        mu, cov = mixture.means[block], mixture.covariances[block]
         shape = _shape_about(c, w, mu, cov)
         parts.append(ellipse_axes(shape, _mass_radius(c, w, mu, cov, shape, q)))
     if not parts:
@@ -175,20 +168,18 @@ def prediction_regions(
     return Regions(q, centre, major, minor, angle)
 
 
-def shape_distances(
-    centre: np.ndarray,
-    log_weights: np.ndarray,
-    means: np.ndarray,
-    covs: np.ndarray,
-    points: np.ndarray,
-) -> np.ndarray:
+def region_shapes(centre: np.ndarray, mixture: Mixture) -> np.ndarray:
+    """(N, H, 2, 2) each step's region shape: the mixture's second moment about ``centre``
+    (its covariance plus the spread of the component means around the forecast)."""
+    return _shape_about(centre, _weights(mixture.log_weights), mixture.means, mixture.covariances)
+
+
+def shape_distances(centre: np.ndarray, mixture: Mixture, points: np.ndarray) -> np.ndarray:
     """(N, H) each (N, H, 2) point's Mahalanobis distance from the point forecast under its
     region's shape (the score a calibration ranks): a point is inside the region of radius r
     when this is at most r."""
-    weights = _weights(log_weights)
-    shape = _shape_about(centre, weights, means, covs)
     offset = points - centre
-    solved = np.linalg.solve(shape, offset[..., None])[..., 0]
+    solved = np.linalg.solve(region_shapes(centre, mixture), offset[..., None])[..., 0]
     distance: np.ndarray = np.sqrt(np.maximum((offset * solved).sum(-1), 0.0))
     return distance
 
@@ -207,56 +198,11 @@ def conformal_radii(scores: np.ndarray, qs: np.ndarray) -> np.ndarray:
     return radii
 
 
-@dataclass(frozen=True, eq=False)
-class RegionCalibration:
-    """Conformal radii of a site's recording for one checkpoint and point forecast.
-
-    Attributes:
-        checkpoint: the model's name (``config.model_name``) the scores were made with.
-        point_forecast: its point forecast (``ml-top10``, ...).
-        samples: calibration samples (people with a full history and future).
-        qs: (Q,) probabilities, 0.01 to 0.99 in steps of 0.01.
-        radii: (Q, H) the radius per probability and forecast step.
-        source: the recording the scores came from.
-        weights_sha256: the checkpoint file's SHA-256 (empty when unknown).
-        uncalibrated_coverage_q90: (H,) the share of the recording's truths inside the
-            model's own 90% regions per step (for the record; empty when unknown).
-    """
-
-    checkpoint: str
-    point_forecast: str
-    samples: int
-    qs: np.ndarray
-    radii: np.ndarray
-    source: str = ""
-    weights_sha256: str = ""
-    uncalibrated_coverage_q90: np.ndarray = field(default_factory=lambda: np.zeros(0))
-
-    def radius(self, q: float) -> np.ndarray:
-        """(H,) the calibrated radius at ``q`` (one of ``qs``)."""
-        match = np.flatnonzero(np.isclose(self.qs, q))
-        if not len(match):
-            raise GrouptronError(f"calibrated regions are for q = 0.01, 0.02, ... 0.99, not {q}")
-        radius: np.ndarray = self.radii[match[0]]
-        if not np.isfinite(radius).all():
-            raise GrouptronError(
-                f"{self.samples} calibration samples cannot support q = {q:g}: it needs at "
-                f"least {int(np.ceil(q / (1 - q) - 1e-9))}; calibrate on a longer recording"
-            )
-        return radius
-
-
 def calibrated_regions(
-    centre: np.ndarray,
-    log_weights: np.ndarray,
-    means: np.ndarray,
-    covs: np.ndarray,
-    q: float,
-    radius: np.ndarray,
+    centre: np.ndarray, mixture: Mixture, q: float, radius: np.ndarray
 ) -> Regions:
     """Regions of the same shape as :func:`prediction_regions`', of the (H,) calibrated
     ``radius`` per step instead of the mixture's own."""
-    weights = _weights(log_weights)
-    shape = _shape_about(centre, weights, means, covs)
+    shape = region_shapes(centre, mixture)
     major, minor, angle = ellipse_axes(shape, np.broadcast_to(radius, shape.shape[:2]))
     return Regions(q, centre, major, minor, angle)

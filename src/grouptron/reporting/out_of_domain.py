@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from grouptron.config import DataConfig
-from grouptron.constants import is_point_forecast
 from grouptron.data.custom import DatasetDescription
 from grouptron.data.samples import SampleSet, concatenate_samples
 from grouptron.data.subsets import density_masks, time_step_ids
+from grouptron.data.track_files import TrackSource
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores
 from grouptron.evaluation.recordings import recording_samples
@@ -26,7 +26,8 @@ from grouptron.evaluation.scored import CONSTANT_VELOCITY
 from grouptron.evaluation.uncertainty import Interval, mean_interval
 from grouptron.model.checkpoint import load_trained_model, stored_checkpoints
 from grouptron.model.factory import groups_for_model
-from grouptron.model.predict import POINT_FORECASTS
+from grouptron.point_forecast import NAMED as POINT_FORECASTS
+from grouptron.point_forecast import is_point_forecast
 
 POOLED_BIN = "all"
 MIN_BIN_SAMPLES = 20
@@ -154,7 +155,12 @@ def causal_checkpoints(root: Path) -> list[Path]:
 
 def _samples(datasets: Sequence[DatasetDescription], data: DataConfig = BASELINE_DATA) -> SampleSet:
     """Every test file's samples in one set, one scene per file (ids unique across datasets)."""
-    parts = [recording_samples(d.files(TEST_PART), d.recording, data) for d in datasets]
+    parts = [
+        recording_samples(
+            [TrackSource.from_format(f, d.recording) for f in d.files(TEST_PART)], data
+        )
+        for d in datasets
+    ]
     return concatenate_samples(parts)
 
 

@@ -21,12 +21,7 @@ import numpy as np
 import torch
 
 from grouptron.config import DataConfig, ExperimentConfig
-from grouptron.constants import (
-    REPORT_NLL_MAX_SAMPLES,
-    SPLITS,
-    UNIV_N_PAPER,
-    is_evaluation_mode,
-)
+from grouptron.constants import REPORT_NLL_MAX_SAMPLES, SPLITS, UNIV_N_PAPER
 from grouptron.data.samples import SampleSet
 from grouptron.data.subsets import (
     UNIV_N_DEFINITIONS,
@@ -48,6 +43,7 @@ from grouptron.geometry import DerivativeScheme
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_trained_model, stored_checkpoints
 from grouptron.model.factory import MODEL_NAMES, PAPER_MODELS, uses_groups
 from grouptron.model.predict import ABLATIONS
+from grouptron.point_forecast import is_evaluation_mode
 from grouptron.presets import CUSTOM, model_label
 from grouptron.reporting.stats import Report, build_report
 

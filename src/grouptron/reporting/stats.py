@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grouptron.constants import SPLITS, is_point_forecast
+from grouptron.constants import SPLITS
 from grouptron.evaluation.results import MEAN_ROW, EvaluationResult, mean_over_splits
 from grouptron.evaluation.scored import CONSTANT_VELOCITY, ScoredRun
 from grouptron.evaluation.uncertainty import (
@@ -26,6 +26,7 @@ from grouptron.evaluation.uncertainty import (
     split_average_interval,
 )
 from grouptron.model.factory import GROUP_MODELS
+from grouptron.point_forecast import is_point_forecast
 from grouptron.presets import MODELS
 from grouptron.reporting.diagnostics import (
     AblationRow,

@@ -9,11 +9,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from grouptron.constants import top_forecast_size
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.scored import CONSTANT_VELOCITY
 from grouptron.evaluation.uncertainty import Interval, seed_spread
 from grouptron.model.factory import GROUP_MODELS
+from grouptron.point_forecast import PointForecast, is_point_forecast
 from grouptron.reporting.cells import (
     DISPLAY,
     OURS_MODELS,
@@ -305,8 +305,8 @@ def _other_modes(
         "in brackets: samples scored)",
     }
     for mode in modes:  # ml-topK for other K, in the order asked
-        top = top_forecast_size(mode) if mode else None
-        if mode and top and mode not in titles:
+        top = PointForecast.parse(mode).top if mode and is_point_forecast(mode) else None
+        if mode and top and top > 1 and mode not in titles:
             titles[mode] = f"Most likely of the {top} most probable latent values"
     out = []
     for mode, title in titles.items():

@@ -26,10 +26,10 @@ import torch
 from grouptron.config import ExperimentConfig
 from grouptron.data.download import file_sha256
 from grouptron.data.reader import TrackTable
-from grouptron.data.recording import RecordingFormat, read_table
 from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
 from grouptron.data.scene import build_scene
 from grouptron.data.subsets import time_step_ids
+from grouptron.data.track_files import TrackSource, read_track_file
 from grouptron.data.windows import cut_windows, step_window
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
@@ -53,8 +53,8 @@ class AdaptRequest:
     """A site adaptation.
 
     Attributes:
-        files: the site's recordings, in time order.
-        recording: how they are laid out (default: ETH/UCY's).
+        files: the site's recordings (ROS 2 bags too), in time order.
+        layout: how each is read, its ``path`` aside (default: ETH/UCY's ``frame id x y``).
         minutes: the adaptation part: the first minutes of the recordings.
         holdout_minutes: the held-out part: the last minutes, scored before and after (0:
             none, nothing is scored).
@@ -66,7 +66,7 @@ class AdaptRequest:
     """
 
     files: tuple[Path, ...]
-    recording: RecordingFormat = field(default_factory=RecordingFormat)
+    layout: TrackSource = field(default_factory=lambda: TrackSource(""))
     minutes: float = 5.0
     holdout_minutes: float = 0.0
     checkpoint: str = DEFAULT_CHECKPOINT
@@ -116,9 +116,10 @@ def adapt(request: AdaptRequest, *, progress: bool = False) -> AdaptResult:
     source = resolve_checkpoint(request.checkpoint)
     model, experiment = load_trained_model(source)
     data = experiment.data
+    layout = dataclasses.replace(request.layout, on_gap=request.on_gap)
     tables = [
-        read_table(Path(f), request.recording, data.frames_per_step, request.on_gap, data.dt_s)
-        for f in request.files
+        read_track_file(track, data.frames_per_step, data.dt_s)[0]
+        for track in layout.files(request.files)
     ]
     steps = [int(t.step.max()) + 1 for t in tables]
     total_s = sum(steps) * data.dt_s
@@ -221,7 +222,7 @@ def _held_out(
     data = experiment.data
     samples = _samples(tables, experiment, data.history_steps)
     groups = groups_for_model(samples, experiment)
-    mode = default_point_forecast(experiment)
+    mode = default_point_forecast(experiment).name
     scored: list[tuple[str, SampleScores]] = []
     for name, model in ((before_name, before), (after_name, after)):
         (scores,) = score_samples(model, experiment, samples, (mode,), groups=groups)

@@ -15,24 +15,30 @@ from pathlib import Path
 from grouptron.data.samples import scene_samples
 from grouptron.data.scene import build_scene
 from grouptron.data.track_files import TrackFile, read_track_file
-from grouptron.evaluation.calibration import calibrate, save_calibration, weights_digest
+from grouptron.inference.calibration import (
+    RegionCalibration,
+    calibrate,
+    save_calibration,
+    weights_digest,
+)
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint, warn_look_ahead
 from grouptron.io import refuse_folder
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.predict import default_point_forecast
-from grouptron.model.regions import RegionCalibration
+from grouptron.point_forecast import PointForecast
 
 
 def calibrate_tracks(
     tracks: TrackFile,
     out: Path,
     checkpoint: str | Path = DEFAULT_CHECKPOINT,
-    mode: str | None = None,
+    forecast: PointForecast | str | None = None,
 ) -> RegionCalibration:
     """Score every person of ``tracks`` with a full history and future against the regions of
-    ``checkpoint``'s point forecast ``mode`` (None: the model's own) and write the conformal
+    ``checkpoint``'s point forecast ``forecast`` (None: the model's own) and write the conformal
     radii to ``out`` (checked before the work); returns them."""
-    refuse_folder(out, inputs=(tracks.path,))  # before the work, not after it
+    named = None if forecast is None else PointForecast.parse(forecast)  # before the work
+    refuse_folder(out, inputs=(tracks.path,))
     path = resolve_checkpoint(checkpoint)
     model, experiment = load_trained_model(path)
     warn_look_ahead(checkpoint, experiment.data.derivatives)
@@ -41,8 +47,9 @@ def calibrate_tracks(
     experiment = dataclasses.replace(experiment, data=data)
     scene = build_scene(table, data, name=str(tracks.path))
     samples = scene_samples(scene, data, data.history_steps, require_future=True)
-    mode = mode or default_point_forecast(experiment)
+    point = default_point_forecast(experiment) if named is None else named
+    point = point.for_model(experiment.model.latent_values)
     digest = weights_digest(path)
-    calibration = calibrate(model, experiment, samples, mode, str(tracks.path), digest)
+    calibration = calibrate(model, experiment, samples, point, str(tracks.path), digest)
     save_calibration(calibration, out)
     return calibration

@@ -21,9 +21,9 @@ from grouptron.config import DataConfig, ExperimentConfig
 from grouptron.constants import ALL_LOCATIONS, SPLITS
 from grouptron.data.custom import DatasetDescription, load_dataset_part
 from grouptron.data.locate import resolve_data_dir, split_files
-from grouptron.data.recording import RecordingFormat
 from grouptron.data.samples import SampleSet
 from grouptron.data.subsets import density_masks, parse_univ_n
+from grouptron.data.track_files import TrackSource
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
 from grouptron.evaluation.recordings import evaluate_recordings, training_files
@@ -55,10 +55,22 @@ class Benchmark:
 
 @dataclass(frozen=True)
 class Tracks:
-    """Track files of one's own, laid out as ``recording`` says (default: ETH/UCY's)."""
+    """Track files of one's own (ROS 2 bags too), each read as ``layout`` says (its ``path``
+    aside; default: ETH/UCY's ``frame id x y`` rows)."""
 
     files: tuple[Path, ...]
-    recording: RecordingFormat = field(default_factory=RecordingFormat)
+    layout: TrackSource = field(default_factory=lambda: TrackSource(""))
+
+    def __post_init__(self) -> None:
+        files = (self.files,) if isinstance(self.files, str | Path) else tuple(self.files)
+        if not files:
+            raise GrouptronError("Tracks needs at least one track file")
+        object.__setattr__(self, "files", tuple(Path(f) for f in files))
+
+    @property
+    def sources(self) -> tuple[TrackSource, ...]:
+        """Every file with its layout."""
+        return self.layout.files(self.files)
 
 
 Source = Benchmark | Tracks | DatasetDescription
@@ -139,7 +151,7 @@ def _load(checkpoint: str | Path | None, options: EvaluationOptions) -> _Loaded:
 
 
 def _default_modes(experiment: ExperimentConfig | None) -> tuple[str, ...]:
-    return (default_point_forecast(experiment),) if experiment is not None else ("ml",)
+    return (default_point_forecast(experiment).name,) if experiment is not None else ("ml",)
 
 
 def _check_ablations(ablate: tuple[str, ...], loaded: _Loaded) -> None:
@@ -279,7 +291,7 @@ def _evaluate_tracks(
                 path, loaded.name, loaded.experiment.split,
             )  # fmt: skip
     return evaluate_recordings(
-        source.files, source.recording, model=loaded.model, experiment=loaded.experiment,
+        source.sources, model=loaded.model, experiment=loaded.experiment,
         data=loaded.data, modes=modes, seed=options.seed, progress=options.progress,
         device=options.device, by_density=options.by_density, ablate=options.ablate,
         baseline=loaded.model is not None,

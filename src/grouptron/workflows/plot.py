@@ -16,12 +16,12 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from grouptron.constants import top_forecast_size
 from grouptron.data.reader import TrackTable
 from grouptron.data.track_files import TrackFile, read_track_file, table_rows
 from grouptron.errors import GrouptronError
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, warn_look_ahead
-from grouptron.inference.predictor import MostLikely, Predictor
+from grouptron.inference.predictor import Predictor
+from grouptron.point_forecast import PointForecast
 from grouptron.presets import describe_group_rule
 from grouptron.viz.files import check_picture_path
 from grouptron.viz.forecasts import Panel, animate_forecasts, plot_forecasts, tracks_around
@@ -30,10 +30,10 @@ POINT_LABELS = {"ml": "most likely", "ml-argmax": "argmax latent", "mean": "mean
 """How a panel's legend names a point forecast (``ml-topK``: most likely of top K)."""
 
 
-def point_label(forecast: str) -> str:
+def point_label(forecast: PointForecast) -> str:
     """The legend's name of a point forecast."""
-    top = top_forecast_size(forecast)
-    return f"most likely of top {top}" if top else POINT_LABELS[forecast]
+    top = forecast.top if forecast.top != 1 else None
+    return f"most likely of top {top}" if top else POINT_LABELS[forecast.name]
 
 
 @dataclass(frozen=True)
@@ -49,7 +49,7 @@ class PlotRequest:
             writes them; steps for a file in seconds); None: the frame with the most people.
         until: animate every step from ``frame`` to this frame.
         time_s: instead of ``frame``, the time in the file's own seconds.
-        forecast: the point forecast drawn (``POINT_FORECAST_NAMES`` or ``ml-topK``; None: the
+        forecast: the point forecast drawn (a ``PointForecast`` or its name; None: the
             model's own).
         region: the probability of the drawn regions (None: none).
         samples: sampled futures drawn as thin lines (K).
@@ -67,7 +67,7 @@ class PlotRequest:
     frame: int | None = None
     until: int | None = None
     time_s: float | None = None
-    forecast: MostLikely | None = None
+    forecast: PointForecast | str | None = None
     region: float | None = 0.9
     samples: int = 0
     seed: int = 0
@@ -75,6 +75,10 @@ class PlotRequest:
     calibration: str | Path | None = None
     device: str | torch.device = "cpu"
     progress: bool = False
+
+    def __post_init__(self) -> None:
+        if self.forecast is not None:
+            object.__setattr__(self, "forecast", PointForecast.parse(self.forecast))
 
 
 @dataclass(frozen=True)
@@ -152,7 +156,7 @@ def _predictors(request: PlotRequest) -> list[Predictor]:
     return [
         Predictor.from_checkpoint(
             c,
-            most_likely=request.forecast,
+            forecast=request.forecast,
             device=request.device,
             check_speed=request.tracks.check_speed,  # the file was checked as it was read
             calibration=request.calibration if c == request.checkpoint else None,
@@ -228,7 +232,7 @@ def _panels(
         )  # fmt: skip
         config = predictor.config
         name = f"{config.model_name} ({config.data.derivatives})"
-        label = point_label(predictor.point_forecast_name)
+        label = point_label(predictor.forecast)
         rule = describe_group_rule(predictor.group_rule)
         panels.append(
             Panel(name, forecast, history, truth, label, rule, request.region, request.ids)

@@ -22,14 +22,18 @@ from grouptron.data.ros_bag import BagTracks
 from grouptron.data.scene import build_scene
 from grouptron.data.track_files import TrackFile, read_track_file
 from grouptron.errors import GrouptronError
-from grouptron.evaluation.calibration import calibration_for
+from grouptron.inference.calibration import calibration_for
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint, warn_look_ahead
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.tracks import forecast_scene
 from grouptron.io import refuse_folder, write_array_csv_atomically
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.predict import default_point_forecast
+from grouptron.point_forecast import PointForecast
 from grouptron.viz.foxglove import write_forecast_mcap
+
+SAMPLES = "samples"
+"""The forecast that writes sampled futures instead of a point forecast."""
 
 
 @dataclass(frozen=True)
@@ -43,8 +47,9 @@ class PredictRequest:
             clock and in its frame), ``.ndjson`` TrajNet++ predictions, else CSV rows (layout 2,
             docs/guide.md); an open text stream takes CSV rows (standard output).
         checkpoint: a shipped name or a ``.safetensors`` file.
-        mode: ``FORECAST_MODES`` (None: the model's own point forecast).
-        samples: futures per pedestrian and frame of ``mode`` ``samples`` (K).
+        forecast: a point forecast (``PointForecast`` or its name), or ``"samples"`` for
+            sampled futures (None: the model's own point forecast).
+        samples: futures per pedestrian and frame of ``forecast`` ``samples`` (K).
         seed: of the sampled futures.
         regions: probabilities Q of the regions added per point (CSV; an MCAP draws the first).
         calibration: a ``grouptron calibrate`` file of this checkpoint for the regions' radii.
@@ -57,7 +62,7 @@ class PredictRequest:
     tracks: TrackFile
     out: str | Path | TextIO
     checkpoint: str | Path = DEFAULT_CHECKPOINT
-    mode: str | None = None
+    forecast: PointForecast | str | None = None
     samples: int = 20
     seed: int = 0
     regions: tuple[float, ...] = ()
@@ -66,17 +71,26 @@ class PredictRequest:
     device: str | torch.device = "cpu"
     progress: bool = False
 
+    def __post_init__(self) -> None:
+        if self.forecast is not None and self.forecast != SAMPLES:
+            object.__setattr__(self, "forecast", PointForecast.parse(self.forecast))
+        if self.forecast == SAMPLES and (self.regions or self.calibration):
+            raise GrouptronError(
+                "--regions and --calibration go with a point forecast (--forecast), not samples"
+            )
+
 
 @dataclass(frozen=True)
 class Predicted:
     """What was written: ``count`` rows (CSV, ``.ndjson``), or with ``scene_updates`` scene
-    updates (``.mcap``), of the forecasts of ``model_name`` (its ``derivatives``) in ``mode``."""
+    updates (``.mcap``), of the forecasts of ``model_name`` (its ``derivatives``), named
+    ``kind`` (the point forecast's name, or ``samples``)."""
 
     forecast: Forecast
     count: int
     model_name: str
     derivatives: str
-    mode: str
+    kind: str
     scene_updates: bool
 
 
@@ -93,25 +107,25 @@ def predict_tracks(request: PredictRequest) -> Predicted:
     data = dataclasses.replace(experiment.data, frames_per_step=table.frames_per_step)
     experiment = dataclasses.replace(experiment, data=data)
     scene = build_scene(table, data, name=str(request.tracks.path))
-    mode = request.mode or default_point_forecast(experiment)
-    trajnet = out is not None and str(out).endswith(".ndjson")
-    if (request.regions or request.calibration) and (mode == "samples" or trajnet):
-        raise GrouptronError(
-            "--regions and --calibration go with a point forecast (--forecast) written as CSV or "
-            "MCAP"
-        )
-    calibrated = calibration_for(request.calibration, experiment, mode, str(path))  # before work
+    sampled = request.forecast == SAMPLES
+    point = default_point_forecast(experiment)
+    if isinstance(request.forecast, PointForecast):
+        point = request.forecast.for_model(experiment.model.latent_values)
+    if (request.regions or request.calibration) and out is not None and out.suffix == ".ndjson":
+        raise GrouptronError("--regions and --calibration go with CSV or MCAP output")
+    calibrated = calibration_for(request.calibration, experiment, point, str(path))  # before work
     forecast = forecast_scene(
-        model, experiment, scene, mode, num_samples=request.samples, seed=request.seed,
-        progress=request.progress, min_points=request.min_points, device=request.device,
-        keep_distribution=bool(request.regions),
+        model, experiment, scene, point, num_samples=request.samples if sampled else 0,
+        seed=request.seed, progress=request.progress, min_points=request.min_points,
+        device=request.device, keep_distribution=bool(request.regions),
     )  # fmt: skip
     forecast = dataclasses.replace(forecast, calibration=calibrated)
-    done = Predicted(forecast, 0, experiment.model_name, data.derivatives, mode, False)
+    kind = SAMPLES if sampled else point.name
+    done = Predicted(forecast, 0, experiment.model_name, data.derivatives, kind, False)
     if out is not None and out.suffix == ".mcap":
         count = _write_mcap(out, forecast, table, bag, data.dt_s, request.regions)
         return dataclasses.replace(done, count=count, scene_updates=True)
-    count = _write_rows(request, forecast, table, mode, data.horizon_steps)
+    count = _write_rows(request, forecast, table, sampled, data.horizon_steps)
     return dataclasses.replace(done, count=count)
 
 
@@ -121,10 +135,9 @@ def _out_path(out: str | Path | TextIO) -> Path | None:
 
 
 def _write_rows(
-    request: PredictRequest, forecast: Forecast, table: TrackTable, mode: str, horizon: int
+    request: PredictRequest, forecast: Forecast, table: TrackTable, sampled: bool, horizon: int
 ) -> int:
     """Write the forecasts as TrajNet++ ``.ndjson`` or CSV rows; returns how many rows."""
-    sampled = mode == "samples"
     out = _out_path(request.out)
     if out is not None and out.suffix == ".ndjson":
         _write_trajnet(out, forecast, table, sampled=sampled)
@@ -149,7 +162,7 @@ def _write_trajnet(path: Path, forecast: Forecast, table: TrackTable, *, sampled
     for p, f in zip(forecast.ids.tolist(), forecast.frames.tolist(), strict=True):
         keys = [(int(p), int(f) - k * step) for k in range(7, -1, -1)]
         history.append(np.asarray([position[key] for key in keys if key in position]))
-    positions = forecast.samples if sampled else forecast.most_likely[:, None]
+    positions = forecast.samples if sampled else forecast.point[:, None]
     assert positions is not None
     write_forecast_ndjson(
         path, forecast.frames, forecast.ids, positions, history, frames_per_step=step

@@ -13,14 +13,14 @@ import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from grouptron.constants import is_point_forecast
 from grouptron.data.custom import read_dataset
 from grouptron.data.locate import resolve_data_dir
 from grouptron.errors import GrouptronError
 from grouptron.geometry import DerivativeScheme
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT
 from grouptron.model.factory import MODEL_NAMES
-from grouptron.model.predict import POINT_FORECASTS
+from grouptron.point_forecast import NAMED as POINT_FORECASTS
+from grouptron.point_forecast import is_point_forecast
 from grouptron.reporting.out_of_domain import (
     causal_checkpoints,
     prepare_out_of_domain,

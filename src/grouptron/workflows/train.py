@@ -22,6 +22,7 @@ from grouptron.config import (
     config_from_dict,
     config_to_dict,
     merge_settings,
+    renamed_settings,
 )
 from grouptron.data.custom import read_dataset
 from grouptron.errors import GrouptronError
@@ -160,8 +161,8 @@ def make_experiment(request: TrainRequest, *, choose_precision: bool = True) -> 
     model = request.model or file_values.get("model_name") or started_model or "trajectron++"
     split, dataset = _split_or_dataset(request)
     values = merge_settings(preset_values(split, model, dataset), started)
-    values = merge_settings(values, file_values)
-    sets = [parse_setting(text) for text in request.settings]
+    values = merge_settings(values, renamed_settings(file_values))  # an older file's names
+    sets = [renamed_settings(parse_setting(text)) for text in request.settings]
     for setting in sets:
         values = merge_settings(values, setting)
     values = merge_settings(values, {"split": split, "model_name": model, "dataset": dataset})

@@ -7,17 +7,16 @@ import argparse
 from grouptron.cli.options import (
     Formatter,
     add_device_option,
+    add_forecast_option,
     add_gap_option,
     add_recording_options,
     add_threads_option,
-    forecast_option,
     non_negative_int,
     plot_region_probability,
-    point_forecast_option,
     positive_int,
     region_probabilities,
 )
-from grouptron.constants import DEFAULT_CHECKPOINT, FORECAST_MODES, POINT_FORECAST_NAMES
+from grouptron.constants import DEFAULT_CHECKPOINT
 
 
 # A flat list of options, each with its help: long, but one thing to read.
@@ -34,14 +33,14 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "the same time in the file's own seconds, step k (1..12) the position k steps of "
         "0.4 s later, x_m/y_m in metres in the file's frame of reference (converted from "
         "--units). "
-        "--mode samples adds a 'sample' column "
+        "--forecast samples adds a 'sample' column "
         "and writes --samples futures per pedestrian and frame. The most likely (ml) output "
         "equals what `grouptron evaluate --mode ml` scores.",
         formatter_class=Formatter,
         epilog="examples:\n"
         "  grouptron predict --checkpoint checkpoints/grouptron-eth-central/best.safetensors \\\n"
         "      --tracks biwi_eth.txt --out forecast.csv\n"
-        "  grouptron predict --checkpoint CKPT --tracks tracks.txt --out s.csv --mode samples",
+        "  grouptron predict --checkpoint CKPT --tracks tracks.txt --out s.csv --forecast samples",
     )
     predict.add_argument(
         "--checkpoint",
@@ -61,13 +60,9 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         help="CSV file to write ('-': standard output), or a .ndjson file of TrajNet++ "
         "predictions (its tools score it)",
     )
-    predict.add_argument(
-        "--forecast",
-        "--mode",
-        dest="mode",
-        type=forecast_option,
-        metavar="{" + ",".join(FORECAST_MODES) + ",ml-topK}",
-        help="which forecast (--mode: its older name): "
+    add_forecast_option(
+        predict,
+        "which forecast: "
         "ml: the most likely future per pedestrian (the evaluator's); ml-argmax: the most "
         "probable latent value's; mean: the p(z|x)-weighted mean "
         "future; ml-top10 (ml-topK): ml of the 10 (K) most probable latent values only; "
@@ -75,6 +70,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "the one stored with it (ml-top2 for the shipped deployment model), else ml-top10 for a "
         "velocity-residual model and ml-argmax otherwise (on recordings from elsewhere the "
         "forecasts closest to the truth; benchmarks/RESULTS.md)",
+        samples=True,
     )
     predict.add_argument(
         "--samples", type=positive_int, default=20, help="futures per pedestrian (samples)"
@@ -148,14 +144,10 @@ def _add_calibrate(commands: argparse._SubParsersAction) -> None:
         "--tracks", required=True, help="a recording of the site (any layout predict reads)"
     )
     calibrate.add_argument("--out", required=True, help="the calibration file to write (.json)")
-    calibrate.add_argument(
-        "--forecast",
-        "--mode",
-        dest="mode",
-        type=point_forecast_option,
-        metavar="{" + ",".join(POINT_FORECAST_NAMES) + ",ml-topK}",
-        help="the point forecast the regions go with (default: the model's own, as for predict; "
-        "--mode: its older name)",
+    add_forecast_option(
+        calibrate,
+        "the point forecast the regions go with (default: the model's own, as for predict)",
+        samples=False,
     )
     add_gap_option(calibrate)
     add_recording_options(calibrate)
@@ -214,14 +206,13 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
         "or a .mp4 when ffmpeg is installed; 2.5 pictures per second = real time)",
     )
     plot.add_argument("--out", required=True, help="PNG file to write (.gif/.mp4 with --until)")
-    plot.add_argument(
-        "--forecast",
-        type=point_forecast_option,
-        metavar="{" + ",".join(POINT_FORECAST_NAMES) + ",ml-topK}",
-        help="the dashed point forecast: ml (most likely, the evaluator's), ml-argmax (the "
+    add_forecast_option(
+        plot,
+        "the dashed point forecast: ml (most likely, the evaluator's), ml-argmax (the "
         "most probable latent value's), mean (the p(z|x)-weighted mean) or ml-top10 (ml-topK: "
         "ml of the 10 (K) most probable latent values) (default: the model's own, as for "
         "predict)",
+        samples=False,
     )
     plot.add_argument(
         "--region",

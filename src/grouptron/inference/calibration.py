@@ -1,4 +1,5 @@
-"""Split-conformal calibration of prediction regions on a site's own recording.
+"""Split-conformal calibration of prediction regions on a site's own recording, and the
+calibration file that ships with a deployment (``RegionCalibration``).
 
 Every person of the recording with a full history and future is forecast; the score of a
 forecast step is the true position's Mahalanobis distance under its region's shape
@@ -13,73 +14,83 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from collections.abc import Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import torch
 
 from grouptron.config import ExperimentConfig
 from grouptron.data.samples import SampleSet
 from grouptron.errors import GrouptronError
+from grouptron.inference.engine import EngineOptions, forecast_samples
 from grouptron.io import write_text_atomically
-from grouptron.model.batch import batches
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model
-from grouptron.model.predict import forecast_name, point_forecast_and_gaussians
-from grouptron.model.regions import (
-    RegionCalibration,
-    conformal_radii,
-    prediction_regions,
-    shape_distances,
-)
+from grouptron.model.regions import conformal_radii, prediction_regions, shape_distances
+from grouptron.point_forecast import PointForecast
 
 FORMAT = "grouptron-calibration/1"
 QS = np.round(np.arange(1, 100) / 100, 2)
 """The probabilities a calibration file holds radii for."""
 
 
-RegionInputs = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-"""(B, H, 2) point forecasts, (B, M) log weights, (B, M, H, 2) means and (B, M, H, 2, 2)
-covariances, relative to now: what ``model.regions`` draws regions from."""
+@dataclass(frozen=True, eq=False)
+class RegionCalibration:
+    """Conformal radii of a site's recording for one checkpoint and point forecast.
 
+    Attributes:
+        checkpoint: the model's name (``config.model_name``) the scores were made with.
+        point_forecast: its point forecast's name (``ml-top10``, ...).
+        samples: calibration samples (people with a full history and future).
+        qs: (Q,) probabilities, 0.01 to 0.99 in steps of 0.01.
+        radii: (Q, H) the radius per probability and forecast step.
+        source: the recording the scores came from.
+        weights_sha256: the checkpoint file's SHA-256 (empty when unknown).
+        uncalibrated_coverage_q90: (H,) the share of the recording's truths inside the
+            model's own 90% regions per step (for the record; empty when unknown).
+    """
 
-def forecast_distributions(
-    model: TrajectronCVAE,
-    config: ExperimentConfig,
-    samples: SampleSet,
-    point_forecast: str,
-    batch_size: int = 512,
-) -> Iterator[tuple[RegionInputs, np.ndarray]]:
-    """Per batch of samples (with a full future): the point forecast with the Gaussians it was
-    made from, and the (B, H, 2) truths, float64 NumPy, all relative to now."""
-    H, dt = config.data.horizon_steps, config.data.dt_s
-    groups = groups_for_model(samples, config)
-    for _, batch in batches(samples, config, batch_size, groups):
-        with torch.inference_mode():
-            point, own = point_forecast_and_gaussians(model.eval(), batch, H, dt, point_forecast)
-        centre = point.double().cpu().numpy()
-        truth = batch.fut_rel_m.double().cpu().numpy()
-        yield (centre, *own.as_arrays(np.zeros((len(centre), 2)))), truth
+    checkpoint: str
+    point_forecast: str
+    samples: int
+    qs: np.ndarray
+    radii: np.ndarray
+    source: str = ""
+    weights_sha256: str = ""
+    uncalibrated_coverage_q90: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def radius(self, q: float) -> np.ndarray:
+        """(H,) the calibrated radius at ``q`` (one of ``qs``)."""
+        match = np.flatnonzero(np.isclose(self.qs, q))
+        if not len(match):
+            raise GrouptronError(f"calibrated regions are for q = 0.01, 0.02, ... 0.99, not {q}")
+        radius: np.ndarray = self.radii[match[0]]
+        if not np.isfinite(radius).all():
+            raise GrouptronError(
+                f"{self.samples} calibration samples cannot support q = {q:g}: it needs at "
+                f"least {int(np.ceil(q / (1 - q) - 1e-9))}; calibrate on a longer recording"
+            )
+        return radius
 
 
 def calibration_scores(
     model: TrajectronCVAE,
     config: ExperimentConfig,
     samples: SampleSet,
-    point_forecast: str,
+    forecast: PointForecast,
     batch_size: int = 512,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(n, H) every sample's score per forecast step (samples with a full future), and (n, H)
     whether its truth lies in the model's own (uncalibrated) 90% region."""
-    scores, inside = [], []
-    for arrays, truth in forecast_distributions(model, config, samples, point_forecast, batch_size):
-        scores.append(shape_distances(*arrays, truth))
-        inside.append(prediction_regions(*arrays, 0.9).contains(truth))
-    if not scores:
-        H = config.data.horizon_steps
-        return np.zeros((0, H)), np.zeros((0, H), dtype=bool)
-    return np.concatenate(scores), np.concatenate(inside)
+    options = EngineOptions(batch_size=batch_size)
+    made = forecast_samples(
+        model, config, samples, forecast, groups_for_model(samples, config), options
+    )
+    assert made.distribution is not None
+    truth = samples.fut_rel_m.astype(np.float64)  # (n, H, 2) relative to now, as the forecast
+    scores = shape_distances(made.point, made.distribution, truth)
+    inside = prediction_regions(made.point, made.distribution, 0.9).contains(truth)
+    return scores, inside
 
 
 def weights_digest(path: str | Path) -> str:
@@ -105,20 +116,20 @@ def calibrate(
     model: TrajectronCVAE,
     config: ExperimentConfig,
     samples: SampleSet,
-    point_forecast: str,
+    forecast: PointForecast,
     source: str = "",
     weights_sha256: str = "",
 ) -> RegionCalibration:
-    """The conformal radii of ``samples`` for ``model``'s ``point_forecast``."""
+    """The conformal radii of ``samples`` for ``model``'s point forecast ``forecast``."""
     if not len(samples):
         raise GrouptronError(
             f"{source or 'the recording'}: nobody has {config.data.history_steps} observed and "
             f"{config.data.horizon_steps} future steps, so there is nothing to calibrate on"
         )
-    scores, inside = calibration_scores(model, config, samples, point_forecast)
+    scores, inside = calibration_scores(model, config, samples, forecast)
     return RegionCalibration(
         checkpoint=config.model_name,
-        point_forecast=point_forecast,
+        point_forecast=forecast.name,
         samples=len(scores),
         qs=QS,
         radii=conformal_radii(scores, QS),
@@ -194,7 +205,7 @@ def load_calibration(path: str | Path) -> RegionCalibration:
 def calibration_for(
     calibration: str | Path | RegionCalibration | None,
     config: ExperimentConfig,
-    point_forecast: str,
+    forecast: PointForecast,
     checkpoint: str = "",
 ) -> RegionCalibration | None:
     """``calibration`` (a file or a loaded one), checked to belong to this model, point
@@ -206,12 +217,12 @@ def calibration_for(
         calibration if isinstance(calibration, RegionCalibration) else load_calibration(calibration)
     )
 
-    Z = config.model.latent_modes
-    forecast = forecast_name(loaded.point_forecast, None, Z)
-    if (loaded.checkpoint, forecast) != (config.model_name, forecast_name(point_forecast, None, Z)):
+    Z = config.model.latent_values
+    stored = PointForecast.parse(loaded.point_forecast).for_model(Z)
+    if (loaded.checkpoint, stored) != (config.model_name, forecast.for_model(Z)):
         raise GrouptronError(
             f"{named}calibrated for {loaded.checkpoint} with its {loaded.point_forecast} "
-            f"forecast, not {config.model_name} with {point_forecast}; calibrate this one"
+            f"forecast, not {config.model_name} with {forecast}; calibrate this one"
         )
     known = bool(checkpoint and loaded.weights_sha256 and Path(checkpoint).is_file())
     if known and loaded.weights_sha256 not in _digests(Path(checkpoint).read_bytes()):
