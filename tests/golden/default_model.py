@@ -1,0 +1,50 @@
+"""Golden outputs of what ships: the default model with its own point forecast (``ml-top2``),
+its regions without and with a calibration, and that calibration's radii, on the fixed scene
+of ``compute``. Regenerate ``default_model.npz`` only for an intended change of behaviour:
+
+    python -m tests.golden.default_model
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from grouptron.data.reader import table_from_values
+from grouptron.data.samples import scene_samples
+from grouptron.data.scene import build_scene
+from grouptron.inference.calibration import calibrate
+from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
+from grouptron.inference.predictor import Predictor
+from tests.golden.compute import FORECAST_FRAME, synthetic_tracks
+
+GOLDEN = Path(__file__).parent / "default_model.npz"
+REGION_QS = (0.5, 0.9)
+
+
+def compute() -> dict[str, np.ndarray]:
+    """The shipped default model's forecast at ``FORECAST_FRAME`` (its own point forecast),
+    its regions, a calibration made on the scene's samples with a full future, and the
+    regions drawn with it."""
+    path = resolve_checkpoint(DEFAULT_CHECKPOINT)
+    predictor = Predictor.from_checkpoint(path)
+    tracks = synthetic_tracks()
+    table = table_from_values(Path("golden"), tracks, np.arange(len(tracks)), 10)
+    data = predictor.config.data
+    samples = scene_samples(build_scene(table, data, name="golden"), data, data.history_steps)
+    calibration = calibrate(predictor.model, predictor.config, samples, predictor.forecast)
+    calibrated = Predictor.from_checkpoint(path, calibration=calibration)
+    out = {"ids": np.asarray([]), "radii": calibration.radii[[49, 89]]}  # q = 0.5, 0.9
+    for name, used in (("own", predictor), ("calibrated", calibrated)):
+        forecast = used.predict(tracks, FORECAST_FRAME)
+        out["ids"], out["point"] = forecast.ids.astype(np.float64), forecast.point
+        for q in REGION_QS:
+            region = forecast.regions(q)
+            out[f"{name}/q{q:g}"] = np.stack([region.major_m, region.minor_m, region.angle_rad])
+    return out
+
+
+if __name__ == "__main__":
+    np.savez_compressed(GOLDEN, **compute())
+    print(f"wrote {GOLDEN}")
