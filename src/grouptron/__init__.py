@@ -1,7 +1,9 @@
 """grouptron: group-aware pedestrian trajectory forecasting.
 
-Layers, each importing only those below it (docs/architecture.md):
-``cli > viz > inference > training > evaluation > baselines > model > groups > data > config``.
+Layers, each importing only those below it (docs/architecture.md; ``lint-imports`` checks):
+``cli > workflows > reporting > viz > inference > training > evaluation > baselines > model >
+groups > data > presets > config > point_forecast > io, geometry, constants, devices >
+errors``.
 
 Shape letters used in docstrings and comments throughout (docs/vocabulary.md):
 

@@ -23,7 +23,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "optimiser) on the first --minutes of a site's recordings, played one after the other "
         "in the order given, and, with --holdout-minutes, score the checkpoint before and after "
         "on the recordings' last minutes, which the adaptation never sees (a paired FDE "
-        "difference with its 95%% interval, constant velocity beside them). The two parts may "
+        "difference with its 95% interval, constant velocity beside them). The two parts may "
         "not overlap. The adapted folder records which files and seconds it adapted on; "
         "evaluate warns when it is given them. docs/recordings.md, 'Site adaptation'.",
         formatter_class=Formatter,
