@@ -72,20 +72,28 @@ MODELS: dict[str, ModelSpec] = {
         ModelSpec("trajectron++", "trajectron++", "Trajectron++", {}, (_CV,), paper=True),
         ModelSpec("grouptron", "grouptron", "Grouptron", {}, ("trajectron++", _CV), paper=True),
         ModelSpec(
-            VARIANT_MODEL, "grouptron", "Grouptron (robust)", copy.deepcopy(_ROBUST_SWITCHES),
+            VARIANT_MODEL,
+            "grouptron",
+            "Grouptron (robust)",
+            copy.deepcopy(_ROBUST_SWITCHES),
             ("trajectron++", "grouptron", _CV),
         ),
         ModelSpec(
-            RESIDUAL_MODEL, "trajectron++", "Trajectron++ (residual)", copy.deepcopy(_RESIDUAL),
+            RESIDUAL_MODEL,
+            "trajectron++",
+            "Trajectron++ (residual)",
+            copy.deepcopy(_RESIDUAL),
             ("trajectron++", _CV),
         ),
         ModelSpec(
-            GROUP_RESIDUAL_MODEL, "grouptron", "Grouptron (robust, residual)",
+            GROUP_RESIDUAL_MODEL,
+            "grouptron",
+            "Grouptron (robust, residual)",
             merge_settings(copy.deepcopy(_ROBUST_SWITCHES), _RESIDUAL),
             ("trajectron++", RESIDUAL_MODEL, VARIANT_MODEL, _CV),
         ),
     )
-}  # fmt: skip
+}
 """Every named model, the one list the others derive from. ``grouptron-robust`` is Grouptron
 with every density switch on: E_scene sees all 8 observed steps, has dropout and layer norm and
 leaves the ego out of its own group; groups are the detector's (single linkage cut at 1.5 m,

@@ -13,10 +13,17 @@ from grouptron.workflows.adapt import AdaptRequest, adapt
 def cmd_adapt(args: argparse.Namespace) -> int:
     """Adapt, then print the held-out scores (or where the adapted weights are)."""
     request = AdaptRequest(
-        files=tuple(Path(f) for f in args.tracks), layout=track_file(args, path=""),
-        minutes=args.minutes, holdout_minutes=args.holdout_minutes, checkpoint=args.checkpoint,
-        out=args.out, steps=args.steps, lr=args.lr, seed=args.seed, threads=args.threads,
+        files=tuple(Path(f) for f in args.tracks),
+        layout=track_file(args, path=""),
+        minutes=args.minutes,
+        holdout_minutes=args.holdout_minutes,
+        checkpoint=args.checkpoint,
+        out=args.out,
+        steps=args.steps,
+        lr=args.lr,
+        seed=args.seed,
+        threads=args.threads,
         on_gap=args.on_gap,
-    )  # fmt: skip
+    )
     print(adapt(request, progress=show_progress(args)).table())
     return 0

@@ -24,13 +24,19 @@ def track_file(args: argparse.Namespace, path: str | Path | None = None) -> Trac
     a bag's ``--topic``, ``--ros-fields``, ``--fixed-frame``), its messages naming the flags;
     ``path`` instead of ``--tracks`` where that names several files."""
     return TrackFile(
-        args.tracks if path is None else path, columns=args.columns, fps=args.fps,
-        units=args.units, max_gap_s=args.max_gap, check_speed=not args.no_speed_check,
+        args.tracks if path is None else path,
+        columns=args.columns,
+        fps=args.fps,
+        units=args.units,
+        max_gap_s=args.max_gap,
+        check_speed=not args.no_speed_check,
         on_gap=getattr(args, "on_gap", "split"),
         frames_per_step=getattr(args, "frames_per_step", None),
-        topic=getattr(args, "topic", None), bag_fields=getattr(args, "ros_fields", None),
-        fixed_frames=tuple(getattr(args, "fixed_frame", None) or ()), spelling=FLAGS,
-    )  # fmt: skip
+        topic=getattr(args, "topic", None),
+        bag_fields=getattr(args, "ros_fields", None),
+        fixed_frames=tuple(getattr(args, "fixed_frame", None) or ()),
+        spelling=FLAGS,
+    )
 
 
 def own_layout(args: argparse.Namespace) -> bool:

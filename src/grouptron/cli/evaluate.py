@@ -73,10 +73,15 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     torch.set_num_threads(args.threads)
     ablate = tuple(a.strip() for a in (args.ablate or "").split(",") if a.strip())
     options = EvaluationOptions(
-        seed=args.seed, by_density=args.by_density, ablate=ablate, derivatives=args.derivatives,
-        on_gap=args.on_gap, device=args.device, use_cache=not getattr(args, "no_cache", False),
+        seed=args.seed,
+        by_density=args.by_density,
+        ablate=ablate,
+        derivatives=args.derivatives,
+        on_gap=args.on_gap,
+        device=args.device,
+        use_cache=not getattr(args, "no_cache", False),
         progress=show_progress(args),
-    )  # fmt: skip
+    )
     rows = evaluate(_source(args), checkpoint, _modes(args), options)
     print(results_json(rows) if args.format == "json" else results_table(rows))
     return 0

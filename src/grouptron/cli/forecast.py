@@ -16,17 +16,50 @@ from grouptron.workflows.plot import PlotRequest, plot_tracks
 from grouptron.workflows.predict import PredictRequest, predict_tracks
 
 
+def _predict_request(args: argparse.Namespace, to_stdout: bool) -> PredictRequest:
+    """``grouptron predict``'s options as a request (``to_stdout``: ``--out -``)."""
+    return PredictRequest(
+        track_file(args),
+        sys.stdout if to_stdout else Path(args.out),
+        args.checkpoint,
+        forecast=args.forecast,
+        samples=args.samples,
+        seed=args.seed,
+        regions=args.regions,
+        calibration=args.calibration,
+        min_points=args.min_points,
+        device=args.device,
+        progress=show_progress(args),
+    )
+
+
+def _plot_request(args: argparse.Namespace) -> PlotRequest:
+    """``grouptron plot``'s options as a request."""
+    return PlotRequest(
+        track_file(args),
+        Path(args.out),
+        args.checkpoint,
+        compare=args.compare,
+        frame=args.frame,
+        until=args.until,
+        time_s=args.time,
+        forecast=args.forecast,
+        region=args.region,
+        samples=args.samples,
+        seed=args.seed,
+        ids=args.ids,
+        calibration=args.calibration,
+        device=args.device,
+        progress=show_progress(args),
+    )
+
+
 def cmd_predict(args: argparse.Namespace) -> int:
     """``grouptron predict``: forecast every pedestrian of a track file and write the
     positions as CSV (or ``.ndjson``, ``.mcap``) rows to a file or standard output."""
     to_stdout = args.out == "-"
     torch.set_num_threads(args.threads)
-    request = PredictRequest(
-        track_file(args), sys.stdout if to_stdout else Path(args.out), args.checkpoint,
-        forecast=args.forecast, samples=args.samples, seed=args.seed, regions=args.regions,
-        calibration=args.calibration, min_points=args.min_points, device=args.device,
-        progress=show_progress(args),
-    )  # fmt: skip
+    request = _predict_request(args, to_stdout)
     done = predict_tracks(request)
     if done.scene_updates:
         forecasts = f"{len(done.forecast)} forecasts"
@@ -45,11 +78,6 @@ def cmd_predict(args: argparse.Namespace) -> int:
 def cmd_plot(args: argparse.Namespace) -> int:
     """``grouptron plot``: draw forecasts at a frame, or with ``--until`` an animation."""
     torch.set_num_threads(args.threads)
-    request = PlotRequest(
-        track_file(args), Path(args.out), args.checkpoint, compare=args.compare,
-        frame=args.frame, until=args.until, time_s=args.time, forecast=args.forecast,
-        region=args.region, samples=args.samples, seed=args.seed, ids=args.ids,
-        calibration=args.calibration, device=args.device, progress=show_progress(args),
-    )  # fmt: skip
+    request = _plot_request(args)
     print(plot_tracks(request).summary)
     return 0

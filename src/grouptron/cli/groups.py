@@ -21,10 +21,13 @@ from grouptron.workflows.groups import (
 def _group_rule(args: argparse.Namespace) -> GroupRule:
     """The grouping the rule options ask for ('all' compares linkages or distances)."""
     return GroupRule(
-        rule=args.rule, linkage=args.linkage, distance=args.distance,
-        max_distance_m=args.max_distance, velocity_weight_s=args.velocity_weight,
+        rule=args.rule,
+        linkage=args.linkage,
+        distance=args.distance,
+        max_distance_m=args.max_distance,
+        velocity_weight_s=args.velocity_weight,
         max_group_size=args.max_group_size,
-    )  # fmt: skip
+    )
 
 
 def cmd_groups_evaluate(args: argparse.Namespace) -> int:

@@ -101,6 +101,33 @@ def cmd_report_dataset(args: argparse.Namespace) -> int:
     return _emit(args, text)
 
 
+def _report_request(args: argparse.Namespace) -> ReportRequest:
+    """The benchmark report's options as a request (``--models``, ``--seeds`` and ``--mode``
+    checked)."""
+    modes = eval_modes(args.mode)
+    models, seeds = _checkpoint_filters(args.models, args.seeds)
+    schemes = DERIVATIVE_SCHEMES if args.derivatives == "both" else (args.derivatives,)
+    settings = ReportSettings(
+        modes=modes,
+        seed=args.seed,
+        nll_max_samples=args.nll_max_samples,
+        use_cache=not args.no_cache,
+        score_cache=_score_cache(args),
+        diagnostics=args.diagnostics,
+    )
+    return ReportRequest(
+        Path(args.checkpoints),
+        schemes,
+        settings,
+        models,
+        seeds,
+        tuple(args.out_of_domain or ()),
+        args.data_dir,
+        progress=show_progress(args),
+        announce=not args.quiet,
+    )
+
+
 def cmd_report(args: argparse.Namespace) -> int:
     """``grouptron report``: score a folder of checkpoints on every test set (Markdown or JSON)."""
     if args.out:
@@ -111,19 +138,10 @@ def cmd_report(args: argparse.Namespace) -> int:
                 "--out-of-domain, --models and --seeds go with the benchmark report, not --dataset"
             )
         return cmd_report_dataset(args)
-    modes = eval_modes(args.mode)
-    models, seeds = _checkpoint_filters(args.models, args.seeds)
-    schemes = DERIVATIVE_SCHEMES if args.derivatives == "both" else (args.derivatives,)
-    settings = ReportSettings(
-        modes=modes, seed=args.seed, nll_max_samples=args.nll_max_samples,
-        use_cache=not args.no_cache, score_cache=_score_cache(args), diagnostics=args.diagnostics,
-    )  # fmt: skip
+    request = _report_request(args)
     torch.set_num_threads(args.threads)
-    request = ReportRequest(
-        Path(args.checkpoints), schemes, settings, models, seeds, tuple(args.out_of_domain or ()),
-        args.data_dir, progress=show_progress(args), announce=not args.quiet,
-    )  # fmt: skip
     report = benchmark_report(request)
     if args.format == "json":
         return _emit(args, report.to_json() + "\n")
-    return _emit(args, report_markdown(report, schemes, _report_command(args, modes)))
+    command = _report_command(args, request.settings.modes)
+    return _emit(args, report_markdown(report, request.schemes, command))

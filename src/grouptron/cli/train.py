@@ -15,14 +15,26 @@ __all__ = ["cmd_train", "experiment_from_args", "parse_setting", "request_from_a
 def request_from_args(args: argparse.Namespace) -> TrainRequest:
     """The flags of ``grouptron train`` (and ``config show``) as a request."""
     return TrainRequest(
-        split=args.split, dataset=getattr(args, "dataset", None), model=args.model,
-        epochs=args.epochs, out=getattr(args, "out", None), resume=getattr(args, "resume", False),
-        init_from=args.init_from, config=args.config, settings=tuple(args.set or ()),
-        seed=args.seed, batch_size=args.batch_size, lr=args.lr, threads=args.threads,
-        precision=args.precision, device=args.device, derivatives=args.derivatives,
-        on_gap=args.on_gap, data_dir=getattr(args, "data_dir", None),
+        split=args.split,
+        dataset=getattr(args, "dataset", None),
+        model=args.model,
+        epochs=args.epochs,
+        out=getattr(args, "out", None),
+        resume=getattr(args, "resume", False),
+        init_from=args.init_from,
+        config=args.config,
+        settings=tuple(args.set or ()),
+        seed=args.seed,
+        batch_size=args.batch_size,
+        lr=args.lr,
+        threads=args.threads,
+        precision=args.precision,
+        device=args.device,
+        derivatives=args.derivatives,
+        on_gap=args.on_gap,
+        data_dir=getattr(args, "data_dir", None),
         use_cache=not getattr(args, "no_cache", False),
-    )  # fmt: skip
+    )
 
 
 def experiment_from_args(

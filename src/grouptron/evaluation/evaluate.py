@@ -117,7 +117,7 @@ def _mean(values: np.ndarray) -> float:
 # One loop over modes and batches, so that point forecasts, best-of-20 and the NLL read the
 # very same batches (their per-sample scores are paired later).
 @torch.inference_mode()
-def score_samples(
+def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
     model: TrajectronCVAE,
     config: ExperimentConfig,
     samples: SampleSet,
@@ -228,7 +228,7 @@ def _score_shared_decode(
     return {mode: SampleScores(mode, _complete(v, count)) for mode, v in scores.items()}
 
 
-def evaluate_model(
+def evaluate_model(  # noqa: PLR0913 - score_samples's options, all keyword-only
     model: TrajectronCVAE,
     config: ExperimentConfig,
     samples: SampleSet,

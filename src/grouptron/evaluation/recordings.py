@@ -120,13 +120,16 @@ def _rows(
     for name, found in [*per_file, (POOLED, pooled)]:
         masks = {k: m for k, m in found.items() if m is None or m.any()}
         rows += score_rows(
-            dataclasses.replace(template, split=name), scores, masks, steps=steps,
+            dataclasses.replace(template, split=name),
+            scores,
+            masks,
+            steps=steps,
             named_mode=named,
-        )  # fmt: skip
+        )
     return rows
 
 
-def evaluate_recordings(
+def evaluate_recordings(  # noqa: PLR0913 - the model and scoring options, all keyword-only
     sources: Sequence[TrackSource],
     *,
     model: TrajectronCVAE | None,
@@ -155,9 +158,16 @@ def evaluate_recordings(
     groups = groups_for_model(samples, experiment)
     rows = []
     per_mode = score_samples(
-        model.to(device), experiment, samples, modes, seed=seed, progress=progress,
-        groups=groups, device=device, ablate=ablate,
-    )  # fmt: skip
+        model.to(device),
+        experiment,
+        samples,
+        modes,
+        seed=seed,
+        progress=progress,
+        groups=groups,
+        device=device,
+        ablate=ablate,
+    )
     name = experiment.model_name + (f" without {' and '.join(ablate)}" if ablate else "")
     for scores in per_mode:
         rows += _rows(files, samples, scores, dataclasses.replace(template, model=name), by_density)

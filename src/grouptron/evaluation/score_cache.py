@@ -39,7 +39,7 @@ SCORING_MODULES = ("grouptron.evaluation.evaluate", "grouptron.model.factory")
 """Scoring, and the code that turns a stored configuration into a model."""
 
 
-def cached_score_samples(
+def cached_score_samples(  # noqa: PLR0913 - score_samples's options, all keyword-only
     folder: Path | None,
     model: TrajectronCVAE,
     config: ExperimentConfig,
@@ -56,9 +56,16 @@ def cached_score_samples(
     before (None: no cache). The modes not found are scored and stored one by one (``ml`` and
     ``mean`` together: they share a decode), so a run stopped half-way keeps what it scored."""
     score = partial(
-        score_samples, model, config, samples, batch_size=batch_size, seed=seed,
-        progress=progress, groups=groups, ablate=ablate,
-    )  # fmt: skip
+        score_samples,
+        model,
+        config,
+        samples,
+        batch_size=batch_size,
+        seed=seed,
+        progress=progress,
+        groups=groups,
+        ablate=ablate,
+    )
     if folder is None:
         return score(tuple(modes))
     common = _common_key(model, config, samples, groups, batch_size, seed, ablate)

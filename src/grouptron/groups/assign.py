@@ -82,9 +82,13 @@ def assign_groups(samples: SampleSet, config: GroupConfig, position_scale_m: flo
             index = same[start : start + block]
             traj, mask = node_trajectories(samples, index, int(num_nodes), position_scale_m)
             distances = group_distances(
-                traj, mask, kind=config.distance, quantile=config.quantile,
-                velocity_weight_s=config.velocity_weight_s, dt_s=DT_S,
-            )  # fmt: skip
+                traj,
+                mask,
+                kind=config.distance,
+                quantile=config.quantile,
+                velocity_weight_s=config.velocity_weight_s,
+                dt_s=DT_S,
+            )
             labels = agglomerative_groups_batched(
                 distances,
                 config.linkage,

@@ -75,9 +75,13 @@ def _cluster_step(
         return None
     window = slice(step, step + pad + 1)
     distances = group_distances(
-        pos[tracks, window], present[tracks, window], kind=config.distance,
-        quantile=config.quantile, velocity_weight_s=config.velocity_weight_s, dt_s=DT_S,
-    )  # fmt: skip
+        pos[tracks, window],
+        present[tracks, window],
+        kind=config.distance,
+        quantile=config.quantile,
+        velocity_weight_s=config.velocity_weight_s,
+        dt_s=DT_S,
+    )
     labels = agglomerative_groups(
         distances,
         config.linkage,

@@ -89,7 +89,7 @@ class Predictor:
             groups, otherwise ``DETECTION_GROUPS`` (the rule chosen on human labels).
     """
 
-    def __init__(
+    def __init__(  # noqa: PLR0913 - the predictor's settings, keyword-only after the forecast
         self,
         model: TrajectronCVAE,
         config: ExperimentConfig,

@@ -37,7 +37,7 @@ def _samples_to_forecast(
     return samples
 
 
-def forecast_scene(
+def forecast_scene(  # noqa: PLR0913 - the forecast options, all keyword-only
     model: TrajectronCVAE,
     config: ExperimentConfig,
     scene: Scene,

@@ -223,11 +223,18 @@ def score_checkpoint(
         return run
     ablated = {
         ablation: cached_score_samples(
-            cache, model, experiment, samples, ("ml",), batch_size=batch, progress=progress,
-            groups=groups, ablate=(ablation,),
+            cache,
+            model,
+            experiment,
+            samples,
+            ("ml",),
+            batch_size=batch,
+            progress=progress,
+            groups=groups,
+            ablate=(ablation,),
         )[0]
         for ablation in model_ablations(experiment)
-    }  # fmt: skip
+    }
     return dataclasses.replace(run, density=density_masks(samples), ablated=ablated)
 
 

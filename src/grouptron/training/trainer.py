@@ -64,7 +64,7 @@ log = logging.getLogger(__name__)
 CONFIG = "config.json"
 
 
-def train_epoch(
+def train_epoch(  # noqa: PLR0913 - the pass's options, all keyword-only
     state: TrainState,
     config: ExperimentConfig,
     samples: SampleSet,
@@ -310,7 +310,7 @@ def _check_inputs(
         )
 
 
-def train(
+def train(  # noqa: PLR0913 - the run's options, all keyword-only
     config: ExperimentConfig,
     train_samples: SampleSet,
     val_samples: SampleSet,

@@ -118,8 +118,13 @@ def _draw_panel(ax: plt.Axes, panel: Panel, frame: int) -> None:
         ax.plot(ml[:, 0], ml[:, 1], "--", color=colour, lw=1.8)
         ax.plot(*origin, "o", color=colour, ms=6, mec="black", mew=0.6)
         if panel.ids:
-            ax.annotate(f"{forecast.ids[k]:g}", origin, xytext=(3, 3), textcoords="offset points",
-                        fontsize=7)  # fmt: skip
+            ax.annotate(
+                f"{forecast.ids[k]:g}",
+                origin,
+                xytext=(3, 3),
+                textcoords="offset points",
+                fontsize=7,
+            )
     ax.set_aspect("equal", adjustable="box")
     rule = f", groups: {panel.group_rule}" if panel.group_rule else ""
     ax.set(xlabel="x (m)", ylabel="y (m)", title=f"{panel.title}\nframe {frame}{rule}")

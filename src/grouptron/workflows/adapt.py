@@ -179,18 +179,29 @@ def _fine_tune(
     per_epoch = math.ceil(len(samples) / request.batch_size)
     epochs = max(1, math.ceil(request.steps / per_epoch))
     settings = dataclasses.replace(
-        experiment.train, epochs=epochs, batch_size=request.batch_size, learning_rate=request.lr,
-        seed=request.seed, threads=request.threads, init_from=str(source), bf16=False,
+        experiment.train,
+        epochs=epochs,
+        batch_size=request.batch_size,
+        learning_rate=request.lr,
+        seed=request.seed,
+        threads=request.threads,
+        init_from=str(source),
+        bf16=False,
         epoch_samples=0,
-    )  # fmt: skip
+    )
     adapted = dataclasses.replace(experiment, split=SPLIT, dataset="", train=settings)
     groups = groups_for_model(samples, adapted)
     empty = np.zeros(len(samples), dtype=bool)
     torch.set_num_threads(request.threads)
     train(
-        adapted, samples, samples.subset(empty), out, progress=progress, train_groups=groups,
+        adapted,
+        samples,
+        samples.subset(empty),
+        out,
+        progress=progress,
+        train_groups=groups,
         val_groups=None if groups is None else groups.subset(empty, samples),
-    )  # fmt: skip
+    )
 
 
 def _write_record(

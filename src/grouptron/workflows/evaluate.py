@@ -181,11 +181,17 @@ def _model_scores(
         scored += [
             (loaded.experiment.model_name + suffix, loaded.name, scores)
             for scores in score_samples(
-                loaded.model, loaded.experiment, samples, modes, seed=options.seed,
-                progress=options.progress, groups=groups, ablate=options.ablate,
+                loaded.model,
+                loaded.experiment,
+                samples,
+                modes,
+                seed=options.seed,
+                progress=options.progress,
+                groups=groups,
+                ablate=options.ablate,
                 device=options.device,
             )
-        ]  # fmt: skip
+        ]
     baseline = constant_velocity_scores(samples, loaded.data.horizon_steps)
     return [*scored, (CONSTANT_VELOCITY, None, baseline)]
 
@@ -235,9 +241,13 @@ def _evaluate_benchmark(
     for split in splits:
         _refuse_seen_test_files(loaded, data_dir, split)
         samples, groups = load_test_set(
-            data_dir, split, loaded.data, subset, group_config=group_config,
+            data_dir,
+            split,
+            loaded.data,
+            subset,
+            group_config=group_config,
             use_cache=options.use_cache,
-        )  # fmt: skip
+        )
         masks: dict[str | None, np.ndarray | None] = {source.subset: None}
         masks.update(density_masks(samples) if options.by_density else {})
         scored = _model_scores(loaded, samples, groups, modes, options)
@@ -282,20 +292,31 @@ def _evaluate_tracks(
             log.warning(
                 "%s: its first %.0f s adapted %s: scores there are not held-out scores (score "
                 "a later recording, or adapt with grouptron adapt --holdout-minutes)",
-                adapted_file, seconds, loaded.name,
-            )  # fmt: skip
+                adapted_file,
+                seconds,
+                loaded.name,
+            )
         for path in training_files(source.files, loaded.experiment):
             log.warning(
                 "%s is part of the data %s was trained or validated on (%s split): its scores "
                 "are not held-out scores",
-                path, loaded.name, loaded.experiment.split,
-            )  # fmt: skip
+                path,
+                loaded.name,
+                loaded.experiment.split,
+            )
     return evaluate_recordings(
-        source.sources, model=loaded.model, experiment=loaded.experiment,
-        data=loaded.data, modes=modes, seed=options.seed, progress=options.progress,
-        device=options.device, by_density=options.by_density, ablate=options.ablate,
+        source.sources,
+        model=loaded.model,
+        experiment=loaded.experiment,
+        data=loaded.data,
+        modes=modes,
+        seed=options.seed,
+        progress=options.progress,
+        device=options.device,
+        by_density=options.by_density,
+        ablate=options.ablate,
         baseline=loaded.model is not None,
-    )  # fmt: skip
+    )
 
 
 def _evaluate_dataset(

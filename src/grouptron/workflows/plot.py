@@ -227,9 +227,13 @@ def _panels(
                 "observed steps in a row; pick another --frame"
             )
         history, truth = tracks_around(
-            rows, forecast.ids, frame, data.frames_per_step,
-            before=data.history_steps - 1, after=data.horizon_steps,
-        )  # fmt: skip
+            rows,
+            forecast.ids,
+            frame,
+            data.frames_per_step,
+            before=data.history_steps - 1,
+            after=data.horizon_steps,
+        )
         config = predictor.config
         name = f"{config.model_name} ({config.data.derivatives})"
         label = point_label(predictor.forecast)

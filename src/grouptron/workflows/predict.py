@@ -115,10 +115,17 @@ def predict_tracks(request: PredictRequest) -> Predicted:
         raise GrouptronError("--regions and --calibration go with CSV or MCAP output")
     calibrated = calibration_for(request.calibration, experiment, point, str(path))  # before work
     forecast = forecast_scene(
-        model, experiment, scene, point, num_samples=request.samples if sampled else 0,
-        seed=request.seed, progress=request.progress, min_points=request.min_points,
-        device=request.device, keep_distribution=bool(request.regions),
-    )  # fmt: skip
+        model,
+        experiment,
+        scene,
+        point,
+        num_samples=request.samples if sampled else 0,
+        seed=request.seed,
+        progress=request.progress,
+        min_points=request.min_points,
+        device=request.device,
+        keep_distribution=bool(request.regions),
+    )
     forecast = dataclasses.replace(forecast, calibration=calibrated)
     kind = SAMPLES if sampled else point.name
     done = Predicted(forecast, 0, experiment.model_name, data.derivatives, kind, False)

@@ -302,11 +302,18 @@ def train_run(
         )
     try:
         state = train(
-            experiment, prepared.train.samples, prepared.val.samples, out,
-            resume=request.resume, progress=progress, train_groups=prepared.train_groups,
-            val_groups=prepared.val_groups, device=request.device, cluster=cluster,
+            experiment,
+            prepared.train.samples,
+            prepared.val.samples,
+            out,
+            resume=request.resume,
+            progress=progress,
+            train_groups=prepared.train_groups,
+            val_groups=prepared.val_groups,
+            device=request.device,
+            cluster=cluster,
             train_weights=prepared.train_weights,
-        )  # fmt: skip
+        )
     finally:
         distributed.stop(cluster)
     if not cluster.is_main:
