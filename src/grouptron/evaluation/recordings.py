@@ -26,6 +26,8 @@ from grouptron.model.factory import groups_for_model
 from grouptron.model.predict import Ablation
 
 POOLED = "all files"
+REPOSITORY = Path(__file__).resolve().parents[3]
+"""The repository of a source checkout (``src/grouptron/evaluation/`` is three below it)."""
 CONSTANT_VELOCITY = "constant-velocity"
 
 
@@ -74,9 +76,14 @@ def training_files(files: Sequence[Path], experiment: ExperimentConfig) -> list[
 
 
 def _dataset_files(files: Sequence[Path], description: str) -> list[str]:
-    """The given files that are (byte for byte) in a dataset's train or val part."""
+    """The given files that are (byte for byte) in a dataset's train or val part (a shipped
+    checkpoint names its description relative to the repository, wherever one runs from)."""
+    path = Path(description)
+    in_repository = REPOSITORY / path
+    if not path.is_absolute() and not path.exists() and in_repository.exists():
+        path = in_repository
     try:
-        dataset = read_dataset(description)
+        dataset = read_dataset(path)
     except GrouptronError:  # trained elsewhere: its description is not on this machine
         return []
     sizes = {Path(path).stat().st_size for path in files}  # only files of a size given are read
