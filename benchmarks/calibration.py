@@ -31,13 +31,17 @@ import torch
 from grouptron.config import ExperimentConfig
 from grouptron.data.custom import read_dataset
 from grouptron.data.samples import SampleSet, concatenate_samples
-from grouptron.evaluation.calibration import calibrate, forecast_distributions
+from grouptron.data.track_files import TrackSource
 from grouptron.evaluation.recordings import recording_samples
+from grouptron.inference.calibration import RegionCalibration, calibrate
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
+from grouptron.inference.engine import forecast_samples
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.factory import groups_for_model
 from grouptron.model.predict import default_point_forecast
-from grouptron.model.regions import RegionCalibration, calibrated_regions, prediction_regions
+from grouptron.model.regions import calibrated_regions, prediction_regions
+from grouptron.point_forecast import PointForecast
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from out_of_domain import DEVELOPMENT_SET
@@ -49,16 +53,18 @@ def held_back_inside(
     model: TrajectronCVAE,
     config: ExperimentConfig,
     samples: SampleSet,
-    mode: str,
+    forecast: PointForecast,
     calibration: RegionCalibration,
     q: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(S, H) truths inside the model's own q-regions and inside the calibrated ones."""
-    own, calibrated = [], []
-    for arrays, truth in forecast_distributions(model, config, samples, mode):
-        own.append(prediction_regions(*arrays, q).contains(truth))
-        calibrated.append(calibrated_regions(*arrays, q, calibration.radius(q)).contains(truth))
-    return np.concatenate(own), np.concatenate(calibrated)
+    made = forecast_samples(model, config, samples, forecast, groups_for_model(samples, config))
+    point, distribution = made.point, made.distribution
+    assert distribution is not None
+    truth = samples.fut_rel_m.astype(np.float64)  # (S, H, 2) relative to now, as the forecast
+    own = prediction_regions(point, distribution, q).contains(truth)
+    radius = calibration.radius(q)
+    return own, calibrated_regions(point, distribution, q, radius).contains(truth)
 
 
 def site_of(path: Path) -> str:
@@ -88,7 +94,8 @@ def main() -> None:
     qs = [float(q) for q in args.q.split(",")]
     model, config = load_trained_model(resolve_checkpoint(args.checkpoint))
     model.eval()
-    mode = args.forecast or default_point_forecast(config)
+    named = PointForecast.parse(args.forecast) if args.forecast else None
+    mode = (named or default_point_forecast(config)).for_model(config.model.latent_values)
     print(f"{args.checkpoint}: {mode} point forecast")
     steps = " | ".join(f"step {k}" for k in STEPS)
     print(f"| recording | calibration / held back | q | regions | {steps} | lowest-highest |")
@@ -97,7 +104,8 @@ def main() -> None:
     for description in (d for d in args.datasets.split(",") if d):
         dataset = read_dataset(description)
         for path in dataset.files("test"):
-            samples = recording_samples([path], dataset.recording, config.data)
+            source = TrackSource.from_format(path, dataset.recording)
+            samples = recording_samples([source], config.data)
             key = site_of(path) if args.by_site else path.name  # sites never span datasets
             groups[(dataset.name, key)].append((path, samples))
     for (_, name), recordings in groups.items():

@@ -21,12 +21,14 @@ import numpy as np
 import torch
 
 from grouptron.data.custom import read_dataset
+from grouptron.data.track_files import TrackSource
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.model.batch import batches
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.factory import groups_for_model
-from grouptron.model.predict import POINT_FORECASTS
+from grouptron.model.predict import predict_point
+from grouptron.point_forecast import NAMED, PointForecast
 
 HERE = Path(__file__).resolve().parent
 MIN_SPEED_MPS = 0.1
@@ -43,13 +45,15 @@ def main() -> None:
     model, config = load_trained_model(path)
     H, dt = config.data.horizon_steps, config.data.dt_s
     for dataset in (read_dataset(path) for path in args.datasets.split(",")):
-        samples = recording_samples(dataset.files("test"), dataset.recording, config.data)
+        sources = [TrackSource.from_format(f, dataset.recording) for f in dataset.files("test")]
+        samples = recording_samples(sources, config.data)
         groups = groups_for_model(samples, config)
-        forecasts: dict[str, list[np.ndarray]] = {mode: [] for mode in POINT_FORECASTS}
+        forecasts: dict[str, list[np.ndarray]] = {mode: [] for mode in NAMED}
         with torch.inference_mode():
             for _, batch in batches(samples, config, 512, groups):
-                for mode, forecast in POINT_FORECASTS.items():
-                    positions = forecast(model.eval(), batch, H, dt, ())
+                for mode in NAMED:
+                    forecast = PointForecast.parse(mode)
+                    positions = predict_point(model.eval(), batch, forecast, H, dt)
                     forecasts[mode].append(positions.double().numpy())  # (B, H, 2)
         truth = samples.fut_rel_m.astype(np.float64)  # (S, H, 2), relative to t
         velocity = (samples.hist_rel_m[:, -1] - samples.hist_rel_m[:, -2]) / dt  # (S, 2)

@@ -27,6 +27,7 @@ from grouptron import Predictor
 from grouptron.data.custom import read_dataset
 from grouptron.data.locate import resolve_data_dir, split_files
 from grouptron.data.recording import RecordingFormat
+from grouptron.data.track_files import TrackSource
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.model import predict
@@ -69,7 +70,7 @@ def search_ms(name: str, starts: list[int], people: int = 50) -> dict[int, float
         return mixture_mode(*args, **kwargs)
 
     predict.mixture_mode = capture  # what most_likely_positions calls
-    session = Predictor.from_checkpoint(name, most_likely="ml-top10").stream()
+    session = Predictor.from_checkpoint(name, forecast="ml-top10").stream()
     for k, (ids, xy) in enumerate(synthetic_frames(people, 20)):
         session.update(10 * k, ids, xy)
     predict.mixture_mode = mixture_mode
@@ -104,7 +105,8 @@ def main() -> None:
           "| smallest top-10 weight |")  # fmt: skip
     print("|---|---|---|---|---|---|---|")
     for name, files, fmt in parts:
-        samples = recording_samples(files, fmt, config.data)
+        sources = [TrackSource.from_format(f, fmt) for f in files]
+        samples = recording_samples(sources, config.data)
         moved, weights = deviations(model, config, samples, starts)
         top = np.percentile(weights[:, 0], [10, 50, 90])
         for s in starts:

@@ -27,6 +27,7 @@ from grouptron.data.custom import DatasetDescription, read_dataset
 from grouptron.data.locate import resolve_data_dir, split_files
 from grouptron.data.recording import RecordingFormat
 from grouptron.data.subsets import time_step_ids
+from grouptron.data.track_files import TrackSource
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.evaluation.uncertainty import mean_interval
 from grouptron.inference.checkpoints import resolve_checkpoint
@@ -45,9 +46,11 @@ def errors_by_top(
     model, config = load_trained_model(resolve_checkpoint(name))
     if dataset is None:
         files = split_files(resolve_data_dir(), split, "val")
-        samples = recording_samples(files, RecordingFormat(), config.data)
+        sources = [TrackSource.from_format(f, RecordingFormat()) for f in files]
     else:
-        samples = recording_samples(dataset.files(TEST_PART), dataset.recording, config.data)
+        fmt = dataset.recording
+        sources = [TrackSource.from_format(f, fmt) for f in dataset.files(TEST_PART)]
+    samples = recording_samples(sources, config.data)
     groups = groups_for_model(samples, config)
     H, dt = config.data.horizon_steps, config.data.dt_s
     out: dict[int, list[np.ndarray]] = {k: [] for k in tops}

@@ -22,13 +22,14 @@ from grouptron.constants import SPLITS
 from grouptron.data.locate import resolve_data_dir, split_files
 from grouptron.data.recording import RecordingFormat
 from grouptron.data.subsets import time_step_ids
+from grouptron.data.track_files import TrackSource
 from grouptron.evaluation.evaluate import constant_velocity_scores, score_samples
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.evaluation.uncertainty import mean_interval
 from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.factory import groups_for_model
-from grouptron.model.predict import POINT_FORECASTS
+from grouptron.point_forecast import NAMED
 
 RUNS = Path(__file__).resolve().parents[1] / "campaign" / "runs"
 DEFAULT = ",".join(
@@ -43,7 +44,7 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=1)
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
-    modes = tuple(POINT_FORECASTS)
+    modes = tuple(NAMED)
     print("| checkpoint | split | samples | forecast | ADE m | FDE m | FDE - FDE(ml) m |")
     print("|---|---|---|---|---|---|---|")
     for name in args.checkpoints.split(","):
@@ -53,7 +54,8 @@ def main() -> None:
             print(f"| {path.parent.name} | {config.split} | - | no validation part | | | |")
             continue
         files = split_files(resolve_data_dir(), config.split, "val")
-        samples = recording_samples(files, RecordingFormat(), config.data)
+        sources = [TrackSource.from_format(f, RecordingFormat()) for f in files]
+        samples = recording_samples(sources, config.data)
         groups = groups_for_model(samples, config)
         steps = time_step_ids(samples)
         scored = score_samples(model, config, samples, modes, groups=groups)

@@ -29,13 +29,16 @@ from grouptron.data.custom import read_dataset
 from grouptron.data.locate import resolve_data_dir, split_files
 from grouptron.data.recording import RecordingFormat
 from grouptron.data.samples import SampleSet
-from grouptron.evaluation.calibration import forecast_distributions
+from grouptron.data.track_files import TrackSource
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
+from grouptron.inference.engine import forecast_samples
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.factory import groups_for_model
 from grouptron.model.predict import default_point_forecast
 from grouptron.model.regions import prediction_regions
+from grouptron.point_forecast import PointForecast
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from out_of_domain import DEVELOPMENT_SET
@@ -44,14 +47,18 @@ STEPS = (1, 3, 6, 9, 12)
 
 
 def inside_per_step(
-    model: TrajectronCVAE, config: ExperimentConfig, samples: SampleSet, qs: list[float], mode: str
+    model: TrajectronCVAE,
+    config: ExperimentConfig,
+    samples: SampleSet,
+    qs: list[float],
+    forecast: PointForecast,
 ) -> dict[float, np.ndarray]:
-    """Per q, (S, H) whether each truth is inside the region of point forecast ``mode``."""
-    inside: dict[float, list[np.ndarray]] = {q: [] for q in qs}
-    for arrays, truth in forecast_distributions(model, config, samples, mode):
-        for q in qs:
-            inside[q].append(prediction_regions(*arrays, q).contains(truth))
-    return {q: np.concatenate(v) for q, v in inside.items()}
+    """Per q, (S, H) whether each truth is inside the region of point forecast ``forecast``."""
+    groups = groups_for_model(samples, config)
+    made = forecast_samples(model, config, samples, forecast, groups)
+    assert made.distribution is not None
+    truth = samples.fut_rel_m.astype(np.float64)  # (S, H, 2) relative to now, as the forecast
+    return {q: prediction_regions(made.point, made.distribution, q).contains(truth) for q in qs}
 
 
 def interval(hits: np.ndarray, steps: np.ndarray, draws: int = 1000) -> tuple[float, float]:
@@ -84,12 +91,13 @@ def recordings(args: argparse.Namespace, data: DataConfig) -> list[tuple[str, Sa
             (p, RecordingFormat()) for p in split_files(resolve_data_dir(), args.split, "val")
         ]
     for path, layout in validation:
-        samples = recording_samples([path], layout, data)
+        samples = recording_samples([TrackSource.from_format(path, layout)], data)
         out.append((f"{args.split} val: {path.name}", samples))
     for description in (d for d in args.datasets.split(",") if d):
         dataset = read_dataset(description)
         for path in dataset.files("test"):
-            samples = recording_samples([path], dataset.recording, data)
+            source = TrackSource.from_format(path, dataset.recording)
+            samples = recording_samples([source], data)
             out.append((f"{dataset.name}: {path.name}", samples))
     return out
 
@@ -109,7 +117,8 @@ def main() -> None:
     model.eval()
     args.own_dataset = config.dataset if not args.split else ""
     args.split = args.split or config.split
-    mode = args.forecast or default_point_forecast(config)
+    named = PointForecast.parse(args.forecast) if args.forecast else None
+    mode = (named or default_point_forecast(config)).for_model(config.model.latent_values)
     print(f"{args.checkpoint}: {mode} point forecast")
     steps_header = " | ".join(f"step {k}" for k in STEPS)
     print(f"| recording | samples | q | {steps_header} | all steps [95%] |")

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from grouptron.data.recording import RecordingFormat
+from grouptron.data.track_files import TrackSource
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT
 from grouptron.workflows.adapt import AdaptRequest, adapt
 
@@ -87,7 +88,8 @@ def main() -> None:
             for minutes in site.minutes:
                 for seed in (int(s) for s in args.seeds.split(",")):
                     request = AdaptRequest(
-                        files=tuple(ood / f for f in site.files), recording=site.recording,
+                        files=tuple(ood / f for f in site.files),
+                        layout=TrackSource.from_format("", site.recording),
                         minutes=minutes, holdout_minutes=site.holdout_minutes,
                         checkpoint=args.checkpoint, out=f"{scratch}/{name}-{minutes}-{seed}",
                         seed=seed, threads=args.threads,

@@ -2,7 +2,7 @@
 
 Usage:
     python benchmarks/soak.py [--steps 100000] [--people 100] [--checkpoint NAME_OR_PATH]
-                              [--most-likely ml-argmax|ml|ml-top10|ml-topK] [--threads 2]
+                              [--forecast ml-argmax|ml|ml-top10|ml-topK] [--threads 2]
                               [--report-every 10000] [--out soak.json]
 
 Pedestrians walk through a square sized for one person per 4 m^2; whoever leaves it is
@@ -86,7 +86,7 @@ def percentiles(times_ms: np.ndarray) -> dict[str, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    add_predictor_options(parser, most_likely=None)
+    add_predictor_options(parser, forecast=None)
     parser.add_argument("--steps", type=int, default=100_000)
     parser.add_argument("--people", type=int, default=100)
     parser.add_argument("--report-every", type=int, default=10_000)

@@ -3,7 +3,7 @@
 Usage:
     python benchmarks/streaming.py [--checkpoint NAME_OR_PATH] [--people 10,50,100,200]
                                    [--frames 60] [--threads 2]
-                                   [--most-likely ml|ml-argmax|mean|ml-top10] [--latent-values K]
+                                   [--forecast ml|ml-argmax|mean|ml-top10|ml-topK]
                                    [--mixture] [--min-points 2] [--max-missed-steps 2]
                                    [--regions Q] [--calibration FILE] [--profile]
 
@@ -12,7 +12,9 @@ one person per 4 m^2 is streamed frame by frame; the first 9 frames (before anyo
 are not timed. By default the default model with its own point forecast (what
 ``Predictor.from_checkpoint()`` gives), and beside it, fed the same frames in turn, the same
 checkpoint's argmax latent: the ratio of the two medians is the figure that holds across
-machines. Prints the median and 90th percentile of the update time per N. ``--profile``
+machines. Prints the median and 90th percentile of the update time per N
+(``--most-likely``, the older name of ``--forecast``, and ``--latent-values K``, of
+``--forecast ml-topK``, still work). ``--profile``
 then prints, per N, where the default predictor's time goes: ``cProfile`` around its updates
 (frames 10 on), the cumulative time per update of the parts in :data:`PROFILED`.
 """
@@ -31,6 +33,7 @@ import torch
 from grouptron import Predictor
 from grouptron.cli.options import point_forecast_option
 from grouptron.constants import DEFAULT_CHECKPOINT
+from grouptron.point_forecast import PointForecast
 
 
 def synthetic_frames(
@@ -51,20 +54,24 @@ def synthetic_frames(
     return out
 
 
-def add_predictor_options(parser: argparse.ArgumentParser, most_likely: str | None) -> None:
+def add_predictor_options(parser: argparse.ArgumentParser, forecast: str | None) -> None:
     """The options that pick and configure the predictor (shared with ``soak.py``)."""
     parser.add_argument("--checkpoint", default=DEFAULT_CHECKPOINT)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument(
+        "--forecast",
         "--most-likely",
+        dest="forecast",
         type=point_forecast_option,
-        default=most_likely,
+        default=None if forecast is None else PointForecast.parse(forecast),
         help="the Predictor's point forecast (default: the model's own; ml-argmax skips the "
         "mixture; mean decodes all Z latent values, ml-top10 (ml-topK) the 10 (K) most "
-        "probable)",
+        "probable; --most-likely: its older name)",
     )
     parser.add_argument(
-        "--latent-values", type=int, help="Predictor(latent_values=...) for --most-likely ml"
+        "--latent-values",
+        type=int,
+        help="K: the older way to ask for --forecast ml-topK (with --forecast ml or none)",
     )
     parser.add_argument("--mixture", action="store_true", help="also return the mixture")
     parser.add_argument("--min-points", type=int, default=2, help="Predictor(min_points=...)")
@@ -76,16 +83,26 @@ def add_predictor_options(parser: argparse.ArgumentParser, most_likely: str | No
     )
 
 
-def load_predictor(args: argparse.Namespace, most_likely: str | None = None) -> Predictor:
+def chosen_forecast(args: argparse.Namespace) -> PointForecast | None:
+    """The point forecast the options name (None: the model's own)."""
+    if not args.latent_values:
+        return args.forecast
+    if args.forecast not in (None, PointForecast("ml")):
+        raise SystemExit(f"--latent-values goes with --forecast ml, not {args.forecast}")
+    return PointForecast("ml", args.latent_values)  # ml of the K most probable: ml-topK
+
+
+def load_predictor(args: argparse.Namespace, forecast: str | None = None) -> Predictor:
+    """The predictor the options describe, or (``forecast``) a yardstick of the same
+    checkpoint with that point forecast and no calibration."""
     torch.set_num_threads(args.threads)
     return Predictor.from_checkpoint(
         args.checkpoint,
-        most_likely=most_likely or args.most_likely,
-        latent_values=None if most_likely else args.latent_values,
+        forecast=forecast or chosen_forecast(args),
         mixture=args.mixture,
         min_points=args.min_points,
         max_missed_steps=args.max_missed_steps,
-        calibration=None if most_likely else args.calibration,  # the yardstick has none
+        calibration=None if forecast else args.calibration,  # the yardstick has none
     )
 
 
@@ -144,7 +161,7 @@ def profile_update(predictor: Predictor, people: int, frames: int) -> dict[str, 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    add_predictor_options(parser, most_likely=None)
+    add_predictor_options(parser, forecast=None)
     parser.add_argument("--people", default="10,50,100,200")
     parser.add_argument("--frames", type=int, default=60)
     parser.add_argument(
@@ -154,11 +171,12 @@ def main() -> None:
     args = parser.parse_args()
     predictor = load_predictor(args)
     predictors = [predictor]
-    if predictor.most_likely != "ml-argmax" or predictor.decoded_latent_values != 1:
+    if predictor.point_forecast_name != "ml-argmax":
         predictors.append(load_predictor(args, "ml-argmax"))  # the yardstick, same run
+    named = chosen_forecast(args)
     print(
         f"{predictor.source}: {predictor.config.model_name}, {args.threads} threads, "
-        f"point forecast {args.most_likely or 'by default'} ({predictor.most_likely}, "
+        f"point forecast {named or 'by default'} ({predictor.point_forecast_name}, "
         f"{predictor.decoded_latent_values} latent values decoded), mixture = {predictor.mixture}"
     )
     header = f"{'people':>7} {'median ms':>10} {'p90 ms':>8} {'forecasts':>10}"

@@ -37,6 +37,7 @@ from grouptron.evaluation.uncertainty import Interval, mean_interval  # noqa: E4
 from grouptron.io import write_text_atomically  # noqa: E402
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_checkpoint, save_checkpoint  # noqa: E402
 from grouptron.model.predict import default_point_forecast  # noqa: E402
+from grouptron.point_forecast import PointForecast  # noqa: E402
 
 REFERENCE = 10
 """``ml-top10``: the rule's forecast for a velocity-residual model, which every candidate is
@@ -49,7 +50,7 @@ SECTION = "## Point forecast"
 
 def forecast_of(k: int) -> str:
     """The point forecast's name for the K most probable latent values."""
-    return "ml-argmax" if k == 1 else f"ml-top{k}"
+    return PointForecast("ml", k).name
 
 
 @dataclasses.dataclass(frozen=True)
@@ -166,7 +167,7 @@ def main() -> None:
     torch.set_num_threads(args.threads)
     datasets = [Path(p) for p in args.datasets.split(",") if p]
     candidates = [int(k) for k in args.candidates.split(",")]
-    latent_values = load_checkpoint(args.folder / BEST_WEIGHTS_FILE).config.model.latent_modes
+    latent_values = load_checkpoint(args.folder / BEST_WEIGHTS_FILE).config.model.latent_values
     if not datasets:
         parser.error("--datasets names no development dataset to choose on")
     if max(*candidates, REFERENCE) > latent_values or min(candidates) < 1:

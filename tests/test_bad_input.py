@@ -235,9 +235,9 @@ def test_the_python_api_forecasts_or_raises_one_line(
         assert "\n" not in str(exc) and str(exc)
         return
     event(f"forecast {'some' if len(forecast) else 'nobody'}")
-    assert np.isfinite(forecast.most_likely).all()
+    assert np.isfinite(forecast.point).all()
     assert forecast.samples is not None and np.isfinite(forecast.samples).all()
-    assert forecast.most_likely.shape == (len(forecast), 12, 2)
+    assert forecast.point.shape == (len(forecast), 12, 2)
 
 
 @pytest.mark.parametrize("frames", [1, 3])

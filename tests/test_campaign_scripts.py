@@ -15,7 +15,7 @@ from types import ModuleType
 import pytest
 import torch
 
-from grouptron.config import ExperimentConfig
+from grouptron.config import ExperimentConfig, renamed_settings
 from grouptron.errors import GrouptronError
 from grouptron.model.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from grouptron.model.factory import build_model
@@ -319,7 +319,8 @@ def test_the_look_ahead_runs_are_their_shipped_runs_plus_the_window(tmp_path: Pa
     run = runs[3]  # trajectron++, seed 1
     argv = script.command(run, tmp_path / run.name, "fp32")
     stored = json.loads((tmp_path / run.name / "campaign-config.json").read_text())
-    shipped = json.loads((run.shipped_run / "config.json").read_text())
+    # The shipped settings, under today's names (model.latent_modes is model.latent_values).
+    shipped = renamed_settings(json.loads((run.shipped_run / "config.json").read_text()))
     assert argv[argv.index("--config") + 1] == str(tmp_path / run.name / "campaign-config.json")
     assert stored["data"]["neighbour_window_steps"] == [-2, 4]
     assert stored["train"]["seed"] == 1 and stored["data"]["derivatives"] == "central"
@@ -349,6 +350,7 @@ def test_a_chosen_point_forecast_is_stored_with_the_weights_untouched(tmp_path: 
     wins; writing it keeps the weights and replaces the card's section on a second choice."""
     from grouptron.evaluation.uncertainty import Interval
     from grouptron.model.predict import default_point_forecast
+    from grouptron.point_forecast import PointForecast
 
     script = _script("point_forecast")
 
@@ -370,7 +372,7 @@ def test_a_chosen_point_forecast_is_stored_with_the_weights_untouched(tmp_path: 
         section = script.markdown([good, reference], good, "cmd")
         script.write_choice(folder, forecast, section)
     stored = load_checkpoint(folder / "best.safetensors")
-    assert default_point_forecast(stored.config) == "ml-top3"
+    assert default_point_forecast(stored.config) == PointForecast.parse("ml-top3")
     assert all(torch.equal(state[k], stored.model_state[k]) for k in state)
     assert json.loads((folder / "config.json").read_text())["point_forecast"] == "ml-top3"
     card = (folder / "README.md").read_text()

@@ -13,6 +13,7 @@ from grouptron.cli import build_parser
 from grouptron.cli.options import eval_modes
 from grouptron.cli.train import experiment_from_args, parse_setting
 from grouptron.errors import GrouptronError
+from grouptron.point_forecast import PointForecast
 
 
 @pytest.mark.parametrize(
@@ -89,7 +90,7 @@ def test_config_show_prints_the_effective_settings(capsys: pytest.CaptureFixture
         ("train.epochs=many", "TrainConfig.epochs must be int, not 'many'"),
         ("train.rotation_augmentation=1", "must be bool"),
         ("data.derivatives=forward", "must be one of 'central', 'backward'"),
-        ("modle.latent_modes=5", r"did you mean model\?"),
+        ("modle.latent_values=5", r"did you mean model\?"),
     ],
 )
 def test_wrong_settings_are_one_line_errors(
@@ -125,22 +126,38 @@ def test_an_unavailable_device_is_one_line(
     assert "CUDA is not available here" in err and "Traceback" not in err
 
 
-@pytest.mark.parametrize("command", ["predict", "calibrate"])
-def test_the_forecast_is_named_by_forecast_and_by_its_older_name(command: str) -> None:
-    """What predict and calibrate write is a forecast (``--forecast``); ``--mode`` names what
-    evaluate scores, and is still read here as the older name."""
+@pytest.mark.parametrize("command", ["predict", "calibrate", "plot"])
+def test_the_forecast_is_named_by_forecast_and_by_its_older_name(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """What predict, calibrate and plot draw is a forecast (``--forecast``); ``--mode`` names
+    what evaluate scores, and is still read here as the older name, saying so on stderr and
+    kept out of ``--help``."""
     base = [command, "--tracks", "t.txt", "--out", "o.csv"]
     for flag in ("--forecast", "--mode"):
-        assert build_parser().parse_args([*base, flag, "mean"]).mode == "mean"
-        assert build_parser().parse_args([*base, flag, "ml-top3"]).mode == "ml-top3"
+        capsys.readouterr()
+        mean = build_parser().parse_args([*base, flag, "mean"]).forecast
+        assert mean == PointForecast.parse("mean")
+        top3 = build_parser().parse_args([*base, flag, "ml-top3"]).forecast
+        assert top3 == PointForecast.parse("ml-top3")
+        told = "grouptron: --mode is now called --forecast" in capsys.readouterr().err
+        assert told == (flag == "--mode")
+    assert build_parser().parse_args(base).forecast is None  # the model's own
+    with pytest.raises(SystemExit):
+        build_parser().parse_args([command, "--help"])
+    shown = capsys.readouterr().out
+    assert "--forecast" in shown  # neither in the usage nor as an option of its own:
+    assert re.search(r"\[--mode|^\s+--mode", shown, re.MULTILINE) is None
 
 
 @pytest.mark.parametrize("command", ["predict", "calibrate", "plot"])
 def test_a_forecast_that_does_not_exist_is_refused_with_the_choices(command: str) -> None:
     base = [command, "--tracks", "t.txt", "--out", "o.csv", "--forecast"]
-    for bad in ("ml-top1", "ml-topx", "fast"):
+    for bad in ("ml-top0", "ml-top02", "ml-topx", "fast"):
         with pytest.raises(GrouptronError, match=r"ml-top10.* or ml-topK \(K = 2, 3, ...\)"):
             build_parser().parse_args([*base, bad])
+    # ml of the one most probable latent value is the argmax latent, by its one name.
+    assert build_parser().parse_args([*base, "ml-top1"]).forecast == PointForecast("ml", 1)
     assert eval_modes("ml-top3,ml") == ("ml-top3", "ml")
     with pytest.raises(GrouptronError, match="ml-topK or all"):
         eval_modes("ml-top1")

@@ -12,8 +12,9 @@ import pytest
 from grouptron.cli import main
 from grouptron.config import DataConfig
 from grouptron.data.dataset import cache_key
+from grouptron.data.fields import parse_numbers_fast
 from grouptron.data.reader import read_tracks
-from grouptron.data.recording import RecordingFormat, _parse_fast, read_resampled
+from grouptron.data.recording import RecordingFormat, read_resampled
 from grouptron.data.spelling import FLAGS, KEYWORDS
 from grouptron.errors import GrouptronError
 from grouptron.groups.labels import read_id_map
@@ -282,9 +283,10 @@ def test_columns_past_the_named_ones_and_an_index_header_are_ignored(tmp_path: P
     extra.write_text("0,1,0.0,1.0,,car\n10,1,0.4,1.0,,car\n")
     assert read_resampled(extra, RecordingFormat()).step.tolist() == [0, 1]
     for text in ("0,1,0.0,1.0\n", "0, 1, 0.0, 1.0,\n", "0\t1\t0.0\t1.0\n", "0 1 0 1 ,x\n"):
-        assert _parse_fast(text * 3, 4) is not None, text
-    assert _parse_fast("0,1,,1.0\n", 4) is None and _parse_fast(",1,0,1.0\n", 4) is None
-    assert _parse_fast("0 1 0,5 1,25\n", 4) is None  # decimal commas: the slow path refuses
+        assert parse_numbers_fast(text * 3, 4) is not None, text
+    assert parse_numbers_fast("0,1,,1.0\n", 4) is None
+    assert parse_numbers_fast(",1,0,1.0\n", 4) is None
+    assert parse_numbers_fast("0 1 0,5 1,25\n", 4) is None  # decimal commas: the slow path refuses
 
 
 def test_the_cache_key_ignores_how_messages_name_options() -> None:

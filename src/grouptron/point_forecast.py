@@ -98,5 +98,9 @@ def is_point_forecast(name: str) -> bool:
 
 
 def is_evaluation_mode(name: str) -> bool:
-    """Whether ``evaluate`` scores ``name``: one of ``EVALUATION_MODES`` or ``ml-topK``."""
-    return name in EVALUATION_MODES or is_point_forecast(name)
+    """Whether ``evaluate`` scores ``name``: one of ``EVALUATION_MODES`` or ``ml-topK`` (K >= 2).
+    A score is reported under the mode's name, so a forecast is named by its one name only
+    (``ml-top1`` is ``ml-argmax``, and refused here as it always was)."""
+    if name in EVALUATION_MODES:
+        return True
+    return is_point_forecast(name) and PointForecast.parse(name).name == name

@@ -89,7 +89,7 @@ def test_the_api_repairs_the_5000_m_row_names_it_and_leaves_everyone_else_alone(
         assert f"row {row} (id 1, x=5000" in caplog.text
         assert ("dropped" if t == 80 else "interpolation") in caplog.text
         assert np.array_equal(got.ids, expected.ids)
-        assert np.allclose(got.most_likely, expected.most_likely, atol=1e-9)
+        assert np.allclose(got.point, expected.point, atol=1e-9)
 
 
 def test_the_cli_repairs_the_5000_m_row_and_its_csv_equals_the_clean_files(

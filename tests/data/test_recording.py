@@ -14,12 +14,12 @@ from grouptron.config import DataConfig
 from grouptron.data.reader import read_tracks
 from grouptron.data.recording import (
     RecordingFormat,
-    load_tracks,
     parse_columns,
     read_recording,
     read_resampled,
 )
 from grouptron.data.spelling import FLAGS
+from grouptron.data.track_files import TrackSource, load_tracks
 from grouptron.errors import DataFormatError, GrouptronError
 from grouptron.evaluation.evaluate import constant_velocity_scores
 from grouptron.evaluation.recordings import recording_samples
@@ -68,7 +68,7 @@ def write_recording(
 
 
 def cv_fde(path: Path, fmt: RecordingFormat) -> np.ndarray:
-    samples = recording_samples([path], fmt, DataConfig())
+    samples = recording_samples([TrackSource.from_format(path, fmt)], DataConfig())
     return constant_velocity_scores(samples, 12).fde
 
 
@@ -313,7 +313,7 @@ def test_the_python_api_reads_any_layout_for_the_predictor(
     np.testing.assert_allclose(rows[order], expected[by_id], atol=1e-3)  # interpolation error
     predictor = Predictor.from_checkpoint(tiny_checkpoints / "grouptron-eth-backward")
     forecast = predictor.predict(rows, t=200)
-    assert len(forecast) == 3 and np.isfinite(forecast.most_likely).all()
+    assert len(forecast) == 3 and np.isfinite(forecast.point).all()
     with pytest.raises(GrouptronError, match=r"units='cm'"):
         load_tracks(native, columns="id,frame,x,y", fps=16)
 

@@ -36,6 +36,7 @@ CHECKPOINTS = (
     "grouptron-robust-residual-univ-backward",  # every robust switch and the residual decoder
 )
 POINT_FORECASTS = ("ml", "ml-argmax", "mean", "ml-top10")
+"""The named point forecasts, in the order of the stored scores."""
 GOLDEN = HERE / "forecasts.npz"
 FORECAST_FRAME = 100
 LOSS_ITERATION = 500  # past the annealing centres, so every loss term is active
@@ -67,26 +68,26 @@ def synthetic_tracks() -> np.ndarray:
 
 def forecasts(name: str) -> dict[str, np.ndarray]:
     """Forecasts at ``FORECAST_FRAME``: every point forecast, a seeded sample set and the
-    mixture parameters."""
+    mixture parameters, under the names they were first stored with (``<forecast>/most_likely``
+    is the point forecast, ``mixture_means`` ``Forecast.mixture.means`` and so on)."""
     path = HERE / f"{name}.safetensors"
     tracks = synthetic_tracks()
     live = name.endswith("backward")  # a central model reads the recording's next two steps
     out = {}
-    for most_likely in POINT_FORECASTS:
+    for point in POINT_FORECASTS:
         # Full histories only: the forecasts the golden values were first taken of.
-        predictor = Predictor.from_checkpoint(
-            path, most_likely=most_likely, mixture=True, min_points=8
-        )
+        predictor = Predictor.from_checkpoint(path, forecast=point, mixture=True, min_points=8)
         forecast = predictor.predict(tracks, FORECAST_FRAME, num_samples=6, seed=3, live=live)
-        out[f"{most_likely}/most_likely"] = forecast.most_likely
-        if most_likely == "ml":
-            assert forecast.samples is not None and forecast.mixture_means is not None
+        out[f"{point}/most_likely"] = forecast.point
+        if point == "ml":
+            mixture, group = forecast.mixture, forecast.group
+            assert forecast.samples is not None and mixture is not None and group is not None
             out["ids"] = forecast.ids.astype(np.float64)
             out["samples"] = forecast.samples
-            out["mixture_log_weights"] = np.asarray(forecast.mixture_log_weights)
-            out["mixture_means"] = forecast.mixture_means
-            out["mixture_covariances"] = np.asarray(forecast.mixture_covariances)
-            out["group"] = forecast.group.astype(np.float64)
+            out["mixture_log_weights"] = np.asarray(mixture.log_weights)
+            out["mixture_means"] = np.asarray(mixture.means)
+            out["mixture_covariances"] = np.asarray(mixture.covariances)
+            out["group"] = group.astype(np.float64)
     return out
 
 

@@ -11,7 +11,7 @@ SMALL = ModelConfig(
     history_hidden=8,
     edge_hidden=8,
     future_hidden=8,
-    latent_modes=5,
+    latent_values=5,
     p_z_hidden=8,
     decoder_hidden=16,
 )
@@ -20,7 +20,7 @@ SMALL = ModelConfig(
 TINY = ExperimentConfig(model=SMALL, train=TrainConfig(epochs=2, batch_size=32, threads=1))
 """The small model trained for two epochs on one thread."""
 
-TINY_MODEL = {"history_hidden": 8, "edge_hidden": 8, "future_hidden": 8, "latent_modes": 5,
+TINY_MODEL = {"history_hidden": 8, "edge_hidden": 8, "future_hidden": 8, "latent_values": 5,
               "p_z_hidden": 8, "decoder_hidden": 16}  # fmt: skip
 """The small model's widths as the ``model`` table of a JSON config file."""
 

@@ -10,6 +10,7 @@ import pytest
 
 from grouptron import Predictor
 from grouptron.errors import GrouptronError
+from grouptron.point_forecast import PointForecast
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +38,7 @@ def test_a_refused_streaming_update_leaves_the_session_as_it_was(predictor: Pred
         session.update(40, [1, 2], [[1e9, 0.0], [0.0, 2.0]])
     expected = again.update(40, [1, 2], [[2.0, 1.0], [2.0, 2.0]])
     found = session.update(40, [1, 2], [[2.0, 1.0], [2.0, 2.0]])
-    np.testing.assert_array_equal(found.most_likely, expected.most_likely)
+    np.testing.assert_array_equal(found.point, expected.point)
 
 
 def test_frames_t_samples_and_seeds_must_be_integers(predictor: Predictor) -> None:
@@ -77,13 +78,8 @@ def test_constructor_arguments_are_checked(predictor: Predictor, tiny_checkpoint
     model, config = predictor.model, predictor.config
     folder = tiny_checkpoints / "grouptron-eth-backward"
     cases = [
-        (lambda: Predictor(model, config, most_likely=""), "most_likely must be one of"),
-        (lambda: Predictor(model, config, most_likely=["ml"]), "most_likely must be one of"),
-        (lambda: Predictor(model, config, latent_values=True), "latent_values must be"),
-        (
-            lambda: Predictor(model, config, most_likely="ml-argmax", latent_values=5),
-            "'ml-argmax' decodes one latent value",
-        ),
+        (lambda: Predictor(model, config, forecast=""), "forecast must be one of"),
+        (lambda: Predictor(model, config, forecast=["ml"]), "forecast must be one of"),  # type: ignore[arg-type]
         (lambda: Predictor(model, config, device=None), "device must be a name"),
         (lambda: Predictor.from_checkpoint(folder, threads=0), "threads must be an integer"),
         (lambda: Predictor.from_checkpoint(None), "a checkpoint is a shipped name or a path"),
@@ -91,21 +87,21 @@ def test_constructor_arguments_are_checked(predictor: Predictor, tiny_checkpoint
     for call, message in cases:
         with pytest.raises(GrouptronError, match=message):
             call()
-    trimmed = Predictor(model, config, latent_values=np.int64(3), min_points=np.int64(3))
-    assert (trimmed.latent_values, trimmed.min_points) == (3, 3)
+    trimmed = Predictor(model, config, forecast="ml-top3", min_points=np.int64(3))
+    assert (trimmed.decoded_latent_values, trimmed.min_points) == (3, 3)
     empty = predictor.predict(walk(steps=1))
     assert empty.ids.dtype == np.int64 and len(empty) == 0
 
 
 def test_tables_of_every_common_kind_are_read_by_column_name(predictor: Predictor) -> None:
     rows = walk()
-    expected = predictor.predict(rows).most_likely
+    expected = predictor.predict(rows).point
     columns = {name: rows[:, i] for i, name in enumerate(("frame", "id", "x", "y"))}
     structured = np.zeros(len(rows), dtype=[(n, "f8") for n in ("x", "y", "id", "frame")])
     for name, column in columns.items():
         structured[name] = column
     for table in (columns, structured):
-        np.testing.assert_array_equal(predictor.predict(table).most_likely, expected)
+        np.testing.assert_array_equal(predictor.predict(table).point, expected)
     with pytest.raises(GrouptronError, match="must be numbers: columns"):
         predictor.predict({**columns, "x": ["a"] * len(rows)})
     with pytest.raises(GrouptronError, match=r"load_tracks\(path\)"):
@@ -124,3 +120,54 @@ def test_a_far_position_names_the_callers_row_wherever_it_is(
         predictor.predict(rows)
     with pytest.raises(GrouptronError, match=r"^frame 0: row 1: x = 3e\+09 m is out of range"):
         predictor.stream().update(0, [1, 2], [[0.0, 0.0], [3e9, 0.0]])
+
+
+def test_the_older_keywords_most_likely_and_latent_values_still_work_with_a_warning(
+    predictor: Predictor, tiny_checkpoints: Path
+) -> None:
+    """``most_likely=`` (``forecast``'s older name) and ``latent_values=K`` (``ml-topK``) are
+    still accepted, each with a ``FutureWarning``, and checked as they were; a forecast's
+    older attribute ``Forecast.most_likely`` is its ``point``."""
+    model, config = predictor.model, predictor.config
+    Z = config.model.latent_values
+    folder = tiny_checkpoints / "grouptron-eth-backward"
+    with pytest.warns(FutureWarning, match="most_likely= is now called forecast="):
+        older = Predictor(model, config, most_likely="mean")
+    assert older.forecast == PointForecast("mean")
+    with pytest.warns(FutureWarning, match="most_likely= is now called forecast="):
+        loaded = Predictor.from_checkpoint(folder, most_likely="ml-argmax")
+    assert (loaded.point_forecast_name, loaded.decoded_latent_values) == ("ml-argmax", 1)
+    with pytest.warns(FutureWarning, match="latent_values=K is now named as forecast='ml-topK'"):
+        trimmed = Predictor(model, config, latent_values=np.int64(3), min_points=np.int64(3))
+    assert (trimmed.point_forecast_name, trimmed.decoded_latent_values) == ("ml-top3", 3)
+    with pytest.warns(FutureWarning):
+        both = Predictor(model, config, most_likely="ml", latent_values=1)
+    assert both.forecast == PointForecast.parse("ml-argmax")
+    with pytest.warns(FutureWarning):
+        same = Predictor(model, config, forecast="ml-top10", latent_values=min(10, Z))
+    assert same.decoded_latent_values == min(10, Z)
+    cases = [
+        (lambda: Predictor(model, config, most_likely=""), "forecast must be one of"),
+        (lambda: Predictor(model, config, latent_values=True), "latent_values must be"),
+        (lambda: Predictor(model, config, latent_values=0), "latent_values"),
+        (lambda: Predictor(model, config, latent_values=Z + 1), "latent_values"),
+        (lambda: Predictor(model, config, latent_values=2.5), "latent_values"),
+        (
+            lambda: Predictor(model, config, most_likely="ml-argmax", latent_values=2),
+            "'ml-argmax' does not decode 2 latent values",
+        ),
+        (
+            lambda: Predictor(model, config, most_likely="mean", latent_values=2),
+            "'mean' does not decode 2 latent values",
+        ),
+        (
+            lambda: Predictor(model, config, forecast="ml", most_likely="ml"),
+            "give forecast= or its older name most_likely=, not both",
+        ),
+    ]
+    with pytest.warns(FutureWarning):
+        for call, message in cases:
+            with pytest.raises(GrouptronError, match=message):
+                call()
+    forecast = predictor.predict(walk())
+    assert forecast.most_likely is forecast.point

@@ -12,7 +12,7 @@ from grouptron import Predictor
 from grouptron.cli import main
 from grouptron.data.locate import split_files
 from grouptron.errors import GrouptronError
-from grouptron.evaluation.calibration import load_calibration
+from grouptron.inference.calibration import load_calibration
 from grouptron.model.regions import conformal_radii
 
 
@@ -124,10 +124,10 @@ def test_a_calibration_of_all_latent_values_does_not_fit_a_few(
     checkpoint = str(tiny_checkpoints / "grouptron-eth-backward")
     calibration = tmp_path / "ml.json"
     assert main(["calibrate", "--checkpoint", checkpoint, "--tracks", str(site[0]),
-                 "--mode", "ml", "--out", str(calibration)]) == 0  # fmt: skip
-    Predictor.from_checkpoint(checkpoint, most_likely="ml", calibration=calibration)
+                 "--forecast", "ml", "--out", str(calibration)]) == 0  # fmt: skip
+    Predictor.from_checkpoint(checkpoint, forecast="ml", calibration=calibration)
     with pytest.raises(GrouptronError, match="not grouptron with ml-top3"):
-        Predictor.from_checkpoint(checkpoint, latent_values=3, calibration=calibration)
+        Predictor.from_checkpoint(checkpoint, forecast="ml-top3", calibration=calibration)
 
 
 def test_a_calibration_outlives_a_change_of_stored_settings_but_not_of_weights(
@@ -139,10 +139,12 @@ def test_a_calibration_outlives_a_change_of_stored_settings_but_not_of_weights(
     import dataclasses
     import shutil
 
-    from grouptron.evaluation.calibration import _file_digest, calibration_for, weights_digest
+    from grouptron.inference.calibration import _file_digest, calibration_for, weights_digest
     from grouptron.model.checkpoint import load_checkpoint, save_checkpoint
+    from grouptron.point_forecast import PointForecast
 
     earlier, _ = site
+    argmax = PointForecast.parse("ml-argmax")
     folder = tmp_path / "model"
     shutil.copytree(tiny_checkpoints / "grouptron-eth-backward", folder)
     path = folder / "best.safetensors"
@@ -155,12 +157,12 @@ def test_a_calibration_outlives_a_change_of_stored_settings_but_not_of_weights(
     save_checkpoint(path, stored)
     assert weights_digest(path) == before and _file_digest(path) != before
     loaded = load_checkpoint(path)
-    assert calibration_for(calibration, loaded.config, "ml-argmax", str(path)) is not None
+    assert calibration_for(calibration, loaded.config, argmax, str(path)) is not None
     older = load_calibration(calibration)
     older = dataclasses.replace(older, weights_sha256=_file_digest(path))
-    assert calibration_for(older, loaded.config, "ml-argmax", str(path)) is older
+    assert calibration_for(older, loaded.config, argmax, str(path)) is older
     stored.model_state = {k: v + 1.0 for k, v in stored.model_state.items()}
     save_checkpoint(path, stored)
     assert weights_digest(path) != before
     with pytest.raises(GrouptronError, match="other weights"):
-        calibration_for(calibration, loaded.config, "ml-argmax", str(path))
+        calibration_for(calibration, loaded.config, argmax, str(path))

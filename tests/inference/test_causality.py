@@ -18,7 +18,7 @@ def _forecasts_at(predictor: Predictor, rows: np.ndarray, frames: list[int]) -> 
         whole = predictor.predict(rows, frame, live=False)
         cut = predictor.predict(rows[rows[:, 0] <= frame], frame, live=False)
         np.testing.assert_array_equal(whole.ids, cut.ids)
-        np.testing.assert_allclose(whole.most_likely, cut.most_likely, atol=1e-6)
+        np.testing.assert_allclose(whole.point, cut.point, atol=1e-6)
         forecasts += len(whole)
     assert forecasts >= len(frames)
 
@@ -33,10 +33,10 @@ def test_cutting_a_real_recording_after_t_never_changes_a_forecast_made_at_t(
     everyone with 2 or more points, missed steps filled."""
     if model == "grouptron":
         predictor = Predictor.from_checkpoint(
-            tiny_checkpoints / "grouptron-eth-backward", most_likely="ml"
+            tiny_checkpoints / "grouptron-eth-backward", forecast="ml"
         )
     elif model == "trajectron++":
-        predictor = Predictor.from_checkpoint("trajectron++-univ-backward", most_likely="ml")
+        predictor = Predictor.from_checkpoint("trajectron++-univ-backward", forecast="ml")
     else:
         predictor = Predictor.from_checkpoint()
     if model != "default":

@@ -82,7 +82,7 @@ def test_forecasts_say_how_many_points_they_used(tiny_checkpoints: Path) -> None
     np.testing.assert_array_equal(forecast.ids, [1, 2])
     np.testing.assert_array_equal(forecast.observed_points, [4, 2])
     np.testing.assert_array_equal(forecast.filled_points, [1, 0])
-    assert np.isfinite(forecast.most_likely).all()
+    assert np.isfinite(forecast.point).all()
 
 
 def test_minimum_points_and_gap_settings_are_checked(tiny_checkpoints: Path) -> None:

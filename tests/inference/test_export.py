@@ -89,7 +89,7 @@ def _check_export(model: TrajectronCVAE, config: ExperimentConfig, tmp_path: Pat
     with torch.inference_mode():
         expected = [t.numpy() for t in network(*inputs.values())]
     got = run_onnx(out, {k: v.numpy() for k, v in inputs.items()})
-    Z, H = config.model.latent_modes, config.data.horizon_steps
+    Z, H = config.model.latent_values, config.data.horizon_steps
     assert got[0].shape == (10, Z) and got[1].shape == (10, Z, H, 2)
     assert got[2].shape == (10, Z, H, 2, 2)
     for a, b in zip(expected, got, strict=True):

@@ -44,7 +44,7 @@ def test_ml_forecast_reproduces_the_evaluator(
             for f, p in zip(forecast.frames[has_future], forecast.ids[has_future], strict=True)
         ]
     )  # (S, 12, 2)
-    error = np.linalg.norm(forecast.most_likely[has_future] - truth, axis=-1)  # (S, 12)
+    error = np.linalg.norm(forecast.point[has_future] - truth, axis=-1)  # (S, 12)
     test = load_part(synthetic_data_dir, "eth", "test", config.data)
     groups = None
     if model_name == "grouptron":
@@ -80,7 +80,7 @@ def test_predict_command_writes_point_and_sample_rows(
     assert all(abs(float(r["x_m"])) < 60 and abs(float(r["y_m"]) + 2) < 30 for r in own)
     assert [float(r["t_s"]) for r in own[::12]] == [170 / 25, 180 / 25]  # its own seconds
     out = tmp_path / "samples.csv"
-    assert main([*common, "--out", str(out), "--mode", "samples", "--samples", "3"]) == 0
+    assert main([*common, "--out", str(out), "--forecast", "samples", "--samples", "3"]) == 0
     with out.open() as handle:
         drawn = list(csv.DictReader(handle))
     assert len(drawn) == 2 * 3 * 12 and {r["sample"] for r in drawn} == {"0", "1", "2"}
@@ -89,13 +89,19 @@ def test_predict_command_writes_point_and_sample_rows(
     # Grouptron; the others give the same rows at other positions.
     for mode in ("ml-argmax", "mean", "ml"):
         out = tmp_path / f"{mode}.csv"
-        assert main([*common, "--out", str(out), "--mode", mode]) == 0
+        assert main([*common, "--out", str(out), "--forecast", mode]) == 0
         with out.open() as handle:
             point = list(csv.DictReader(handle))
         assert [(r["frame"], r["id"], r["step"]) for r in point] == [
             (r["frame"], r["id"], r["step"]) for r in own
         ]
         assert ([r["x_m"] for r in point] == [r["x_m"] for r in own]) == (mode == "ml-argmax")
+    # --mode, the option's older name, still works and says on standard error what it is now.
+    capsys.readouterr()
+    older = tmp_path / "older.csv"
+    assert main([*common, "--out", str(older), "--mode", "mean"]) == 0
+    assert older.read_text() == (tmp_path / "mean.csv").read_text()
+    assert "grouptron: --mode is now called --forecast" in capsys.readouterr().err
     assert main([*common, "--out", str(tmp_path / "default.csv")]) == 0
     assert "central derivatives, ml-argmax)" in capsys.readouterr().out
 
@@ -126,7 +132,7 @@ def test_shipped_checkpoint_csv_reproduces_the_evaluator_on_eth(
     tracks = eth_ucy_dir / "eth/test/biwi_eth.txt"
     out = tmp_path / "eth.csv"
     predict = ["predict", "--checkpoint", str(checkpoint), "--tracks", str(tracks), "--quiet"]
-    assert main([*predict, "--out", str(out), "--mode", "ml"]) == 0  # the evaluator's default
+    assert main([*predict, "--out", str(out), "--forecast", "ml"]) == 0  # the evaluator's default
     capsys.readouterr()
     evaluate = ["evaluate", "--checkpoint", str(checkpoint), "--data-dir", str(eth_ucy_dir)]
     assert main([*evaluate, "--quiet", "--format", "json", "--mode", "ml"]) == 0
@@ -219,7 +225,7 @@ def test_without_a_checkpoint_the_default_model_forecasts(
     assert predictor.config.data.derivatives == "backward"  # made for live tracks
     assert Path(predictor.source).parent.name == DEFAULT_CHECKPOINT
     # its own point forecast, stored with it (campaign/point_forecast.py): ml of the 2 likeliest
-    assert (predictor.point_forecast_name, predictor.latent_values) == ("ml-top2", 2)
+    assert (predictor.point_forecast_name, predictor.decoded_latent_values) == ("ml-top2", 2)
     rows = [(10 * s, p, 0.4 * s, 1.5 * p) for s in range(9) for p in range(2)]
     tracks = write_tracks(tmp_path / "pair.txt", rows)
     out = tmp_path / "f.csv"

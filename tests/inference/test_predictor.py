@@ -13,6 +13,7 @@ from grouptron.data.dataset import load_scenes
 from grouptron.data.locate import split_files
 from grouptron.errors import GrouptronError
 from grouptron.inference.tracks import forecast_scene
+from grouptron.point_forecast import PointForecast
 
 
 @pytest.fixture(scope="module")
@@ -26,7 +27,7 @@ def causal(tiny_checkpoints: Path) -> Predictor:
     return Predictor.from_checkpoint(
         "grouptron-eth-backward",
         checkpoints_dir=tiny_checkpoints,
-        most_likely="ml",
+        forecast="ml",
         mixture=True,
     )
 
@@ -42,12 +43,12 @@ def test_predict_matches_the_track_file_forecast(
     assert len(forecast) == at_frame.sum() > 1
     order = np.argsort(whole.ids[at_frame])
     np.testing.assert_allclose(forecast.ids, whole.ids[at_frame][order])
-    np.testing.assert_allclose(forecast.most_likely, whole.most_likely[at_frame][order], atol=1e-5)
-    N, Z, H = len(forecast), causal.config.model.latent_modes, 12
+    np.testing.assert_allclose(forecast.point, whole.point[at_frame][order], atol=1e-5)
+    N, Z, H = len(forecast), causal.config.model.latent_values, 12
     assert forecast.samples is not None and forecast.samples.shape == (N, 4, H, 2)
-    assert forecast.mixture_means.shape == (N, Z, H, 2)
-    np.testing.assert_allclose(np.exp(forecast.mixture_log_weights).sum(1), 1.0, rtol=1e-5)
-    cov = forecast.mixture_covariances
+    assert forecast.mixture is not None and forecast.mixture.means.shape == (N, Z, H, 2)
+    np.testing.assert_allclose(np.exp(forecast.mixture.log_weights).sum(1), 1.0, rtol=1e-5)
+    cov = forecast.mixture.covariances
     np.testing.assert_allclose(cov, cov.swapaxes(-1, -2))
     assert (np.linalg.eigvalsh(cov) > 0).all()
     assert ((forecast.group >= 0) & (forecast.group < N)).all()
@@ -58,17 +59,17 @@ def test_argmax_latent_fast_path_follows_the_most_probable_latent(
 ) -> None:
     frame = int(np.median(recording[:, 0]))
     full = causal.predict(recording, t=frame)
-    fast = Predictor(causal.model, causal.config, most_likely="ml-argmax", mixture=False)
+    fast = Predictor(causal.model, causal.config, forecast="ml-argmax", mixture=False)
     quick = fast.predict(recording, t=frame)
-    assert quick.mixture_means is None and quick.mixture_log_weights is None
-    best = full.mixture_log_weights.argmax(axis=1)
-    expected = full.mixture_means[np.arange(len(best)), best]  # (N, H, 2)
-    np.testing.assert_allclose(quick.most_likely, expected, atol=1e-4)
+    assert quick.mixture is None and full.mixture is not None
+    best = full.mixture.log_weights.argmax(axis=1)
+    expected = full.mixture.means[np.arange(len(best)), best]  # (N, H, 2)
+    np.testing.assert_allclose(quick.point, expected, atol=1e-4)
     np.testing.assert_array_equal(quick.group, full.group)
     # The two definitions of "most likely" differ for a trained multimodal model.
-    assert not np.allclose(quick.most_likely, full.most_likely, atol=1e-4)
-    with pytest.raises(GrouptronError, match="most_likely must be one of"):
-        Predictor(causal.model, causal.config, most_likely="median")  # type: ignore[arg-type]
+    assert not np.allclose(quick.point, full.point, atol=1e-4)
+    with pytest.raises(GrouptronError, match="forecast must be one of"):
+        Predictor(causal.model, causal.config, forecast="median")
 
 
 def test_the_mean_forecast_is_the_weighted_mean_of_the_mixture_means(
@@ -76,19 +77,20 @@ def test_the_mean_forecast_is_the_weighted_mean_of_the_mixture_means(
 ) -> None:
     frame = int(np.median(recording[:, 0]))
     full = causal.predict(recording, t=frame)
-    mean = Predictor(causal.model, causal.config, most_likely="mean").predict(recording, t=frame)
-    weights = np.exp(full.mixture_log_weights)[:, :, None, None]  # (N, Z, 1, 1)
-    expected = (weights * full.mixture_means).sum(axis=1)  # (N, H, 2)
-    np.testing.assert_allclose(mean.most_likely, expected, atol=1e-4)
-    assert not np.allclose(mean.most_likely, full.most_likely, atol=1e-4)
+    mean = Predictor(causal.model, causal.config, forecast="mean").predict(recording, t=frame)
+    assert full.mixture is not None
+    weights = np.exp(full.mixture.log_weights)[:, :, None, None]  # (N, Z, 1, 1)
+    expected = (weights * full.mixture.means).sum(axis=1)  # (N, H, 2)
+    np.testing.assert_allclose(mean.point, expected, atol=1e-4)
+    assert not np.allclose(mean.point, full.point, atol=1e-4)
     # The track-file path gives the same mean forecast.
     (scene,) = load_scenes(split_files(synthetic_data_dir, "eth", "test"), causal.config.data)
     whole = forecast_scene(causal.model, causal.config, scene, "mean", min_points=2)
     at_frame = whole.frames == frame
     order = np.argsort(whole.ids[at_frame])
-    np.testing.assert_allclose(mean.most_likely, whole.most_likely[at_frame][order], atol=1e-5)
-    with pytest.raises(GrouptronError, match="latent_values is for most_likely='ml'"):
-        Predictor(causal.model, causal.config, most_likely="mean", latent_values=3)
+    np.testing.assert_allclose(mean.point, whole.point[at_frame][order], atol=1e-5)
+    with pytest.raises(GrouptronError, match="only ml takes the K >= 1 most probable"):
+        PointForecast("mean", 3)
 
 
 def test_streaming_equals_predicting_from_all_rows(
@@ -101,7 +103,7 @@ def test_streaming_equals_predicting_from_all_rows(
         streamed = session.update(int(frame), rows[:, 1], rows[:, 2:])
         direct = causal.predict(recording, t=int(frame))
         np.testing.assert_array_equal(streamed.ids, direct.ids)
-        np.testing.assert_allclose(streamed.most_likely, direct.most_likely, atol=1e-5)
+        np.testing.assert_allclose(streamed.point, direct.point, atol=1e-5)
         np.testing.assert_array_equal(streamed.group, direct.group)
         compared += len(direct)
     assert compared > 50
@@ -131,9 +133,7 @@ class _Table:
 
 def test_inputs_are_checked(causal: Predictor, recording: np.ndarray, tmp_path: Path) -> None:
     table = _Table(recording[:, [2, 3, 0, 1]], ("x", "y", "frame", "id"))
-    np.testing.assert_allclose(
-        causal.predict(table).most_likely, causal.predict(recording).most_likely
-    )
+    np.testing.assert_allclose(causal.predict(table).point, causal.predict(recording).point)
     bad = recording.copy()
     bad[5, 2] = np.nan
     cases = [
@@ -167,7 +167,7 @@ def test_a_recording_forecast_with_central_derivatives_matches_the_track_file_fo
     tiny_checkpoints: Path, recording: np.ndarray, synthetic_data_dir: Path
 ) -> None:
     central = Predictor.from_checkpoint(
-        "grouptron-eth-central", checkpoints_dir=tiny_checkpoints, most_likely="ml"
+        "grouptron-eth-central", checkpoints_dir=tiny_checkpoints, forecast="ml"
     )
     (scene,) = load_scenes(split_files(synthetic_data_dir, "eth", "test"), central.config.data)
     whole = forecast_scene(central.model, central.config, scene, min_points=2)
@@ -175,14 +175,15 @@ def test_a_recording_forecast_with_central_derivatives_matches_the_track_file_fo
         forecast = central.predict(recording, t=int(frame), live=False)
         at_frame = whole.frames == frame
         order = np.argsort(whole.ids[at_frame])
-        expected = whole.most_likely[at_frame][order]
-        np.testing.assert_allclose(forecast.most_likely, expected, atol=1e-5)
+        expected = whole.point[at_frame][order]
+        np.testing.assert_allclose(forecast.point, expected, atol=1e-5)
 
 
-def test_most_likely_older_names_are_still_accepted(tiny_checkpoints: Path) -> None:
+def test_older_names_of_point_forecasts_are_still_accepted(tiny_checkpoints: Path) -> None:
     path = tiny_checkpoints / "grouptron-eth-backward/best.safetensors"
-    assert Predictor.from_checkpoint(path, most_likely="argmax-latent").most_likely == "ml-argmax"  # type: ignore[arg-type]
-    assert Predictor.from_checkpoint(path, most_likely="mixture-mode").most_likely == "ml"  # type: ignore[arg-type]
+    for older, name in (("argmax-latent", "ml-argmax"), ("mixture-mode", "ml")):
+        with pytest.warns(FutureWarning, match=f"'{older}' is now called '{name}'"):
+            assert Predictor.from_checkpoint(path, forecast=older).point_forecast_name == name
 
 
 def test_shipped_names_resolve_from_any_working_directory(
@@ -332,25 +333,23 @@ def test_stream_inputs_are_checked_strictly(
 
 def test_without_a_forecast_named_each_model_uses_its_own(causal: Predictor) -> None:
     """A velocity-residual decoder forecasts ``ml-top10`` (``ml`` of min(10, Z) latent
-    values), a plain one the argmax latent; ``latent_values`` alone asks for ``ml``."""
+    values), a plain one the argmax latent; ``ml-topK`` decodes K."""
     import dataclasses
 
     from grouptron.model.factory import build_model
 
     plain = Predictor(causal.model, causal.config)
-    assert (plain.most_likely, plain.decoded_latent_values) == ("ml-argmax", 1)
-    trimmed = Predictor(causal.model, causal.config, latent_values=3)
-    assert (trimmed.most_likely, trimmed.decoded_latent_values) == ("ml", 3)
-    for latent_modes, decoded in ((25, 10), (5, 5)):
+    assert (plain.point_forecast_name, plain.decoded_latent_values) == ("ml-argmax", 1)
+    trimmed = Predictor(causal.model, causal.config, forecast="ml-top3")
+    assert (trimmed.forecast.kind, trimmed.decoded_latent_values) == ("ml", 3)
+    for latent_values, decoded in ((25, 10), (5, 5)):
         model = dataclasses.replace(
-            causal.config.model, velocity_residual=True, latent_modes=latent_modes
+            causal.config.model, velocity_residual=True, latent_values=latent_values
         )
         config = dataclasses.replace(causal.config, model=model)
         residual = Predictor(build_model(config), config)
-        assert (residual.most_likely, residual.decoded_latent_values) == ("ml", decoded)
-        named = Predictor(
-            build_model(config), config, most_likely="ml-top10", latent_values=decoded
-        )
+        assert (residual.forecast.kind, residual.decoded_latent_values) == ("ml", decoded)
+        named = Predictor(build_model(config), config, forecast="ml-top10")
         assert named.decoded_latent_values == decoded
 
 
@@ -362,47 +361,42 @@ def test_a_point_forecast_stored_with_the_model_is_its_own(causal: Predictor) ->
     from grouptron.model.predict import default_point_forecast
 
     config = dataclasses.replace(causal.config, point_forecast="ml-top3")
-    assert default_point_forecast(config) == "ml-top3"
+    assert default_point_forecast(config) == PointForecast.parse("ml-top3")
     own = Predictor(causal.model, config)
-    assert (own.most_likely, own.decoded_latent_values, own.point_forecast_name) == (
+    assert (own.forecast.kind, own.decoded_latent_values, own.point_forecast_name) == (
         "ml",
         3,
         "ml-top3",
     )
-    assert Predictor(causal.model, config, most_likely="ml-argmax").decoded_latent_values == 1
-    with pytest.raises(GrouptronError, match="point_forecast must be a point forecast"):
+    assert Predictor(causal.model, config, forecast="ml-argmax").decoded_latent_values == 1
+    with pytest.raises(GrouptronError, match="point_forecast must be one of"):
         dataclasses.replace(causal.config, point_forecast="ml-top")
     with pytest.raises(GrouptronError, match="ml-topK"):
-        Predictor(causal.model, causal.config, most_likely="fastest")
+        Predictor(causal.model, causal.config, forecast="fastest")
 
 
 def test_the_most_likely_of_the_top_latent_values(causal: Predictor, recording: np.ndarray) -> None:
-    """``latent_values`` trims the mixture: 1 is the argmax latent, Z is the full mixture,
+    """``ml-topK`` trims the mixture: K = 1 is the argmax latent, K = Z is the full mixture,
     and decoding only the top values equals picking them from all decoded ones."""
     frame = int(np.median(recording[:, 0]))
     model, config = causal.model, causal.config
-    Z = config.model.latent_modes
+    Z = config.model.latent_values
 
-    def most_likely(**options: object) -> np.ndarray:
-        return Predictor(model, config, **options).predict(recording, t=frame).most_likely  # type: ignore[arg-type]
+    def point(forecast: str, **options: object) -> np.ndarray:
+        made = Predictor(model, config, forecast=forecast, **options)  # type: ignore[arg-type]
+        return made.predict(recording, t=frame).point
 
-    full = most_likely(most_likely="ml")
-    np.testing.assert_allclose(most_likely(most_likely="ml", latent_values=Z), full, atol=1e-5)
-    np.testing.assert_allclose(
-        most_likely(most_likely="ml", latent_values=1), most_likely(most_likely="ml-argmax")
-    )
-    top = most_likely(most_likely="ml", latent_values=4)
-    np.testing.assert_allclose(
-        most_likely(most_likely="ml", latent_values=4, mixture=True), top, atol=1e-5
-    )
+    full = point("ml")
+    np.testing.assert_allclose(point(f"ml-top{Z}"), full, atol=1e-5)
+    np.testing.assert_allclose(point("ml-top1"), point("ml-argmax"))
+    top = point("ml-top4")
+    np.testing.assert_allclose(point("ml-top4", mixture=True), top, atol=1e-5)
     assert not np.allclose(top, full, atol=1e-5)  # a different mixture, so a different mode
-    top10 = most_likely(most_likely="ml-top10")  # ml of the 10 most probable (all if Z <= 10)
-    np.testing.assert_allclose(top10, most_likely(most_likely="ml", latent_values=min(10, Z)))
-    with pytest.raises(GrouptronError, match=r"decodes \d+ latent values, not latent_values=4"):
-        Predictor(model, config, most_likely="ml-top10", latent_values=4)
-    for bad in (0, Z + 1, 2.5):
-        with pytest.raises(GrouptronError, match="latent_values"):
-            Predictor(model, config, latent_values=bad)  # type: ignore[arg-type]
+    top10 = point("ml-top10")  # ml of the 10 most probable (all if Z <= 10)
+    np.testing.assert_allclose(top10, point(f"ml-top{min(10, Z)}"))
+    for bad in ("ml-top0", "ml-top2.5", "ml-top-1"):
+        with pytest.raises(GrouptronError, match="ml-topK"):
+            Predictor(model, config, forecast=bad)
 
 
 def test_a_stream_track_that_jumps_restarts_with_a_warning(

@@ -19,27 +19,29 @@ def recording(synthetic_data_dir: Path) -> np.ndarray:
     return np.loadtxt(split_files(synthetic_data_dir, "eth", "test")[0])
 
 
-@pytest.mark.parametrize("most_likely", ["ml-argmax", "ml-top10", "mean"])
+@pytest.mark.parametrize("point", ["ml-argmax", "ml-top10", "mean"])
 def test_a_forecast_carries_the_distribution_its_point_forecast_was_made_from(
-    tiny_checkpoints: Path, recording: np.ndarray, most_likely: str
+    tiny_checkpoints: Path, recording: np.ndarray, point: str
 ) -> None:
     predictor = Predictor.from_checkpoint(
-        "grouptron-eth-backward", tiny_checkpoints, most_likely=most_likely
+        "grouptron-eth-backward", tiny_checkpoints, forecast=point
     )
     components = predictor.decoded_latent_values  # 1, min(10, Z) and Z
     forecast = predictor.predict(recording, t=int(recording[len(recording) // 2, 0]))
-    N, H = forecast.most_likely.shape[:2]
-    assert forecast.point_means is not None and forecast.point_log_weights is not None
-    assert forecast.point_means.shape == (N, components, H, 2)
-    np.testing.assert_allclose(np.exp(forecast.point_log_weights).sum(axis=1), 1.0)
+    N, H = forecast.point.shape[:2]
+    distribution = forecast.distribution
+    assert distribution is not None and distribution.components == components
+    assert distribution.means.shape == (N, components, H, 2)
+    assert distribution.covariances.shape == (N, components, H, 2, 2)
+    np.testing.assert_allclose(np.exp(distribution.log_weights).sum(axis=1), 1.0)
     if components == 1:  # the argmax latent's means are the point forecast
-        np.testing.assert_allclose(forecast.point_means[:, 0], forecast.most_likely, atol=1e-5)
+        np.testing.assert_allclose(distribution.means[:, 0], forecast.point, atol=1e-5)
     regions = {q: forecast.regions(q) for q in (0.5, 0.9)}
     for region in regions.values():
         assert region.major_m.shape == (N, H)
         assert np.all(region.major_m >= region.minor_m) and np.all(region.minor_m > 0)
         assert np.all(np.abs(region.angle_rad) <= np.pi / 2)
-        assert region.contains(forecast.most_likely).all()  # the centre is inside
+        assert region.contains(forecast.point).all()  # the centre is inside
     assert np.all(regions[0.9].major_m > regions[0.5].major_m)
     # Uncertainty grows with the horizon.
     assert np.all(regions[0.9].major_m[:, -1] > regions[0.9].major_m[:, 0])
@@ -61,7 +63,7 @@ def test_predict_writes_region_columns_and_refuses_them_with_samples(
         f"q{q}_{part}" for q in (50, 90) for part in ("major_m", "minor_m", "angle_rad")
     ]
     assert all(float(r["q90_major_m"]) > float(r["q50_major_m"]) > 0 for r in rows)
-    assert main([*argv, "--regions", "0.9", "--mode", "samples"]) == 2
+    assert main([*argv, "--regions", "0.9", "--forecast", "samples"]) == 2
     assert main([*argv, "--regions", "0,9"]) == 2
 
 

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from grouptron import Predictor
+from grouptron.inference.forecast import Forecast
 from grouptron.presets import DETECTION_GROUPS
 from tests.helpers.data import walking_tracks
 
@@ -22,7 +23,7 @@ MODELS = [
 
 @pytest.fixture(scope="module", params=MODELS)
 def predictor(request: pytest.FixtureRequest) -> Predictor:
-    return Predictor.from_checkpoint(request.param, most_likely="ml", mixture=True)
+    return Predictor.from_checkpoint(request.param, forecast="ml", mixture=True)
 
 
 def _scene(kind: str) -> np.ndarray:
@@ -39,9 +40,14 @@ def _scene(kind: str) -> np.ndarray:
     raise ValueError(kind)
 
 
-def _assert_finite(forecast: object) -> None:
-    for name in ("most_likely", "samples", "mixture_means", "mixture_covariances"):
-        value = getattr(forecast, name)
+def _assert_finite(forecast: Forecast) -> None:
+    assert forecast.mixture is not None, "mixture"
+    for name, value in (
+        ("point", forecast.point),
+        ("samples", forecast.samples),
+        ("mixture.means", forecast.mixture.means),
+        ("mixture.covariances", forecast.mixture.covariances),
+    ):
         assert value is not None and np.isfinite(value).all(), name
 
 
@@ -53,9 +59,9 @@ def test_forecasts_are_finite_at_the_edges(predictor: Predictor, kind: str) -> N
     assert len(forecast) == 6
     _assert_finite(forecast)
     if kind == "standing still":  # a model that learned anything keeps still people near
-        assert np.abs(forecast.most_likely[:, -1] - rows[rows[:, 0] == 110][:, 2:]).max() < 2.0
+        assert np.abs(forecast.point[:, -1] - rows[rows[:, 0] == 110][:, 2:]).max() < 2.0
     if kind == "coincident":  # identical people, identical forecasts
-        np.testing.assert_allclose(forecast.most_likely, forecast.most_likely[:1].repeat(6, 0))
+        np.testing.assert_allclose(forecast.point, forecast.point[:1].repeat(6, 0))
         # C(6) = 3 groups by the paper's rule; a distance threshold merges people 0 m apart.
         by_threshold = predictor.group_rule.max_distance_m is not None
         assert len(np.unique(forecast.group)) == (1 if by_threshold else 3)
@@ -70,7 +76,7 @@ def test_geo_referenced_coordinates_shift_the_forecast_exactly(
     shifted[:, 2:] += offset
     near, far = predictor.predict(rows, num_samples=3), predictor.predict(shifted, num_samples=3)
     _assert_finite(far)
-    np.testing.assert_allclose(far.most_likely - offset, near.most_likely, atol=1e-3)
+    np.testing.assert_allclose(far.point - offset, near.point, atol=1e-3)
     np.testing.assert_allclose(far.samples - offset, near.samples, atol=1e-3)
     np.testing.assert_array_equal(far.group, near.group)
 

@@ -50,7 +50,7 @@ def test_edge_encoding_scales_with_edge_weight_and_can_be_switched_off() -> None
 
 def test_hoisted_decoder_equals_a_plain_gru_cell() -> None:
     torch.manual_seed(0)
-    decoder = HoistedGRUDecoder(latent_modes=5, condition_dim=7, action_dim=2, hidden=16)
+    decoder = HoistedGRUDecoder(latent_values=5, condition_dim=7, action_dim=2, hidden=16)
     x = torch.randn(3, 7)
     z_index = torch.tensor([[0, 4], [2, 2], [1, 3]])
     action = torch.randn(3, 2, 2)
@@ -104,7 +104,7 @@ def test_following_the_means_equals_sampled_feedback_with_zero_draws() -> None:
         batch = random_batch()
         x = model.encode_condition(batch)
         means = model.decode(x, batch.state_now_st, None, 12, feedback="mean")
-        zero = torch.zeros(6, SMALL.latent_modes, 12, 2)
+        zero = torch.zeros(6, SMALL.latent_values, 12, 2)
         sampled = model.decode(x, batch.state_now_st, None, 12, feedback="sample", draws=zero)
         for name in ("mean", "log_sigma", "corr", "fed_back"):
             torch.testing.assert_close(getattr(means, name), getattr(sampled, name))

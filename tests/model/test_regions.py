@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from grouptron.model.mixture import Mixture
 from grouptron.model.regions import Regions, prediction_regions
 
 
@@ -14,7 +15,7 @@ def _one_gaussian(q: float) -> tuple[Regions, np.ndarray]:
     cov = np.array([[2.0, 0.3], [0.3, 0.5]])
     means = rng.normal(size=(3, 1, 12, 2))
     covs = np.broadcast_to(cov, (3, 1, 12, 2, 2))
-    return prediction_regions(means[:, 0], np.zeros((3, 1)), means, covs, q), cov
+    return prediction_regions(means[:, 0], Mixture(np.zeros((3, 1)), means, covs), q), cov
 
 
 @pytest.mark.parametrize("q", [0.5, 0.9, 0.95])
@@ -49,7 +50,7 @@ def test_a_mixture_region_holds_its_probability(q: float) -> None:
     covs = spread @ spread.swapaxes(-1, -2) + 0.01 * np.eye(2)
     log_weights = rng.normal(size=(N, M))
     centre = means[:, 0]  # the most probable component's mean, say
-    regions = prediction_regions(centre, log_weights, means, covs, q)
+    regions = prediction_regions(centre, Mixture(log_weights, means, covs), q)
     weights = np.exp(log_weights) / np.exp(log_weights).sum(axis=1, keepdims=True)
     count = 20_000
     for n in range(N):
@@ -68,9 +69,5 @@ def test_regions_grow_with_their_probability_and_no_forecast_gives_none() -> Non
     small, _ = _one_gaussian(0.5)
     large, _ = _one_gaussian(0.9)
     assert np.all(large.major_m > small.major_m) and np.all(large.minor_m > small.minor_m)
-    empty = prediction_regions(np.zeros((0, 12, 2)), np.zeros((0, 3)), *_no_components())
+    empty = prediction_regions(np.zeros((0, 12, 2)), Mixture.empty(3, 12), 0.9)
     assert empty.major_m.shape == (0, 12)
-
-
-def _no_components() -> tuple[np.ndarray, np.ndarray, float]:
-    return np.zeros((0, 3, 12, 2)), np.zeros((0, 3, 12, 2, 2)), 0.9

@@ -16,7 +16,8 @@ from grouptron.data.samples import scene_samples
 from grouptron.data.scene import build_scene
 from grouptron.model.batch import make_batch
 from grouptron.model.factory import build_model
-from grouptron.model.predict import predict_most_likely
+from grouptron.model.predict import predict_point
+from grouptron.point_forecast import PointForecast
 from tests.golden.compute import synthetic_tracks
 from tests.helpers.models import SMALL
 
@@ -45,7 +46,8 @@ def test_a_residual_decoder_that_learnt_nothing_forecasts_constant_velocity() ->
     for residual in (True, False):
         model, _ = _silent_decoder(residual)
         with torch.no_grad():
-            got = predict_most_likely(model, batch, data.horizon_steps, data.dt_s).numpy()
+            ml = PointForecast("ml")
+            got = predict_point(model, batch, ml, data.horizon_steps, data.dt_s).numpy()
         moving = np.abs(expected).max() > 0.5
         assert moving  # the scene's walkers move, so the two switches differ
         assert np.allclose(got, expected, atol=1e-4) == residual

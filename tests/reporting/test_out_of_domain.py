@@ -11,6 +11,7 @@ import pytest
 
 from grouptron.cli.app import main
 from grouptron.data.custom import read_dataset
+from grouptron.data.track_files import TrackSource
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import score_samples
 from grouptron.evaluation.recordings import recording_samples
@@ -138,7 +139,8 @@ def test_rows_are_paired_with_constant_velocity_per_recording_mode_and_density_b
         assert by[BACKWARD, "ml", recording].fde.mean != by[BACKWARD, "mean", recording].fde.mean
     # One row recomputed on its own recording: labels and recordings are not mixed up.
     model, config = load_trained_model(path)
-    alone = recording_samples([dataset.files("test")[1]], dataset.recording, config.data)
+    source = TrackSource.from_format(dataset.files("test")[1], dataset.recording)
+    alone = recording_samples([source], config.data)
     groups = groups_for_model(alone, config)
     (mean,) = score_samples(model, config, alone, ("mean",), groups=groups)
     assert by[BACKWARD, "mean", "run12.txt"].fde.mean == pytest.approx(mean.fde.mean())

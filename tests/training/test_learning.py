@@ -35,7 +35,7 @@ def test_tiny_model_overfits_64_samples(eth_ucy_dir: Path, tmp_path: Path) -> No
             history_hidden=32,
             edge_hidden=16,
             future_hidden=16,
-            latent_modes=5,
+            latent_values=5,
             p_z_hidden=16,
             decoder_hidden=32,
             rnn_dropout_keep=1.0,

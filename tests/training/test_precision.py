@@ -38,7 +38,7 @@ def test_a_resumed_run_may_change_precision_and_records_each_epoch(
     synthetic_data_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     config = tmp_path / "tiny.json"
-    small = {"history_hidden": 8, "edge_hidden": 8, "future_hidden": 8, "latent_modes": 5,
+    small = {"history_hidden": 8, "edge_hidden": 8, "future_hidden": 8, "latent_values": 5,
              "p_z_hidden": 8, "decoder_hidden": 16}  # fmt: skip
     config.write_text(json.dumps({"model": small, "train": {"batch_size": 128, "threads": 1}}))
     common = ["train", "--split", "eth", "--config", str(config), "--out", str(tmp_path / "run")]

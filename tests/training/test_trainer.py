@@ -78,7 +78,9 @@ def test_warm_start_continues_weights_and_schedule_under_another_protocol(
     records = [json.loads(line) for line in (tmp_path / "b/metrics.jsonl").open()]
     assert records[0]["epoch_seconds"] >= records[0]["train_seconds"] > 0
     # The source must be of the same architecture.
-    wrong = dataclasses.replace(backward, model=dataclasses.replace(backward.model, latent_modes=3))
+    wrong = dataclasses.replace(
+        backward, model=dataclasses.replace(backward.model, latent_values=3)
+    )
     with pytest.raises(GrouptronError, match="same architecture"):
         train(wrong, train_set, val_set, tmp_path / "g", progress=False)
     weights_only = dataclasses.replace(

@@ -8,7 +8,9 @@ padding) end it; a line whose first character is ``#`` is a comment.
 
 from __future__ import annotations
 
+import io
 import re
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -105,9 +107,9 @@ def refuse_header_disagreement(
         said = field.strip().strip("\"'")
         if name == "-" or column not in KNOWN_COLUMNS or name == column:
             continue
-        if _role(name) == _role(column):  # 't' and 'frame': only the names themselves judged
-            if said.lower() != name or (time_as_frames and name == "t"):
-                continue
+        same_role = _role(name) == _role(column)  # 't' and 'frame': only the names judged
+        if same_role and (said.lower() != name or (time_as_frames and name == "t")):
+            continue
         shown = repr(name) if said.lower() == name else f"{said!r} ({name})"
         raise DataFormatError(
             source,
@@ -115,6 +117,33 @@ def refuse_header_disagreement(
             f"(columns {','.join(columns)}){hint}",
             number,
         )
+
+
+def is_number(token: str) -> bool:
+    """Whether ``float`` reads ``token`` (``nan`` and ``inf`` included)."""
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+def parse_numbers_fast(text: str, width: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """NumPy's parser over the whole file, when every line is numbers (no header, no blank or
+    comment lines, at least ``width`` columns); None otherwise."""
+    if may_have_empty_field(text) or may_have_decimal_commas(text):
+        return None  # NumPy would misread these: the slow path names the line
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # an empty file: the slow path says so in one line
+            values = np.loadtxt(
+                io.StringIO(text.replace(",", " ")), ndmin=2, usecols=range(width), comments=None
+            )
+    except (ValueError, IndexError):
+        return None
+    if len(values) != text.count("\n") + (not text.endswith("\n")):
+        return None  # blank lines were skipped: line numbers would be off
+    return values, np.arange(1, len(values) + 1)
 
 
 def split_fields(source: Path, line: str, number: int) -> list[str]:
@@ -202,6 +231,19 @@ def refuse_bad_numbers(
         name = names[whole[at]]
         why = f"{name} {kept[row, at]:.3g} is out of range (|{name}| <= 2**53)"
         raise DataFormatError(source, why, int(lines[row]))
+
+
+def refuse_duplicate_times(
+    path: Path, ids: np.ndarray, time_s: np.ndarray, lines: np.ndarray
+) -> None:
+    """Refuse two rows of one person at one time: (R,) ids, seconds and file lines, sorted
+    by (id, time)."""
+    same = np.flatnonzero((ids[1:] == ids[:-1]) & (time_s[1:] == time_s[:-1]))
+    if same.size:
+        first, second = sorted((int(lines[same[0]]), int(lines[same[0] + 1])))
+        raise DataFormatError(
+            path, f"two rows for pedestrian {ids[same[0]]} at one time (also line {first})", second
+        )
 
 
 def _first(mask: np.ndarray) -> tuple[int, int]:

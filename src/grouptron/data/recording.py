@@ -6,34 +6,43 @@ A :class:`RecordingFormat` says how a file is laid out (``columns``, ``fps``, ``
 :func:`resample` puts every track on a common grid of ``dt_s`` steps by linear interpolation
 between the track's own observations (never extrapolated; a gap longer than ``max_gap_s``
 splits the track); rows already on the grid are kept exactly. :func:`check_plausible` refuses
-speeds no pedestrian walks, with a hint about units and frame rate."""
+speeds no pedestrian walks, with a hint about units and frame rate; :func:`check_time_scale`
+names the frame rate or time unit at which people walk at a usual pace, where a misread time
+column leaves nothing to forecast."""
 
 from __future__ import annotations
 
 import dataclasses
-import io
 import logging
 import math
 import re
-import warnings
 from dataclasses import dataclass, field
 from numbers import Real
 from pathlib import Path
 
 import numpy as np
 
-from grouptron.constants import DT_S, FRAMES_PER_STEP, UNITS_M
+from grouptron.constants import DT_S, FRAMES_PER_STEP, HISTORY_STEPS, HORIZON_STEPS, UNITS_M
 from grouptron.data.fields import (
+    MAX_WHOLE_NUMBER,
     empty_field_error,
-    may_have_decimal_commas,
-    may_have_empty_field,
+    is_number,
+    parse_numbers_fast,
     read_text_file,
     refuse_bad_numbers,
+    refuse_duplicate_times,
     refuse_header_disagreement,
     split_fields,
 )
-from grouptron.data.glitches import MAX_MEDIAN_SPEED_MPS, median_speed_mps, repair_observations
-from grouptron.data.hints import layout_hint, not_a_number
+from grouptron.data.glitches import MAX_MEDIAN_SPEED_MPS, repair_observations
+from grouptron.data.hints import (
+    TimeScale,
+    header_hint,
+    layout_hint,
+    not_a_number,
+    time_scale,
+    time_scale_hint,
+)
 from grouptron.data.ndjson import read_ndjson
 from grouptron.data.neighbours import ranges_to_indices
 from grouptron.data.reader import (
@@ -43,6 +52,7 @@ from grouptron.data.reader import (
     read_tracks,
     table_from_values,
 )
+from grouptron.data.scene import MAX_GRID_CELLS
 from grouptron.data.spelling import KEYWORDS, OptionSpelling
 from grouptron.data.time_base import resampled_time_base
 from grouptron.errors import DataFormatError, GrouptronError
@@ -58,6 +68,8 @@ IGNORED = {"-", "_", "skip", "z"}
 MAX_SPAN_STEPS = 2**40
 """More 0.4 s steps than this (14,000 years) is a time column misread, not a recording; it
 would also lose exactness in the float64 grid arithmetic."""
+OWN_TIMES = (".ndjson", ".mcap")
+"""Files whose times the file itself says how to read (TrajNet++'s fps, a bag's stamps)."""
 
 
 @dataclass(frozen=True)
@@ -155,16 +167,13 @@ class Recording:
     seconds_per_frame: float | None = None
 
 
-def _numbers(
-    path: Path, columns: tuple[str, ...], spelling: OptionSpelling
-) -> tuple[np.ndarray, np.ndarray]:
+def _numbers(path: Path, fmt: RecordingFormat) -> tuple[np.ndarray, np.ndarray]:
     """(R, C) the numeric rows of a whitespace- or comma-separated file laid out as
-    ``columns`` (a first line that is not numbers is a header, checked against them) and
+    ``fmt.columns`` (a first line that is not numbers is a header, checked against them) and
     (R,) their line numbers."""
-    width = len(columns)
-    hint = f": give the file's order with {spelling.name('columns')}"
+    columns, width = fmt.columns, len(fmt.columns)
     text = read_text_file(path)
-    fast = _parse_fast(text, width)
+    fast = parse_numbers_fast(text, width)
     if fast is not None:
         return fast
     # Slow path, only to name the line at fault (or to skip a header).
@@ -175,8 +184,11 @@ def _numbers(
         fields = split_fields(path, raw, number)
         if not fields:
             continue  # blank or a comment
-        if not rows and not header_seen and not any(_is_number(f) for f in fields):
-            refuse_header_disagreement(path, fields, columns, number, hint)
+        if not rows and not header_seen and not any(is_number(f) for f in fields):
+            order = f": give the file's order with {fmt.option('columns')}"
+            hint = order + header_hint(raw, fmt.spelling)
+            rated = fmt.fps is not None  # seconds may be read as frames at a given rate
+            refuse_header_disagreement(path, fields, columns, number, hint, time_as_frames=rated)
             header_seen = True  # only the first line may be names
             continue
         if len(fields) < width:
@@ -198,32 +210,6 @@ def _numbers(
     return np.asarray(rows, dtype=np.float64), np.asarray(lines)
 
 
-def _is_number(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
-
-
-def _parse_fast(text: str, width: int) -> tuple[np.ndarray, np.ndarray] | None:
-    """NumPy's parser over the whole file, when every line is numbers (no header, no blank or
-    comment lines, at least ``width`` columns); None otherwise."""
-    if may_have_empty_field(text) or may_have_decimal_commas(text):
-        return None  # NumPy would misread these: the slow path names the line
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # an empty file: the slow path says so in one line
-            values = np.loadtxt(
-                io.StringIO(text.replace(",", " ")), ndmin=2, usecols=range(width), comments=None
-            )
-    except (ValueError, IndexError):
-        return None
-    if len(values) != text.count("\n") + (not text.endswith("\n")):
-        return None  # blank lines were skipped: line numbers would be off
-    return values, np.arange(1, len(values) + 1)
-
-
 def read_recording(path: Path, fmt: RecordingFormat) -> Recording:
     """Read a file laid out as ``fmt`` says (a TrajNet++ ``.ndjson`` file brings its own
     layout); positions in metres, times in seconds."""
@@ -237,7 +223,7 @@ def read_recording(path: Path, fmt: RecordingFormat) -> Recording:
             lines,
             seconds_per_frame,
         )
-    values, lines = _numbers(Path(path), fmt.columns, fmt.spelling)
+    values, lines = _numbers(Path(path), fmt)
     column = {name: fmt.columns.index(name) for name in ("id", "x", "y", fmt.time_column)}
     used = {i: name for name, i in column.items()}  # ignored columns may hold anything
     refuse_bad_numbers(Path(path), values, lines, used, whole=(column["id"],))
@@ -250,10 +236,31 @@ def read_recording(path: Path, fmt: RecordingFormat) -> Recording:
     return Recording(Path(path), ped_id.astype(np.int64), time_s, pos_m, lines, per_frame)
 
 
-def check_plausible(recording: Recording, fmt: RecordingFormat) -> None:
+def recording_time_scale(recording: Recording) -> TimeScale:
+    """What the recording's times say of their scale (:class:`TimeScale`), at the rate its
+    time column was read: its frame rate, or 1 for seconds."""
+    per_frame = recording.seconds_per_frame
+    rate = 1.0 if per_frame is None else 1.0 / per_frame
+    return time_scale(recording.ped_id, recording.time_s, recording.pos_m, rate)
+
+
+def _time_hint(recording: Recording, fmt: RecordingFormat, scale: TimeScale | None = None) -> str:
+    """``; `` and :func:`time_scale_hint` for a file whose time column ``fmt`` reads, else
+    "" (as for a TrajNet++ file or a bag, whose own times are read)."""
+    if Path(recording.path).suffix in OWN_TIMES:
+        return ""
+    hint = time_scale_hint(scale or recording_time_scale(recording), fmt.columns, fmt.spelling)
+    return "; " + hint if hint else ""
+
+
+def check_plausible(
+    recording: Recording, fmt: RecordingFormat, scale: TimeScale | None = None
+) -> None:
     """Refuse a recording whose median walking speed is above 3 m/s: a unit or frame-rate
-    mistake (a file in centimetres read as metres walks at 100 m/s)."""
-    median = median_speed_mps(recording.ped_id, recording.time_s, recording.pos_m)
+    mistake (a file in centimetres read as metres walks at 100 m/s). ``scale``: the
+    recording's :func:`recording_time_scale`, where known."""
+    scale = scale or recording_time_scale(recording)
+    median = scale.median_speed_mps
     if median > MAX_MEDIAN_SPEED_MPS:
         walking = [u for u in ("cm", "mm") if 0.2 <= median * UNITS_M[u] / UNITS_M[fmt.units] < 3]
         spelling = fmt.spelling
@@ -264,7 +271,38 @@ def check_plausible(recording: Recording, fmt: RecordingFormat) -> None:
             f"{'' if fmt.time_column == 't' else f', {1 / fmt.seconds_per_frame:g} fps'}); "
             f"check the units{' (' + ' or '.join(hints) + '?)' if hints else ''} and "
             f"{fmt.option('fps')}, or pass {spelling.setting('check_speed', False)} to go on"
+            f"{'' if hints else _time_hint(recording, fmt, scale)}"
         )
+
+
+def check_time_scale(
+    recording: Recording, fmt: RecordingFormat, scale: TimeScale, dt_s: float = DT_S
+) -> None:
+    """Where walking speeds say the time column is misread (``scale.likely_rate``), refuse a
+    recording whose tracks would break at nearly every observation, or that would be too
+    large to process, naming the likely rate; warn, naming it, where nobody is seen long
+    enough for a forecast to be scored (the commands then fail for want of samples)."""
+    hint = _time_hint(recording, fmt, scale)
+    if not hint:
+        return
+    if scale.interval_s > fmt.max_gap_s:
+        raise GrouptronError(
+            f"{recording.path}: a person's consecutive observations are {scale.interval_s:.3g} s "
+            f"apart (median), longer than {fmt.option('max_gap_s')} {fmt.max_gap_s:g} s, so "
+            f"nearly every track would break{hint}"
+        )
+    people, steps = len(np.unique(recording.ped_id)), int(scale.span_s / dt_s) + 1
+    if people * steps > MAX_GRID_CELLS:
+        raise GrouptronError(
+            f"{recording.path}: {people} people over {steps:,} steps of {dt_s} s is too large "
+            f"to process at once{hint}"
+        )
+    needed_s = (HISTORY_STEPS + HORIZON_STEPS - 1) * dt_s
+    if scale.longest_s < needed_s:
+        log.warning(
+            "%s: nobody is seen for %.3g s (%d observed and %d future steps of %g s)%s",
+            recording.path, needed_s, HISTORY_STEPS, HORIZON_STEPS, dt_s, hint,
+        )  # fmt: skip
 
 
 # One vectorised pass over every row, kept whole: each step reads the sorted arrays the
@@ -286,11 +324,12 @@ def resample(
         raise GrouptronError(
             f"{recording.path}: its times span {span_steps:.3g} steps of {dt_s} s; check the "
             f"time column (frame numbers with {fmt.option('fps')}, or 't' in seconds)"
+            f"{_time_hint(recording, fmt)}"
         )
     order = np.lexsort((recording.time_s, recording.ped_id))
     ids, time_s = recording.ped_id[order], recording.time_s[order]
     pos, lines = recording.pos_m[order], recording.line[order]
-    _refuse_duplicates(recording.path, ids, time_s, lines)
+    refuse_duplicate_times(recording.path, ids, time_s, lines)
     split_before = np.zeros(len(ids), dtype=bool)
     if fmt.check_speed:  # impossible jumps repaired before they are interpolated onto the grid
         keep, pos, split_before = repair_observations(recording.path, ids, time_s, pos, lines)
@@ -358,23 +397,15 @@ def _warn_gaps(
 
 def _frame_base(recording: Recording, dt_s: float) -> tuple[int, int]:
     """(first frame, frames per step) of the output: the file's own frames when a step is a
-    whole number of them (ETH/UCY: 10, TrajNet: 12), else grid steps (0, 1)."""
+    whole number of them (ETH/UCY: 10, TrajNet: 12) and they count exactly (not Unix time in
+    nanoseconds), else grid steps (0, 1)."""
     per_frame = recording.seconds_per_frame
-    if per_frame is None:
+    if per_frame is None or np.abs(recording.time_s).max() / per_frame > MAX_WHOLE_NUMBER:
         return 0, 1
     per_step = dt_s / per_frame
     if abs(per_step - round(per_step)) > ON_GRID_TOLERANCE or round(per_step) < 1:
         return 0, 1
     return round(float(recording.time_s.min()) / per_frame), round(per_step)
-
-
-def _refuse_duplicates(path: Path, ids: np.ndarray, time_s: np.ndarray, lines: np.ndarray) -> None:
-    same = np.flatnonzero((ids[1:] == ids[:-1]) & (time_s[1:] == time_s[:-1]))
-    if same.size:
-        first, second = sorted((int(lines[same[0]]), int(lines[same[0] + 1])))
-        raise DataFormatError(
-            path, f"two rows for pedestrian {ids[same[0]]} at one time (also line {first})", second
-        )
 
 
 def read_table(
@@ -399,8 +430,9 @@ def read_table(
     if fmt.check_speed:
         # Steps of an ETH/UCY-style file are dt_s apart, whatever its frames per step.
         lines = np.zeros_like(table.step)  # not needed: the check names no line
+        time_s, per_frame = table.step * dt_s, dt_s / frames_per_step
         check_plausible(
-            Recording(table.path, table.ped_id, table.step * dt_s, table.pos_m, lines), fmt
+            Recording(table.path, table.ped_id, time_s, table.pos_m, lines, per_frame), fmt
         )
     return table
 
@@ -411,5 +443,7 @@ def read_resampled(
     """Read, check and resample a recording: the one entry point for files of any format."""
     recording = read_recording(path, fmt)
     if fmt.check_speed:
-        check_plausible(recording, fmt)
+        scale = recording_time_scale(recording)
+        check_plausible(recording, fmt, scale)
+        check_time_scale(recording, fmt, scale, dt_s)
     return resample(recording, fmt, dt_s, on_gap)
