@@ -29,9 +29,9 @@ import numpy as np
 import torch
 
 from grouptron.config import ExperimentConfig
-from grouptron.data.custom import read_dataset
-from grouptron.data.samples import SampleSet, concatenate_samples
-from grouptron.data.track_files import TrackSource
+from grouptron.data.datasets.custom import read_dataset
+from grouptron.data.formats.track_files import TrackSource
+from grouptron.data.prepare.samples import SampleSet, concatenate_samples
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.inference.calibration import RegionCalibration, calibrate
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint

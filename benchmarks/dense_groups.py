@@ -20,8 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from grouptron.config import DataConfig, GroupConfig
-from grouptron.data.recording import RecordingFormat, parse_columns, read_resampled, read_table
-from grouptron.data.scene import build_scene
+from grouptron.data.formats.layout import RecordingFormat, parse_columns
+from grouptron.data.formats.recording import read_resampled, read_table
+from grouptron.data.prepare.scene import build_scene
 from grouptron.groups.scene import groups_per_step
 
 HERMES = RecordingFormat(columns=parse_columns("id,frame,x,y,z"), fps=16, units="cm")

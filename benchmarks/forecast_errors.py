@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.data.custom import read_dataset
-from grouptron.data.track_files import TrackSource
+from grouptron.data.datasets.custom import read_dataset
+from grouptron.data.formats.track_files import TrackSource
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.model.batch import batches

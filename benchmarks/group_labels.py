@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from grouptron.config import DataConfig, GroupConfig
-from grouptron.data.locate import resolve_data_dir
-from grouptron.data.reader import read_tracks
-from grouptron.data.scene import build_scene
+from grouptron.data.datasets.locate import resolve_data_dir
+from grouptron.data.formats.reader import read_tracks
+from grouptron.data.prepare.scene import build_scene
 from grouptron.groups.clustering import LINKAGES
 from grouptron.groups.distances import DISTANCE_KINDS
 from grouptron.groups.labels import read_group_labels

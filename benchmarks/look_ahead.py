@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.data.locate import resolve_data_dir
-from grouptron.data.subsets import time_step_ids
+from grouptron.data.datasets.locate import resolve_data_dir
+from grouptron.data.datasets.subsets import time_step_ids
 from grouptron.evaluation.uncertainty import mean_interval
 from grouptron.reporting.report import subset_masks
 

@@ -24,10 +24,10 @@ import numpy as np
 import torch
 
 from grouptron import Predictor
-from grouptron.data.custom import read_dataset
-from grouptron.data.locate import resolve_data_dir, split_files
-from grouptron.data.recording import RecordingFormat
-from grouptron.data.track_files import TrackSource
+from grouptron.data.datasets.custom import read_dataset
+from grouptron.data.datasets.locate import resolve_data_dir, split_files
+from grouptron.data.formats.layout import RecordingFormat
+from grouptron.data.formats.track_files import TrackSource
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.model import predict

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import torch
 
-from grouptron.data.custom import read_dataset
+from grouptron.data.datasets.custom import read_dataset
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.reporting.out_of_domain import (
     out_of_domain_markdown,

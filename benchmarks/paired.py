@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.data.locate import resolve_data_dir
-from grouptron.data.subsets import time_step_ids
+from grouptron.data.datasets.locate import resolve_data_dir
+from grouptron.data.datasets.subsets import time_step_ids
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, score_samples
 from grouptron.evaluation.test_sets import load_test_set

@@ -19,10 +19,10 @@ from pathlib import Path
 import torch
 
 from grouptron.constants import SPLITS
-from grouptron.data.locate import resolve_data_dir, split_files
-from grouptron.data.recording import RecordingFormat
-from grouptron.data.subsets import time_step_ids
-from grouptron.data.track_files import TrackSource
+from grouptron.data.datasets.locate import resolve_data_dir, split_files
+from grouptron.data.datasets.subsets import time_step_ids
+from grouptron.data.formats.layout import RecordingFormat
+from grouptron.data.formats.track_files import TrackSource
 from grouptron.evaluation.evaluate import constant_velocity_scores, score_samples
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.evaluation.uncertainty import mean_interval

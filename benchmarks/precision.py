@@ -20,9 +20,9 @@ import numpy as np
 import torch
 
 from grouptron.config import ExperimentConfig
-from grouptron.data.augment import draw_rotation_angles
-from grouptron.data.dataset import load_part
-from grouptron.data.locate import resolve_data_dir
+from grouptron.data.datasets.dataset import load_part
+from grouptron.data.datasets.locate import resolve_data_dir
+from grouptron.data.prepare.augment import draw_rotation_angles
 from grouptron.model.batch import make_batch
 from grouptron.model.factory import build_model
 from grouptron.training.losses import elbo_loss

@@ -22,8 +22,8 @@ import numpy as np
 from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import DataConfig
 from grouptron.constants import PARTS, SPLITS
-from grouptron.data.dataset import load_part
-from grouptron.data.locate import resolve_data_dir
+from grouptron.data.datasets.dataset import load_part
+from grouptron.data.datasets.locate import resolve_data_dir
 
 
 def load_everything(data_dir: Path, config: DataConfig) -> int:

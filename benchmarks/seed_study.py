@@ -25,7 +25,7 @@ from pathlib import Path
 
 import torch
 
-from grouptron.data.locate import resolve_data_dir
+from grouptron.data.datasets.locate import resolve_data_dir
 from grouptron.evaluation.evaluate import score_samples
 from grouptron.evaluation.test_sets import load_test_set
 from grouptron.model.checkpoint import load_trained_model

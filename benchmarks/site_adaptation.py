@@ -27,8 +27,8 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from grouptron.data.recording import RecordingFormat
-from grouptron.data.track_files import TrackSource
+from grouptron.data.formats.layout import RecordingFormat
+from grouptron.data.formats.track_files import TrackSource
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT
 from grouptron.workflows.adapt import AdaptRequest, adapt
 

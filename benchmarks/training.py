@@ -55,9 +55,9 @@ def train_speed(data_dir: Path | None, iterations: int) -> dict[str, float]:
     from torch.utils.flop_counter import FlopCounterMode
 
     from grouptron.config import ExperimentConfig
-    from grouptron.data.augment import draw_rotation_angles
-    from grouptron.data.dataset import load_part
-    from grouptron.data.locate import resolve_data_dir
+    from grouptron.data.datasets.dataset import load_part
+    from grouptron.data.datasets.locate import resolve_data_dir
+    from grouptron.data.prepare.augment import draw_rotation_angles
     from grouptron.model.batch import make_batch
     from grouptron.model.factory import build_model
     from grouptron.training.losses import elbo_loss
@@ -104,8 +104,8 @@ def train_speed(data_dir: Path | None, iterations: int) -> dict[str, float]:
 def eval_speed(data_dir: Path | None, checkpoint: str | None) -> dict[str, float]:
     from grouptron.config import ExperimentConfig
     from grouptron.constants import SPLITS
-    from grouptron.data.dataset import load_part
-    from grouptron.data.locate import resolve_data_dir
+    from grouptron.data.datasets.dataset import load_part
+    from grouptron.data.datasets.locate import resolve_data_dir
     from grouptron.evaluation.evaluate import evaluate_model
     from grouptron.model.checkpoint import load_trained_model
     from grouptron.model.factory import build_model

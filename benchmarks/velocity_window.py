@@ -26,9 +26,9 @@ import numpy as np
 
 from grouptron.config import DataConfig
 from grouptron.constants import DT_S, HISTORY_STEPS
-from grouptron.data.dataset import load_part
-from grouptron.data.locate import resolve_data_dir
-from grouptron.data.subsets import time_step_ids
+from grouptron.data.datasets.dataset import load_part
+from grouptron.data.datasets.locate import resolve_data_dir
+from grouptron.data.datasets.subsets import time_step_ids
 from grouptron.evaluation.metrics import ade, fde
 from grouptron.evaluation.uncertainty import mean_interval
 

@@ -32,7 +32,7 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 from most_likely import errors_by_top  # noqa: E402
 
 from grouptron.config import save_config  # noqa: E402
-from grouptron.data.custom import read_dataset  # noqa: E402
+from grouptron.data.datasets.custom import read_dataset  # noqa: E402
 from grouptron.evaluation.uncertainty import Interval, mean_interval  # noqa: E402
 from grouptron.io import write_text_atomically  # noqa: E402
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_checkpoint, save_checkpoint  # noqa: E402

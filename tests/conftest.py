@@ -75,7 +75,7 @@ def tiny_checkpoints(synthetic_data_dir: Path, tmp_path_factory: pytest.TempPath
     import dataclasses
 
     from grouptron.config import ExperimentConfig, GroupEncoderConfig, TrainConfig
-    from grouptron.data.dataset import load_part
+    from grouptron.data.datasets.dataset import load_part
     from grouptron.groups.cache import load_groups
     from grouptron.training.trainer import train
     from tests.helpers.models import SMALL

@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 
 from grouptron import Predictor
 from grouptron.cli import main
-from grouptron.data.reader import read_tracks
+from grouptron.data.formats.reader import read_tracks
 from grouptron.errors import GrouptronError
 from tests.helpers.data import walking_tracks
 

@@ -11,11 +11,12 @@ import pytest
 
 from grouptron.cli import main
 from grouptron.config import DataConfig
-from grouptron.data.dataset import cache_key
-from grouptron.data.fields import parse_numbers_fast
-from grouptron.data.reader import read_tracks
-from grouptron.data.recording import RecordingFormat, read_resampled
-from grouptron.data.spelling import FLAGS, KEYWORDS
+from grouptron.data.datasets.dataset import cache_key
+from grouptron.data.formats.fields import parse_numbers_fast
+from grouptron.data.formats.layout import RecordingFormat
+from grouptron.data.formats.reader import read_tracks
+from grouptron.data.formats.recording import read_resampled
+from grouptron.data.formats.spelling import FLAGS, KEYWORDS
 from grouptron.errors import GrouptronError
 from grouptron.groups.labels import read_id_map
 from grouptron.inference.checkpoints import resolve_checkpoint

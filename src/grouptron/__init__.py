@@ -31,7 +31,7 @@ def __getattr__(name: str) -> object:
 
         return getattr(predictor, name)
     if name == "load_tracks":
-        from grouptron.data.track_files import load_tracks
+        from grouptron.data.formats.track_files import load_tracks
 
         return load_tracks
     raise AttributeError(f"module 'grouptron' has no attribute {name!r}")

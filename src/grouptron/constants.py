@@ -46,6 +46,13 @@ UNIV_N_PAPER: Final = (40, 45, 50)
 # The command line's vocabulary, here so that `grouptron --help` never imports PyTorch: the
 # modules that implement each name take their lists from these.
 
+CONSTANT_VELOCITY: Final = "constant-velocity"
+"""The baseline every table shows beside a model, by the name rows and ``--model`` give it."""
+
+MAX_GAP_S: Final = 0.8
+"""Seconds without an observation after which a recording's track is split (shorter gaps are
+bridged when it is resampled): ``--max-gap``'s and ``TrackSource.max_gap_s``'s default."""
+
 EVALUATION_MODES: Final = ("ml", "ml-argmax", "mean", "ml-top10", "best-of-20", "nll")
 """What ``evaluate`` scores: each named point forecast (``grouptron.point_forecast.NAMED``;
 ``ml-topK`` when named), the best of 20 samples, the KDE NLL."""

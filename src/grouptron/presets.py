@@ -14,6 +14,7 @@ from grouptron.config import (
     config_to_dict,
     merge_settings,
 )
+from grouptron.constants import CONSTANT_VELOCITY
 
 
 @dataclass(frozen=True)
@@ -64,7 +65,7 @@ _ROBUST_SWITCHES: dict[str, dict[str, Any]] = {
     },
 }
 _RESIDUAL: dict[str, dict[str, Any]] = {"model": {"velocity_residual": True}}
-_CV = "constant-velocity"
+_CV = CONSTANT_VELOCITY
 
 MODELS: dict[str, ModelSpec] = {
     spec.name: spec

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from grouptron.config import DataConfig
-from grouptron.data.dataset import load_part
+from grouptron.data.datasets.dataset import load_part
 from tests.conftest import write_tracks
 
 

@@ -11,7 +11,7 @@ import pytest
 
 from grouptron.cli import main
 from grouptron.config import DataConfig
-from grouptron.data.custom import load_dataset_part, read_dataset, train_sample_weights
+from grouptron.data.datasets.custom import load_dataset_part, read_dataset, train_sample_weights
 from grouptron.errors import GrouptronError
 from grouptron.training.trainer import epoch_order
 

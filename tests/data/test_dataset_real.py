@@ -9,10 +9,10 @@ import pytest
 
 from grouptron.config import DataConfig
 from grouptron.constants import EXPECTED_TEST_SAMPLES, SPLITS
-from grouptron.data.dataset import build_part, load_part
-from grouptron.data.download import parse_checksums, shipped_checksums
-from grouptron.data.locate import split_files
-from grouptron.data.subsets import UnivN, agents_predicted, time_step_ids, univ_n_mask
+from grouptron.data.datasets.dataset import build_part, load_part
+from grouptron.data.datasets.download import parse_checksums, shipped_checksums
+from grouptron.data.datasets.locate import split_files
+from grouptron.data.datasets.subsets import UnivN, agents_predicted, time_step_ids, univ_n_mask
 
 pytestmark = pytest.mark.realdata
 

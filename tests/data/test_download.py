@@ -13,7 +13,12 @@ from pathlib import Path
 import pytest
 
 from grouptron.cli import main
-from grouptron.data.download import fetch_dataset, file_sha256, parse_checksums, shipped_checksums
+from grouptron.data.datasets.download import (
+    fetch_dataset,
+    file_sha256,
+    parse_checksums,
+    shipped_checksums,
+)
 from grouptron.errors import DownloadError, GrouptronError
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from grouptron.data.gaps import bridge_gaps, filled_in_histories
+from grouptron.data.prepare.gaps import bridge_gaps, filled_in_histories
 
 
 def test_short_gaps_are_filled_on_the_line_between_their_ends() -> None:

@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from grouptron.cli import main
-from grouptron.data.glitches import MAX_JUMP_SPEED_MPS, find_glitches, repair_rows
-from grouptron.data.reader import TrackTable
-from grouptron.data.recording import RecordingFormat, parse_columns, read_resampled
+from grouptron.data.formats.glitches import MAX_JUMP_SPEED_MPS, find_glitches, repair_rows
+from grouptron.data.formats.layout import RecordingFormat, parse_columns
+from grouptron.data.formats.reader import TrackTable
+from grouptron.data.formats.recording import read_resampled
 from grouptron.inference.predictor import Predictor
 from tests.conftest import write_tracks
 
@@ -186,8 +187,8 @@ def test_a_lasting_jump_in_a_recording_of_its_own_layout_splits_its_track(
 def test_plot_rows_keep_the_readers_track_splits() -> None:
     """A person's earlier track (split at a jump) gets a fresh id, so that a predictor fed the
     table's rows does not join the pieces again (and warns no second time)."""
-    from grouptron.data.reader import table_from_values
-    from grouptron.data.track_files import table_rows
+    from grouptron.data.formats.reader import table_from_values
+    from grouptron.data.formats.track_files import table_rows
 
     rows = crowd_rows()
     rows[(rows[:, 1] == 2) & (rows[:, 0] >= 100), 2] += 50.0  # a lasting jump of id 2

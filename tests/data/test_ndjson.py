@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from grouptron.cli import main
-from grouptron.data.locate import split_files
-from grouptron.data.reader import read_tracks
-from grouptron.data.recording import RecordingFormat, read_resampled
+from grouptron.data.datasets.locate import split_files
+from grouptron.data.formats.reader import read_tracks
+from grouptron.data.formats.track_files import TrackSource, read_track_file
 
 
 def to_ndjson(txt: Path, out: Path) -> Path:
@@ -32,7 +32,7 @@ def test_ndjson_tracks_read_as_the_same_file_in_text(
     synthetic_data_dir: Path, tmp_path: Path
 ) -> None:
     txt = split_files(synthetic_data_dir, "eth", "test")[0]
-    table = read_resampled(to_ndjson(txt, tmp_path / "scene.ndjson"), RecordingFormat())
+    table, _ = read_track_file(TrackSource(to_ndjson(txt, tmp_path / "scene.ndjson")))
     expected = read_tracks(txt)
     assert (table.first_frame, table.frames_per_step) == (expected.first_frame, 10)
     for name in ("ped_id", "track", "step", "pos_m"):

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from grouptron.config import DataConfig, ExperimentConfig
-from grouptron.data.dataset import cache_key
-from grouptron.data.reader import table_from_values
-from grouptron.data.samples import scene_samples
-from grouptron.data.scene import build_scene
+from grouptron.data.datasets.dataset import cache_key
+from grouptron.data.formats.reader import table_from_values
+from grouptron.data.prepare.samples import scene_samples
+from grouptron.data.prepare.scene import build_scene
 from grouptron.errors import GrouptronError
 from grouptron.inference.predictor import Predictor
 from grouptron.model.factory import build_model

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from grouptron.data.reader import read_tracks
+from grouptron.data.formats.reader import read_tracks
 from grouptron.errors import DataFormatError
 from tests.conftest import write_tracks
 

@@ -11,15 +11,11 @@ import pytest
 
 from grouptron.cli import main
 from grouptron.config import DataConfig
-from grouptron.data.reader import read_tracks
-from grouptron.data.recording import (
-    RecordingFormat,
-    parse_columns,
-    read_recording,
-    read_resampled,
-)
-from grouptron.data.spelling import FLAGS
-from grouptron.data.track_files import TrackSource, load_tracks
+from grouptron.data.formats.layout import RecordingFormat, parse_columns
+from grouptron.data.formats.reader import read_tracks
+from grouptron.data.formats.recording import read_recording, read_resampled
+from grouptron.data.formats.spelling import FLAGS
+from grouptron.data.formats.track_files import TrackSource, load_tracks
 from grouptron.errors import DataFormatError, GrouptronError
 from grouptron.evaluation.evaluate import constant_velocity_scores
 from grouptron.evaluation.recordings import recording_samples

@@ -13,7 +13,7 @@ pytest.importorskip("mcap_ros2")
 from mcap.reader import make_reader
 
 from grouptron.cli import main
-from grouptron.data.locate import split_files
+from grouptron.data.datasets.locate import split_files
 from tests.helpers.ros import START_S, write_people_bag
 
 

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from grouptron.config import DataConfig
-from grouptron.data.augment import ROTATION_ANGLES_DEG, draw_rotation_angles, rotate_samples
-from grouptron.data.reader import read_tracks
-from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
-from grouptron.data.scene import Scene, build_scene
+from grouptron.data.formats.reader import read_tracks
+from grouptron.data.prepare.augment import ROTATION_ANGLES_DEG, draw_rotation_angles, rotate_samples
+from grouptron.data.prepare.samples import SampleSet, concatenate_samples, scene_samples
+from grouptron.data.prepare.scene import Scene, build_scene
 from grouptron.geometry import rotate_xy_pairs, rotation_matrix
 from tests.conftest import write_tracks
 from tests.helpers.data import walking_scene

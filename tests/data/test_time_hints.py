@@ -11,8 +11,9 @@ from pathlib import Path
 import pytest
 
 from grouptron.cli import main
-from grouptron.data.recording import RecordingFormat, read_table
-from grouptron.data.spelling import FLAGS
+from grouptron.data.formats.layout import RecordingFormat
+from grouptron.data.formats.recording import read_table
+from grouptron.data.formats.spelling import FLAGS
 from grouptron.errors import DataFormatError, GrouptronError
 
 WALK_MPS = 1.3

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from grouptron.data.spelling import FLAGS
-from grouptron.data.track_files import TrackFile, read_track_file
+from grouptron.data.formats.spelling import FLAGS
+from grouptron.data.formats.track_files import TrackFile, read_track_file
 from grouptron.errors import GrouptronError
 from tests.conftest import write_tracks
 

@@ -11,7 +11,7 @@ import pytest
 
 from grouptron.cli import main
 from grouptron.config import DataConfig
-from grouptron.data.custom import load_dataset_part, read_dataset
+from grouptron.data.datasets.custom import load_dataset_part, read_dataset
 from grouptron.evaluation import metrics
 from grouptron.evaluation.evaluate import constant_velocity_scores
 from tests.conftest import synthetic_recording

@@ -13,8 +13,8 @@ import torch
 
 import grouptron
 from grouptron.config import ExperimentConfig
-from grouptron.data.dataset import load_part
-from grouptron.data.samples import SampleSet
+from grouptron.data.datasets.dataset import load_part
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.evaluation import score_cache
 from grouptron.evaluation.evaluate import score_samples
 from grouptron.evaluation.score_cache import cached_score_samples, scoring_sources

@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.data.reader import table_from_values
-from grouptron.data.samples import scene_samples
-from grouptron.data.scene import build_scene
+from grouptron.data.formats.reader import table_from_values
+from grouptron.data.prepare.samples import scene_samples
+from grouptron.data.prepare.scene import build_scene
 from grouptron.evaluation.evaluate import score_samples
 from grouptron.inference.predictor import Predictor
 from grouptron.model.batch import make_batch

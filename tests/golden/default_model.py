@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from grouptron.data.reader import table_from_values
-from grouptron.data.samples import scene_samples
-from grouptron.data.scene import build_scene
+from grouptron.data.formats.reader import table_from_values
+from grouptron.data.prepare.samples import scene_samples
+from grouptron.data.prepare.scene import build_scene
 from grouptron.inference.calibration import calibrate
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.inference.predictor import Predictor

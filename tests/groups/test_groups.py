@@ -11,7 +11,7 @@ from scipy.spatial.distance import directed_hausdorff as scipy_directed
 from scipy.spatial.distance import squareform
 
 from grouptron.config import DataConfig, GroupConfig
-from grouptron.data.samples import scene_samples
+from grouptron.data.prepare.samples import scene_samples
 from grouptron.errors import DataFormatError
 from grouptron.groups.assign import assign_groups
 from grouptron.groups.clustering import (
@@ -145,7 +145,7 @@ def test_partitions_dice_and_id_map(tmp_path: Path) -> None:
 
 
 def test_groups_of_a_subset_align_with_the_subset(synthetic_data_dir: Path) -> None:
-    from grouptron.data.dataset import load_part
+    from grouptron.data.datasets.dataset import load_part
 
     samples = load_part(synthetic_data_dir, "eth", "train", DataConfig()).samples
     groups = assign_groups(samples, GroupConfig(), 3.0)
@@ -182,8 +182,8 @@ def test_groups_from_the_step_matrix_equal_the_per_sample_groups(
     synthetic_data_dir: Path, distance: str
 ) -> None:
     """Live forecasting clusters every sample on sub-matrices of the step's distances."""
-    from grouptron.data.dataset import load_scenes
-    from grouptron.data.locate import split_files
+    from grouptron.data.datasets.dataset import load_scenes
+    from grouptron.data.datasets.locate import split_files
     from grouptron.groups.assign import assign_groups_at_step
     from grouptron.groups.scene import groups_at_step
 

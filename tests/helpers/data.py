@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 
 from grouptron.config import DataConfig, ExperimentConfig
-from grouptron.data.dataset import load_part
-from grouptron.data.reader import read_tracks
-from grouptron.data.samples import SampleSet
-from grouptron.data.scene import Scene, build_scene
+from grouptron.data.datasets.dataset import load_part
+from grouptron.data.formats.reader import read_tracks
+from grouptron.data.prepare.samples import SampleSet
+from grouptron.data.prepare.scene import Scene, build_scene
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
 from tests.conftest import write_tracks

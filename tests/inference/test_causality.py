@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from grouptron.data.locate import split_files
+from grouptron.data.datasets.locate import split_files
 from grouptron.inference.predictor import Predictor
 
 

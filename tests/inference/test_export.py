@@ -13,9 +13,9 @@ import torch
 
 from grouptron.cli import main
 from grouptron.config import DataConfig, ExperimentConfig, GroupEncoderConfig
-from grouptron.data.reader import table_from_values
-from grouptron.data.samples import scene_samples
-from grouptron.data.scene import build_scene
+from grouptron.data.formats.reader import table_from_values
+from grouptron.data.prepare.samples import scene_samples
+from grouptron.data.prepare.scene import build_scene
 from grouptron.errors import GrouptronError
 from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.inference.export import (

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from grouptron.cli import main
-from grouptron.data.dataset import load_part, load_scenes
-from grouptron.data.locate import split_files
+from grouptron.data.datasets.dataset import load_part, load_scenes
+from grouptron.data.datasets.locate import split_files
 from grouptron.evaluation.evaluate import evaluate_model
 from grouptron.groups.cache import load_groups
 from grouptron.inference.tracks import forecast_scene

@@ -9,8 +9,8 @@ import pytest
 import torch
 
 from grouptron import Predictor
-from grouptron.data.dataset import load_scenes
-from grouptron.data.locate import split_files
+from grouptron.data.datasets.dataset import load_scenes
+from grouptron.data.datasets.locate import split_files
 from grouptron.errors import GrouptronError
 from grouptron.inference.tracks import forecast_scene
 from grouptron.point_forecast import PointForecast

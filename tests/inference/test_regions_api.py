@@ -10,7 +10,7 @@ import pytest
 
 from grouptron import Predictor
 from grouptron.cli import main
-from grouptron.data.locate import split_files
+from grouptron.data.datasets.locate import split_files
 from grouptron.errors import GrouptronError
 
 

@@ -12,9 +12,9 @@ import pytest
 import torch
 
 from grouptron.config import ExperimentConfig, ModelConfig
-from grouptron.data.reader import table_from_values
-from grouptron.data.samples import scene_samples
-from grouptron.data.scene import build_scene
+from grouptron.data.formats.reader import table_from_values
+from grouptron.data.prepare.samples import scene_samples
+from grouptron.data.prepare.scene import build_scene
 from grouptron.errors import GrouptronError
 from grouptron.model.batch import Batch, make_batch
 from grouptron.model.factory import build_model

@@ -17,7 +17,7 @@ from grouptron.config import (
     GroupConfig,
     GroupEncoderConfig,
 )
-from grouptron.data.dataset import load_part
+from grouptron.data.datasets.dataset import load_part
 from grouptron.groups.assign import assign_groups
 from grouptron.model.batch import make_batch
 from grouptron.model.factory import build_model

@@ -11,9 +11,9 @@ import torch
 
 from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import DataConfig, ExperimentConfig
-from grouptron.data.reader import table_from_values
-from grouptron.data.samples import scene_samples
-from grouptron.data.scene import build_scene
+from grouptron.data.formats.reader import table_from_values
+from grouptron.data.prepare.samples import scene_samples
+from grouptron.data.prepare.scene import build_scene
 from grouptron.model.batch import make_batch
 from grouptron.model.factory import build_model
 from grouptron.model.predict import predict_point

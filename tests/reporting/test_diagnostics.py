@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from grouptron.cli import main
-from grouptron.data.dataset import load_part
-from grouptron.data.subsets import density_masks
+from grouptron.data.datasets.dataset import load_part
+from grouptron.data.datasets.subsets import density_masks
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import score_samples
 from grouptron.groups.cache import load_groups

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from grouptron.cli.app import main
-from grouptron.data.custom import read_dataset
-from grouptron.data.track_files import TrackSource
+from grouptron.constants import CONSTANT_VELOCITY
+from grouptron.data.datasets.custom import read_dataset
+from grouptron.data.formats.track_files import TrackSource
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import score_samples
 from grouptron.evaluation.recordings import recording_samples
-from grouptron.evaluation.scored import CONSTANT_VELOCITY
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.factory import groups_for_model
 from grouptron.reporting.out_of_domain import (

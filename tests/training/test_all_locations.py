@@ -11,7 +11,7 @@ import torch
 
 from grouptron.cli import main
 from grouptron.constants import ALL_LOCATIONS, SPLITS
-from grouptron.data.locate import split_files
+from grouptron.data.datasets.locate import split_files
 from grouptron.errors import GrouptronError
 from grouptron.model.checkpoint import load_checkpoint
 from tests.conftest import synthetic_recording

@@ -14,7 +14,7 @@ import torch
 from safetensors.torch import load_file
 
 from grouptron.config import ExperimentConfig, GroupEncoderConfig, TrainConfig, save_config
-from grouptron.data.dataset import load_part
+from grouptron.data.datasets.dataset import load_part
 from grouptron.errors import GrouptronError
 from grouptron.training.distributed import Cluster, global_mean
 from grouptron.training.trainer import train

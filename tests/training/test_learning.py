@@ -10,7 +10,7 @@ import pytest
 
 from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import ExperimentConfig, LossConfig, ModelConfig, TrainConfig
-from grouptron.data.dataset import load_part
+from grouptron.data.datasets.dataset import load_part
 from grouptron.evaluation.evaluate import evaluate_model
 from grouptron.training.trainer import train
 

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from grouptron.cli import main
-from grouptron.data.download import file_sha256
-from grouptron.data.reader import read_tracks
-from grouptron.data.windows import cut_windows, step_window
+from grouptron.data.datasets.download import file_sha256
+from grouptron.data.formats.reader import read_tracks
+from grouptron.data.prepare.windows import cut_windows, step_window
 from grouptron.errors import GrouptronError
 from grouptron.workflows.adapt import ADAPTATION, AdaptRequest, adapt
 from tests.conftest import synthetic_recording

@@ -15,8 +15,8 @@ from safetensors.torch import load_file
 pytest.importorskip("mcap_ros2")
 
 from grouptron.cli import main
-from grouptron.data.locate import split_files
-from grouptron.data.track_files import TrackSource, load_tracks
+from grouptron.data.datasets.locate import split_files
+from grouptron.data.formats.track_files import TrackSource, load_tracks
 from grouptron.inference.predictor import Predictor
 from grouptron.workflows.adapt import AdaptRequest, adapt
 from grouptron.workflows.evaluate import Tracks, evaluate

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from grouptron.cli import main
-from grouptron.data.track_files import TrackFile
+from grouptron.data.formats.track_files import TrackFile
 from grouptron.errors import GrouptronError
 from grouptron.workflows.groups import DetectRequest, GroupRule, detect_groups, score_groups
 from grouptron.workflows.predict import PredictRequest, predict_tracks

@@ -23,7 +23,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         f"wrote {out}: conformal radii of {calibration.checkpoint}'s "
         f"{calibration.point_forecast} regions from {calibration.samples} forecasts of "
         f"{args.tracks}. Uncalibrated, its 90% regions held {held[0]:.0%} of these truths "
-        f"0.4 s ahead and {held[-1]:.0%} at {0.4 * len(held):.1f} s. Use the file with "
+        f"{calibration.step_s:g} s ahead and {held[-1]:.0%} at "
+        f"{calibration.step_s * len(held):.1f} s. Use the file with "
         f"--calibration {out} (predict, plot) or Predictor(calibration=...)"
     )
     return 0

@@ -8,8 +8,8 @@ import sys
 from pathlib import Path
 
 from grouptron.config import DataConfig
-from grouptron.data.spelling import FLAGS
-from grouptron.data.track_files import TrackFile
+from grouptron.data.formats.spelling import FLAGS
+from grouptron.data.formats.track_files import TrackFile
 
 
 def show_progress(args: argparse.Namespace) -> bool:

@@ -7,8 +7,8 @@ import argparse
 
 from grouptron.cli.common import data_settings
 from grouptron.cli.options import int_list, parse_splits
-from grouptron.data.download import fetch_dataset
-from grouptron.data.locate import resolve_data_dir
+from grouptron.data.datasets.download import fetch_dataset
+from grouptron.data.datasets.locate import resolve_data_dir
 from grouptron.workflows.data import data_stats
 
 

@@ -10,7 +10,7 @@ import torch
 
 from grouptron.cli.common import own_layout, show_progress, track_file
 from grouptron.cli.options import eval_modes, parse_splits
-from grouptron.data.custom import read_dataset
+from grouptron.data.datasets.custom import read_dataset
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.results import results_json, results_table
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT
@@ -24,7 +24,8 @@ from grouptron.workflows.evaluate import (
 
 
 def _check_options(args: argparse.Namespace) -> None:
-    """Refuse option combinations that have no meaning, before anything is read."""
+    """Refuse option combinations that the Python API's types rule out (the workflow checks
+    the rest), before anything is read."""
     if args.model is not None and args.checkpoint is not None:
         raise GrouptronError("give either --checkpoint PATH or --model constant-velocity")
     if args.tracks and args.dataset:
@@ -36,15 +37,6 @@ def _check_options(args: argparse.Namespace) -> None:
             "--columns, --fps, --units, --max-gap and --no-speed-check describe --tracks files; "
             "a --dataset file gives its files' layout itself"
         )
-    sampled = [m for m in eval_modes(args.mode or "ml") if m in ("best-of-20", "nll")]
-    if args.model is not None and sampled and args.mode != "all":
-        raise GrouptronError(
-            f"constant velocity makes one forecast: --mode {','.join(sampled)} needs a --checkpoint"
-        )
-    if args.ablate and args.model is not None:
-        raise GrouptronError("--ablate takes inputs away from a checkpoint's model")
-    if args.tracks and args.mode and "nll" in eval_modes(args.mode) and args.mode != "all":
-        raise GrouptronError("--mode nll is scored on benchmark test sets, not on --tracks")
 
 
 def _source(args: argparse.Namespace) -> Source:
@@ -57,11 +49,16 @@ def _source(args: argparse.Namespace) -> Source:
 
 
 def _modes(args: argparse.Namespace) -> tuple[str, ...] | None:
-    """The modes asked for (None: the checkpoint's own point forecast); ``all`` on track
-    files leaves out the NLL, which is scored on the benchmark alone."""
+    """The modes asked for (None: the checkpoint's own point forecast); ``all`` leaves out
+    what has no meaning here: the NLL of track files, the sampled modes of constant
+    velocity (the workflow refuses them when named)."""
     if args.mode is None:
         return None
     modes = eval_modes(args.mode)
+    if args.mode != "all":
+        return modes
+    if args.model is not None:
+        return tuple(m for m in modes if m not in ("best-of-20", "nll"))
     return tuple(m for m in modes if m != "nll") if args.tracks else modes
 
 

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from grouptron.constants import (
     EVALUATION_MODES,
+    MAX_GAP_S,
     MAX_REGION_Q,
     SPLITS,
     UNITS_M,
@@ -23,8 +24,6 @@ if TYPE_CHECKING:
 
 EXIT_USAGE = 2
 REPORT_CHECKPOINTS = "checkpoints"
-MAX_GAP_S = 0.8
-"""Default of ``--max-gap`` (``RecordingFormat.max_gap_s``, which a test keeps equal)."""
 
 
 class Formatter(argparse.RawDescriptionHelpFormatter):

@@ -10,8 +10,8 @@ import torch
 
 from grouptron.cli.common import show_progress
 from grouptron.cli.options import REPORT_CHECKPOINTS, eval_modes
-from grouptron.data.custom import read_dataset
-from grouptron.data.locate import score_cache_dir
+from grouptron.data.datasets.custom import read_dataset
+from grouptron.data.datasets.locate import score_cache_dir
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.results import results_json
 from grouptron.geometry import DERIVATIVE_SCHEMES

@@ -12,7 +12,7 @@ from tqdm import tqdm
 from grouptron import constants
 from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import ExperimentConfig
-from grouptron.data.samples import SampleSet
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.evaluation import metrics
 from grouptron.groups.assign import SampleGroups
 from grouptron.model.batch import batches

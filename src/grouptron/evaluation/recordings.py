@@ -11,13 +11,13 @@ import numpy as np
 import torch
 
 from grouptron.config import DataConfig, ExperimentConfig
-from grouptron.constants import ALL_LOCATIONS
-from grouptron.data.custom import read_dataset
-from grouptron.data.download import file_sha256, shipped_checksums
-from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
-from grouptron.data.scene import build_scene
-from grouptron.data.subsets import density_masks, time_step_ids
-from grouptron.data.track_files import TrackSource, read_track_file
+from grouptron.constants import ALL_LOCATIONS, CONSTANT_VELOCITY
+from grouptron.data.datasets.custom import read_dataset
+from grouptron.data.datasets.download import file_sha256, shipped_checksums
+from grouptron.data.datasets.subsets import density_masks, time_step_ids
+from grouptron.data.formats.track_files import TrackSource, read_track_file
+from grouptron.data.prepare.samples import SampleSet, concatenate_samples, scene_samples
+from grouptron.data.prepare.scene import build_scene
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
 from grouptron.evaluation.results import EvaluationResult, score_rows
@@ -28,7 +28,6 @@ from grouptron.model.predict import Ablation
 POOLED = "all files"
 REPOSITORY = Path(__file__).resolve().parents[3]
 """The repository of a source checkout (``src/grouptron/evaluation/`` is three below it)."""
-CONSTANT_VELOCITY = "constant-velocity"
 
 
 def recording_samples(sources: Sequence[TrackSource], config: DataConfig) -> SampleSet:

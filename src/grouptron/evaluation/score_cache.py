@@ -24,7 +24,7 @@ import numpy as np
 import torch
 
 from grouptron.config import ExperimentConfig
-from grouptron.data.samples import SampleSet
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.evaluation import metrics
 from grouptron.evaluation.evaluate import SHARED_DECODE, SampleScores, score_samples
 from grouptron.groups.assign import SampleGroups

@@ -12,8 +12,6 @@ from grouptron.evaluation.evaluate import SampleScores
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.geometry import DerivativeScheme
 
-CONSTANT_VELOCITY = "constant-velocity"
-
 
 @dataclass(frozen=True)
 class ReportCheckpoint:

@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from grouptron.config import DataConfig, GroupConfig
-from grouptron.data.dataset import load_part
-from grouptron.data.samples import SampleSet
-from grouptron.data.subsets import UnivN, univ_n_mask
+from grouptron.data.datasets.dataset import load_part
+from grouptron.data.datasets.subsets import UnivN, univ_n_mask
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.groups.assign import SampleGroups
 from grouptron.groups.cache import load_groups

@@ -13,7 +13,7 @@ import numpy as np
 
 from grouptron.config import GroupConfig
 from grouptron.constants import DT_S
-from grouptron.data.samples import SampleSet, edge_rows, ego_first_layout
+from grouptron.data.prepare.samples import SampleSet, edge_rows, ego_first_layout
 from grouptron.groups.clustering import agglomerative_groups_batched, cluster_counts
 from grouptron.groups.distances import group_distances
 

@@ -7,9 +7,9 @@ import json
 from pathlib import Path
 
 from grouptron.config import DataConfig, GroupConfig, config_to_dict
-from grouptron.data.dataset import cache_key, cache_path, min_history_for
-from grouptron.data.locate import split_files
-from grouptron.data.samples import SampleSet
+from grouptron.data.datasets.dataset import cache_key, cache_path, min_history_for
+from grouptron.data.datasets.locate import split_files
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.io import keep_cache_npz, read_cache_npz
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from grouptron.data.fields import read_text_file
+from grouptron.data.formats.fields import read_text_file
 from grouptron.errors import DataFormatError
 
 

@@ -8,9 +8,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from grouptron.config import GroupConfig
-from grouptron.constants import DT_S, HISTORY_STEPS, PERCEPTION_RADIUS_M
-from grouptron.data.samples import dense_grid
-from grouptron.data.scene import Scene
+from grouptron.constants import HISTORY_STEPS, PERCEPTION_RADIUS_M
+from grouptron.data.prepare.samples import dense_grid
+from grouptron.data.prepare.scene import Scene
 from grouptron.groups.clustering import agglomerative_groups
 from grouptron.groups.distances import group_distances
 from grouptron.groups.labels import (
@@ -53,7 +53,7 @@ def groups_per_step(
     pad = history_steps - 1
     pos, present = position_grid(scene, pad)
     for step in range(0, scene.num_steps, every):  # one clustering per step
-        found = _cluster_step(pos, present, step, pad, config=config)
+        found = _cluster_step(pos, present, step, pad, config=config, dt_s=scene.dt_s)
         if found is not None:
             yield found
 
@@ -64,11 +64,17 @@ def groups_at_step(
     """The scene-wide groups of one step (None when nobody is present)."""
     pad = history_steps - 1
     pos, present = position_grid(scene, pad)
-    return _cluster_step(pos, present, step, pad, config=config)
+    return _cluster_step(pos, present, step, pad, config=config, dt_s=scene.dt_s)
 
 
 def _cluster_step(
-    pos: np.ndarray, present: np.ndarray, step: int, pad: int, *, config: GroupConfig
+    pos: np.ndarray,
+    present: np.ndarray,
+    step: int,
+    pad: int,
+    *,
+    config: GroupConfig,
+    dt_s: float,
 ) -> StepGroups | None:
     tracks = np.flatnonzero(present[:, step + pad])
     if len(tracks) == 0:
@@ -80,7 +86,7 @@ def _cluster_step(
         kind=config.distance,
         quantile=config.quantile,
         velocity_weight_s=config.velocity_weight_s,
-        dt_s=DT_S,
+        dt_s=dt_s,
     )
     labels = agglomerative_groups(
         distances,

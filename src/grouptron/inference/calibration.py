@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from grouptron.config import ExperimentConfig
-from grouptron.data.samples import SampleSet
+from grouptron.constants import DT_S
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.inference.engine import EngineOptions, forecast_samples
 from grouptron.io import write_text_atomically
@@ -48,6 +49,7 @@ class RegionCalibration:
         weights_sha256: the checkpoint file's SHA-256 (empty when unknown).
         uncalibrated_coverage_q90: (H,) the share of the recording's truths inside the
             model's own 90% regions per step (for the record; empty when unknown).
+        step_s: seconds between forecast steps (``DataConfig.dt_s``).
     """
 
     checkpoint: str
@@ -58,6 +60,7 @@ class RegionCalibration:
     source: str = ""
     weights_sha256: str = ""
     uncalibrated_coverage_q90: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    step_s: float = DT_S
 
     def radius(self, q: float) -> np.ndarray:
         """(H,) the calibrated radius at ``q`` (one of ``qs``)."""
@@ -136,6 +139,7 @@ def calibrate(
         source=source,
         weights_sha256=weights_sha256,
         uncalibrated_coverage_q90=inside.mean(axis=0),
+        step_s=config.data.dt_s,
     )
 
 
@@ -154,6 +158,7 @@ def calibration_document(calibration: RegionCalibration) -> dict[str, object]:
         "uncalibrated_coverage_q90_per_step": [
             round(float(c), 4) for c in calibration.uncalibrated_coverage_q90
         ],
+        "step_s": calibration.step_s,
         "q": [float(q) for q in calibration.qs],
         "radius_per_step": radii,
     }
@@ -191,6 +196,7 @@ def load_calibration(path: str | Path) -> RegionCalibration:
             uncalibrated_coverage_q90=np.asarray(
                 document.get("uncalibrated_coverage_q90_per_step", []), dtype=np.float64
             ),
+            step_s=float(document.get("step_s", DT_S)),  # files before it: the 0.4 s step
         )
     except OSError as error:
         raise GrouptronError(

@@ -12,7 +12,7 @@ import torch
 from tqdm import tqdm
 
 from grouptron.config import ExperimentConfig
-from grouptron.data.samples import SampleSet
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.groups.assign import SampleGroups
 from grouptron.model.batch import Batch, batches
 from grouptron.model.cvae import TrajectronCVAE

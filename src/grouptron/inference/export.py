@@ -18,9 +18,9 @@ from torch import nn
 
 from grouptron import constants
 from grouptron.config import ExperimentConfig
-from grouptron.data.reader import table_from_values
-from grouptron.data.samples import scene_samples
-from grouptron.data.scene import build_scene
+from grouptron.data.formats.reader import table_from_values
+from grouptron.data.prepare.samples import scene_samples
+from grouptron.data.prepare.scene import build_scene
 from grouptron.errors import GrouptronError
 from grouptron.inference.calibration import RegionCalibration, calibration_document
 from grouptron.io import refuse_folder, save_atomically

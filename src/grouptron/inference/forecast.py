@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grouptron.data.time_base import TimeBase
+from grouptron.data.formats.time_base import TimeBase
 from grouptron.errors import GrouptronError
 from grouptron.inference.calibration import RegionCalibration
 from grouptron.model.mixture import Mixture

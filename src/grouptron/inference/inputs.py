@@ -10,8 +10,8 @@ from typing import Any
 import numpy as np
 
 from grouptron.config import DataConfig
-from grouptron.data import glitches
-from grouptron.data.reader import far_position
+from grouptron.data.formats import glitches
+from grouptron.data.formats.reader import far_position
 from grouptron.errors import GrouptronError
 
 TRACK_COLUMNS = ("frame", "id", "x", "y")

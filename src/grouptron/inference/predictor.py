@@ -23,11 +23,11 @@ import numpy as np
 import torch
 
 from grouptron.config import ExperimentConfig
-from grouptron.data import glitches
-from grouptron.data.gaps import bridge_gaps, filled_in_histories
-from grouptron.data.reader import table_from_values
-from grouptron.data.samples import SampleSet, scene_samples
-from grouptron.data.scene import Scene, build_scene
+from grouptron.data.formats import glitches
+from grouptron.data.formats.reader import table_from_values
+from grouptron.data.prepare.gaps import bridge_gaps, filled_in_histories
+from grouptron.data.prepare.samples import SampleSet, scene_samples
+from grouptron.data.prepare.scene import Scene, build_scene
 from grouptron.devices import available_device
 from grouptron.errors import GrouptronError
 from grouptron.groups.assign import assign_groups_at_step
@@ -74,7 +74,7 @@ class Predictor:
             way to name ``ml-topK`` (both still accepted, with a warning).
         mixture: also return the mixture parameters (decodes all Z latent values; slower).
         check_speed: refuse tracks whose median speed no pedestrian walks (wrong units), and
-            repair jumps faster than anyone runs (``grouptron.data.glitches``).
+            repair jumps faster than anyone runs (``grouptron.data.formats.glitches``).
         device: where the network runs (``cpu``, ``cuda``, ``mps``); NumPy results either way.
         min_points: the fewest positions in a row (the last one at the forecast frame) an agent
             needs for a forecast, 2 to ``history_steps``; more history, better forecasts.
@@ -178,7 +178,7 @@ class Predictor:
     ) -> Forecast:
         """Forecast every agent observed at frame ``t`` (default: the last frame) with
         ``min_points`` consecutive steps up to it (missed steps filled; impossible jumps
-        repaired with a warning, ``grouptron.data.glitches``); rows after ``t`` are ignored
+        repaired with a warning, ``grouptron.data.formats.glitches``); rows after ``t`` are ignored
         unless ``live`` is False (a recording: then the derivatives use the rows the
         checkpoint's protocol reads, as the evaluator does; ``central`` reads two steps ahead).
 

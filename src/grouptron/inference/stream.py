@@ -7,7 +7,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from grouptron.data.glitches import MAX_JUMP_SPEED_MPS
+from grouptron.data.formats.glitches import MAX_JUMP_SPEED_MPS
 from grouptron.errors import GrouptronError
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.inputs import as_track_array, frame_argument, frame_arrays

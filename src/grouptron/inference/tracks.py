@@ -10,8 +10,8 @@ import numpy as np
 import torch
 
 from grouptron.config import ExperimentConfig
-from grouptron.data.samples import SampleSet, scene_samples
-from grouptron.data.scene import Scene
+from grouptron.data.prepare.samples import SampleSet, scene_samples
+from grouptron.data.prepare.scene import Scene
 from grouptron.errors import GrouptronError
 from grouptron.inference.engine import EngineOptions, forecast_samples
 from grouptron.inference.forecast import Forecast

@@ -10,7 +10,7 @@ import numpy as np
 import torch
 
 from grouptron.config import DataConfig, ExperimentConfig
-from grouptron.data.samples import SampleSet, edge_rows, ego_first_layout, segment_sums
+from grouptron.data.prepare.samples import SampleSet, edge_rows, ego_first_layout, segment_sums
 from grouptron.geometry import rotate_rows, rotation_matrix
 from grouptron.groups.assign import SampleGroups
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import torch
 
 from grouptron.config import ExperimentConfig
-from grouptron.data.samples import SampleSet
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.model.cvae import TrajectronCVAE

@@ -8,9 +8,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from grouptron.constants import SPLITS, UNIV_N_PAPER
+from grouptron.constants import CONSTANT_VELOCITY, SPLITS, UNIV_N_PAPER
 from grouptron.evaluation.results import MEAN_ROW, EvaluationResult
-from grouptron.evaluation.scored import CONSTANT_VELOCITY
 from grouptron.model.factory import DISPLAY_NAMES, MODEL_NAMES
 
 TABLE_I_COLUMNS = (*SPLITS, MEAN_ROW)

@@ -6,8 +6,9 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from grouptron.data.custom import DatasetDescription, load_dataset_part
-from grouptron.data.subsets import time_step_ids
+from grouptron.constants import CONSTANT_VELOCITY
+from grouptron.data.datasets.custom import DatasetDescription, load_dataset_part
+from grouptron.data.datasets.subsets import time_step_ids
 from grouptron.errors import GrouptronError
 from grouptron.evaluation import metrics
 from grouptron.evaluation.evaluate import constant_velocity_scores
@@ -51,7 +52,7 @@ def dataset_report(
         data = experiment.data
         samples = load_dataset_part(dataset, "test", data, use_cache=use_cache).samples
         steps = time_step_ids(samples)
-        template = EvaluationResult(dataset.name, "constant-velocity", None, 0, 0.0, 0.0)
+        template = EvaluationResult(dataset.name, CONSTANT_VELOCITY, None, 0, 0.0, 0.0)
         template = dataclasses.replace(template, derivatives=data.derivatives)
         if data.derivatives not in baselines_done:
             baselines_done.add(data.derivatives)

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grouptron.constants import SPLITS
-from grouptron.evaluation.scored import CONSTANT_VELOCITY, ScoredRun
+from grouptron.constants import CONSTANT_VELOCITY, SPLITS
+from grouptron.evaluation.scored import ScoredRun
 from grouptron.evaluation.uncertainty import Interval, mean_interval
 
 BOOTSTRAP_SEED = 0

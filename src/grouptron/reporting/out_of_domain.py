@@ -1,7 +1,7 @@
 """Out-of-domain scores: causal checkpoints against constant velocity on the test parts of
-datasets of one's own (:mod:`grouptron.data.custom` descriptions: recordings from elsewhere in
-their own formats). Every model is compared with constant velocity on its own samples, so every
-difference is paired.
+datasets of one's own (:mod:`grouptron.data.datasets.custom` descriptions: recordings from
+elsewhere in their own formats). Every model is compared with constant velocity on its own
+samples, so every difference is paired.
 """
 
 from __future__ import annotations
@@ -14,15 +14,15 @@ from pathlib import Path
 import numpy as np
 
 from grouptron.config import DataConfig
-from grouptron.data.custom import DatasetDescription
-from grouptron.data.samples import SampleSet, concatenate_samples
-from grouptron.data.subsets import density_masks, time_step_ids
-from grouptron.data.track_files import TrackSource
+from grouptron.constants import CONSTANT_VELOCITY
+from grouptron.data.datasets.custom import DatasetDescription
+from grouptron.data.datasets.subsets import density_masks, time_step_ids
+from grouptron.data.formats.track_files import TrackSource
+from grouptron.data.prepare.samples import SampleSet, concatenate_samples
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores
 from grouptron.evaluation.recordings import recording_samples
 from grouptron.evaluation.score_cache import cached_score_samples
-from grouptron.evaluation.scored import CONSTANT_VELOCITY
 from grouptron.evaluation.uncertainty import Interval, mean_interval
 from grouptron.model.checkpoint import load_trained_model, stored_checkpoints
 from grouptron.model.factory import groups_for_model

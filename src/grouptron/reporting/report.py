@@ -21,15 +21,15 @@ import numpy as np
 import torch
 
 from grouptron.config import DataConfig, ExperimentConfig
-from grouptron.constants import REPORT_NLL_MAX_SAMPLES, SPLITS, UNIV_N_PAPER
-from grouptron.data.samples import SampleSet
-from grouptron.data.subsets import (
+from grouptron.constants import CONSTANT_VELOCITY, REPORT_NLL_MAX_SAMPLES, SPLITS, UNIV_N_PAPER
+from grouptron.data.datasets.subsets import (
     UNIV_N_DEFINITIONS,
     UnivN,
     density_masks,
     time_step_ids,
     univ_n_mask,
 )
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import (
     MODES,
@@ -37,7 +37,7 @@ from grouptron.evaluation.evaluate import (
 )
 from grouptron.evaluation.results import EvaluationResult, score_rows
 from grouptron.evaluation.score_cache import cached_score_samples
-from grouptron.evaluation.scored import CONSTANT_VELOCITY, ReportCheckpoint, ScoredRun
+from grouptron.evaluation.scored import ReportCheckpoint, ScoredRun
 from grouptron.evaluation.test_sets import load_test_set, subset_with_groups
 from grouptron.geometry import DerivativeScheme
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_trained_model, stored_checkpoints

@@ -16,9 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grouptron.constants import SPLITS
+from grouptron.constants import CONSTANT_VELOCITY, SPLITS
 from grouptron.evaluation.results import MEAN_ROW, EvaluationResult, mean_over_splits
-from grouptron.evaluation.scored import CONSTANT_VELOCITY, ScoredRun
+from grouptron.evaluation.scored import ScoredRun
 from grouptron.evaluation.uncertainty import (
     Interval,
     mean_interval,

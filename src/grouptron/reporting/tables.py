@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from grouptron.constants import CONSTANT_VELOCITY
 from grouptron.evaluation.results import EvaluationResult
-from grouptron.evaluation.scored import CONSTANT_VELOCITY
 from grouptron.evaluation.uncertainty import Interval, seed_spread
 from grouptron.model.factory import GROUP_MODELS
 from grouptron.point_forecast import PointForecast, is_point_forecast

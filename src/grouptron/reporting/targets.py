@@ -5,9 +5,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from grouptron.constants import SPLITS
+from grouptron.constants import CONSTANT_VELOCITY, SPLITS
 from grouptron.evaluation.results import MEAN_ROW, EvaluationResult
-from grouptron.evaluation.scored import CONSTANT_VELOCITY
 from grouptron.model.factory import GROUP_MODELS
 from grouptron.reporting.cells import (
     OURS_MODELS,

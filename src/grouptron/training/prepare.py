@@ -12,9 +12,9 @@ import numpy as np
 
 from grouptron.config import ExperimentConfig
 from grouptron.constants import ALL_LOCATIONS
-from grouptron.data.custom import load_dataset_part, read_dataset, train_sample_weights
-from grouptron.data.dataset import PartData, load_part
-from grouptron.data.locate import resolve_data_dir
+from grouptron.data.datasets.custom import load_dataset_part, read_dataset, train_sample_weights
+from grouptron.data.datasets.dataset import PartData, load_part
+from grouptron.data.datasets.locate import resolve_data_dir
 from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.groups.cache import load_groups
 from grouptron.model.factory import uses_groups

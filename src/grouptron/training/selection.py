@@ -16,7 +16,7 @@ import numpy as np
 import torch
 
 from grouptron.config import ExperimentConfig
-from grouptron.data.samples import SampleSet
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import constant_velocity_scores, evaluate_model
 from grouptron.groups.assign import SampleGroups

@@ -30,8 +30,8 @@ from torch.nn.parallel import DistributedDataParallel
 from tqdm import tqdm
 
 from grouptron.config import ExperimentConfig, save_config
-from grouptron.data.augment import draw_rotation_angles
-from grouptron.data.samples import SampleSet
+from grouptron.data.prepare.augment import draw_rotation_angles
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.groups.assign import SampleGroups
 from grouptron.model.batch import make_batch

@@ -24,13 +24,14 @@ import numpy as np
 import torch
 
 from grouptron.config import ExperimentConfig
-from grouptron.data.download import file_sha256
-from grouptron.data.reader import TrackTable
-from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
-from grouptron.data.scene import build_scene
-from grouptron.data.subsets import time_step_ids
-from grouptron.data.track_files import TrackSource, read_track_file
-from grouptron.data.windows import cut_windows, step_window
+from grouptron.constants import CONSTANT_VELOCITY
+from grouptron.data.datasets.download import file_sha256
+from grouptron.data.datasets.subsets import time_step_ids
+from grouptron.data.formats.reader import TrackTable
+from grouptron.data.formats.track_files import TrackSource, read_track_file
+from grouptron.data.prepare.samples import SampleSet, concatenate_samples, scene_samples
+from grouptron.data.prepare.scene import build_scene
+from grouptron.data.prepare.windows import cut_windows, step_window
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
 from grouptron.evaluation.results import EvaluationResult, results_table, score_rows
@@ -238,7 +239,7 @@ def _held_out(
     for name, model in ((before_name, before), (after_name, after)):
         (scores,) = score_samples(model, experiment, samples, (mode,), groups=groups)
         scored.append((name, scores))
-    scored.append(("constant-velocity", constant_velocity_scores(samples, data.horizon_steps)))
+    scored.append((CONSTANT_VELOCITY, constant_velocity_scores(samples, data.horizon_steps)))
     steps = time_step_ids(samples)
     rows = []
     labels = (f"{experiment.model_name}, before", f"{experiment.model_name}, adapted", None)

@@ -2,7 +2,7 @@
 (``grouptron calibrate``), written as a calibration file that ``predict``, ``plot`` and
 ``Predictor(calibration=...)`` read.
 
-    from grouptron.data.track_files import TrackFile
+    from grouptron.data.formats.track_files import TrackFile
     from grouptron.workflows.calibrate import calibrate_tracks
     calibration = calibrate_tracks(TrackFile("monday.csv", columns="t,id,x,y"), Path("site.json"))
 """
@@ -12,9 +12,9 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from grouptron.data.samples import scene_samples
-from grouptron.data.scene import build_scene
-from grouptron.data.track_files import TrackFile, read_track_file
+from grouptron.data.formats.track_files import TrackFile, read_track_file
+from grouptron.data.prepare.samples import scene_samples
+from grouptron.data.prepare.scene import build_scene
 from grouptron.inference.calibration import (
     RegionCalibration,
     calibrate,

@@ -14,9 +14,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from grouptron.config import DataConfig
-from grouptron.data.dataset import load_part
-from grouptron.data.locate import resolve_data_dir
-from grouptron.data.subsets import UNIV_N_DEFINITIONS, UnivN, univ_n_mask
+from grouptron.data.datasets.dataset import load_part
+from grouptron.data.datasets.locate import resolve_data_dir
+from grouptron.data.datasets.subsets import UNIV_N_DEFINITIONS, UnivN, univ_n_mask
 
 DEFAULT_UNIV_N = (40, 45, 50)
 """The paper's UNIV-N thresholds (pedestrians at the forecast step)."""

@@ -18,12 +18,12 @@ from typing import Literal
 import numpy as np
 
 from grouptron.config import DataConfig, ExperimentConfig
-from grouptron.constants import ALL_LOCATIONS, SPLITS
-from grouptron.data.custom import DatasetDescription, load_dataset_part
-from grouptron.data.locate import resolve_data_dir, split_files
-from grouptron.data.samples import SampleSet
-from grouptron.data.subsets import density_masks, parse_univ_n
-from grouptron.data.track_files import TrackSource
+from grouptron.constants import ALL_LOCATIONS, CONSTANT_VELOCITY, EVALUATION_MODES, SPLITS
+from grouptron.data.datasets.custom import DatasetDescription, load_dataset_part
+from grouptron.data.datasets.locate import resolve_data_dir, split_files
+from grouptron.data.datasets.subsets import density_masks, parse_univ_n
+from grouptron.data.formats.track_files import TrackSource
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
 from grouptron.evaluation.recordings import evaluate_recordings, training_files
@@ -36,10 +36,10 @@ from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model, uses_groups
 from grouptron.model.predict import ABLATIONS, default_point_forecast
+from grouptron.point_forecast import is_evaluation_mode
 from grouptron.workflows.adapt import adapted_parts
 
 log = logging.getLogger("grouptron")
-CONSTANT_VELOCITY = "constant-velocity"
 
 
 @dataclass(frozen=True)
@@ -122,7 +122,10 @@ def evaluate(
     """Rows of scores of ``checkpoint`` (a shipped name or a file; None: constant velocity
     alone) on ``source``, constant velocity's rows beside them on the same samples. ``modes``:
     evaluation modes (default: the checkpoint's own point forecast, what ``predict`` writes).
+    Every request is checked before anything is read, so Python callers get the command
+    line's one-line errors.
     """
+    _refuse_meaningless(source, checkpoint, modes, options)
     loaded = _load(checkpoint, options)
     chosen = tuple(modes) if modes else _default_modes(loaded.experiment)
     _check_ablations(options.ablate, loaded)
@@ -131,6 +134,33 @@ def evaluate(
     if isinstance(source, DatasetDescription):
         return _evaluate_dataset(source, loaded, chosen, options)
     return _evaluate_benchmark(source, loaded, chosen, options)
+
+
+def _refuse_meaningless(
+    source: Source,
+    checkpoint: str | Path | None,
+    modes: Sequence[str] | None,
+    options: EvaluationOptions,
+) -> None:
+    """Refuse what has no meaning (unknown modes, sampled modes or ablations of constant
+    velocity, the NLL of track files), before anything is read."""
+    if isinstance(modes, str):
+        raise GrouptronError(f"modes is a sequence of evaluation modes, not {modes!r}")
+    unknown = [m for m in modes or () if not is_evaluation_mode(m)]
+    if unknown:
+        raise GrouptronError(
+            f"unknown mode {', '.join(map(str, unknown))}; choose from "
+            f"{', '.join(EVALUATION_MODES)} or ml-topK"
+        )
+    sampled = [m for m in modes or () if m in ("best-of-20", "nll")]
+    if checkpoint is None and sampled:
+        raise GrouptronError(
+            f"constant velocity makes one forecast: --mode {','.join(sampled)} needs a --checkpoint"
+        )
+    if checkpoint is None and options.ablate:
+        raise GrouptronError("--ablate takes inputs away from a checkpoint's model")
+    if isinstance(source, Tracks) and "nll" in (modes or ()):
+        raise GrouptronError("--mode nll is scored on benchmark test sets, not on --tracks")
 
 
 def _load(checkpoint: str | Path | None, options: EvaluationOptions) -> _Loaded:
@@ -277,8 +307,6 @@ def _evaluate_tracks(
     source: Tracks, loaded: _Loaded, modes: tuple[str, ...], options: EvaluationOptions
 ) -> list[EvaluationResult]:
     """Rows per file and pooled, with intervals; a file the checkpoint trained on is named."""
-    if "nll" in modes:
-        raise GrouptronError("the NLL is scored on the benchmark's test sets, not on track files")
     if loaded.experiment is not None:
         if loaded.data.derivatives == "central":
             log.warning(

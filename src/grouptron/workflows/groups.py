@@ -1,7 +1,7 @@
 """Groups of a track file: detected at every step (``grouptron groups detect``), and scored
 against human labels (``grouptron groups evaluate``).
 
-    from grouptron.data.track_files import TrackFile
+    from grouptron.data.formats.track_files import TrackFile
     from grouptron.workflows.groups import GroupRule, score_groups, scores_table
     print(scores_table(score_groups(TrackFile("biwi_eth.txt"), "eth/groups.txt", GroupRule())))
 """
@@ -17,8 +17,8 @@ from typing import Literal, TypeVar
 import numpy as np
 
 from grouptron.config import DataConfig, GroupConfig
-from grouptron.data.scene import Scene, build_scene
-from grouptron.data.track_files import TrackFile, read_track_file
+from grouptron.data.formats.track_files import TrackFile, read_track_file
+from grouptron.data.prepare.scene import Scene, build_scene
 from grouptron.errors import GrouptronError
 from grouptron.groups.clustering import LINKAGES, Linkage
 from grouptron.groups.distances import DISTANCE_KINDS, DistanceKind

@@ -1,7 +1,7 @@
 """Pictures of forecasts on a track file: one model's (or two side by side) at one frame, or
 an animation over a range of frames (``grouptron plot``).
 
-    from grouptron.data.track_files import TrackFile
+    from grouptron.data.formats.track_files import TrackFile
     from grouptron.workflows.plot import PlotRequest, plot_tracks
     print(plot_tracks(PlotRequest(TrackFile("students003.txt"), Path("f.png"), frame=3000)).summary)
 """
@@ -16,8 +16,8 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from grouptron.data.reader import TrackTable
-from grouptron.data.track_files import TrackFile, read_track_file, table_rows
+from grouptron.data.formats.reader import TrackTable
+from grouptron.data.formats.track_files import TrackFile, read_track_file, table_rows
 from grouptron.errors import GrouptronError
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, warn_look_ahead
 from grouptron.inference.predictor import Predictor

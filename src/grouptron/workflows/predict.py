@@ -1,7 +1,7 @@
 """Forecasts of every pedestrian of a track file, written as CSV rows, TrajNet++ predictions
 or Foxglove scene updates (``grouptron predict``).
 
-    from grouptron.data.track_files import TrackFile
+    from grouptron.data.formats.track_files import TrackFile
     from grouptron.workflows.predict import PredictRequest, predict_tracks
     done = predict_tracks(PredictRequest(TrackFile("tracks.txt"), Path("forecasts.csv")))
 """
@@ -16,11 +16,11 @@ from typing import TextIO
 import numpy as np
 import torch
 
-from grouptron.data.ndjson import write_forecast_ndjson
-from grouptron.data.reader import TrackTable
-from grouptron.data.ros_bag import BagTracks
-from grouptron.data.scene import build_scene
-from grouptron.data.track_files import TrackFile, read_track_file
+from grouptron.data.formats.ndjson import write_forecast_ndjson
+from grouptron.data.formats.reader import TrackTable
+from grouptron.data.formats.ros_bag import BagTracks
+from grouptron.data.formats.track_files import TrackFile, read_track_file
+from grouptron.data.prepare.scene import build_scene
 from grouptron.errors import GrouptronError
 from grouptron.inference.calibration import calibration_for
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint, warn_look_ahead

@@ -13,8 +13,8 @@ import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from grouptron.data.custom import read_dataset
-from grouptron.data.locate import resolve_data_dir
+from grouptron.data.datasets.custom import read_dataset
+from grouptron.data.datasets.locate import resolve_data_dir
 from grouptron.errors import GrouptronError
 from grouptron.geometry import DerivativeScheme
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT

@@ -24,7 +24,7 @@ from grouptron.config import (
     merge_settings,
     renamed_settings,
 )
-from grouptron.data.custom import read_dataset
+from grouptron.data.datasets.custom import read_dataset
 from grouptron.errors import GrouptronError
 from grouptron.inference.checkpoints import resolve_checkpoint
 from grouptron.model.checkpoint import load_checkpoint

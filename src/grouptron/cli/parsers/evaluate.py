@@ -11,7 +11,7 @@ from grouptron.cli.options import (
     add_recording_options,
     add_threads_option,
 )
-from grouptron.constants import EVALUATION_MODES, SPLITS
+from grouptron.constants import CONSTANT_VELOCITY, EVALUATION_MODES, SPLITS
 
 
 def add_parser(commands: argparse._SubParsersAction) -> None:
@@ -44,7 +44,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "scored beside it on the same samples",
     )
     evaluate.add_argument(
-        "--model", choices=("constant-velocity",), help="score a baseline instead of a checkpoint"
+        "--model", choices=(CONSTANT_VELOCITY,), help="score a baseline instead of a checkpoint"
     )
     evaluate.add_argument(
         "--split",

@@ -8,7 +8,7 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from grouptron.data.reader import TrackTable
+from grouptron.data.formats.reader import TrackTable
 
 
 def step_window(table: TrackTable, first_step: int, end_step: int) -> TrackTable | None:

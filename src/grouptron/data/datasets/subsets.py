@@ -18,7 +18,7 @@ from typing import Literal
 
 import numpy as np
 
-from grouptron.data.samples import SampleSet
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 
 UnivNDefinition = Literal["predicted", "present"]

@@ -7,12 +7,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from grouptron.config import DataConfig
-from grouptron.data.reader import TrackTable
+from grouptron.constants import DT_S
+from grouptron.data.formats.reader import MAX_GRID_CELLS, TrackTable
 from grouptron.errors import GrouptronError
 from grouptron.geometry import track_states
 
-MAX_GRID_CELLS = 50_000_000
-"""Bound on tracks x steps: per-step grids of the scene are dense (about 1 GB at the bound)."""
 MAX_CO_PRESENT_PAIRS = 20_000_000
 """Bound on the sum over steps of (pedestrians at the step)^2, the pairs whose distances are
 computed (about 2 GB of temporaries at the bound; ~4,500 people in a single step)."""
@@ -38,6 +37,7 @@ class Scene:
         track: (R,) track of every row; rows are sorted by (track, step).
         step: (R,) step of every row.
         state_scene: (R, 6) x, y, vx, vy, ax, ay in the centred scene frame (m, m/s, m/s^2).
+        dt_s: seconds per step (``DataConfig.dt_s``).
     """
 
     name: str
@@ -51,6 +51,7 @@ class Scene:
     track: np.ndarray
     step: np.ndarray
     state_scene: np.ndarray
+    dt_s: float = DT_S
 
     @property
     def num_tracks(self) -> int:
@@ -102,6 +103,7 @@ def build_scene(table: TrackTable, config: DataConfig, name: str | None = None) 
         track=track,
         step=step,
         state_scene=state,
+        dt_s=config.dt_s,
     )
 
 

@@ -12,8 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from grouptron.config import DataConfig
-from grouptron.data.neighbours import perception_edges, ranges_to_indices
-from grouptron.data.scene import Scene
+from grouptron.data.formats.fields import ranges_to_indices
+from grouptron.data.prepare.neighbours import perception_edges
+from grouptron.data.prepare.scene import Scene
 
 
 @dataclass(frozen=True)

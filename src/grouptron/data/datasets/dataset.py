@@ -5,17 +5,18 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from grouptron.config import DataConfig, config_to_dict
-from grouptron.data.locate import preprocessed_cache_dir, split_files
-from grouptron.data.reader import read_tracks
-from grouptron.data.recording import RecordingFormat, read_resampled
-from grouptron.data.samples import SampleSet, concatenate_samples, scene_samples
-from grouptron.data.scene import Scene, build_scene
+from grouptron.data.datasets.locate import preprocessed_cache_dir, split_files
+from grouptron.data.formats.layout import RecordingFormat
+from grouptron.data.formats.reader import read_tracks
+from grouptron.data.formats.track_files import TrackSource, read_track_file
+from grouptron.data.prepare.samples import SampleSet, concatenate_samples, scene_samples
+from grouptron.data.prepare.scene import Scene, build_scene
 from grouptron.io import keep_cache_npz, read_cache_npz
 
 CACHE_FORMAT_VERSION = 5  # 3: causal backward derivatives; 4: one-point tracks kept there;
@@ -54,7 +55,13 @@ def load_scenes(
     if recording is None:
         tables = [read_tracks(f, config.frames_per_step, config.on_gap) for f in files]
     else:
-        tables = [read_resampled(f, recording, config.dt_s, config.on_gap) for f in files]
+        sources = [TrackSource.from_format(f, recording) for f in files]
+        tables = [
+            read_track_file(replace(s, on_gap=config.on_gap), config.frames_per_step, config.dt_s)[
+                0
+            ]
+            for s in sources
+        ]
     return [build_scene(table, config) for table in tables]
 
 

@@ -38,10 +38,10 @@ import numpy as np
 
 from grouptron.config import DataConfig
 from grouptron.constants import SPLITS
-from grouptron.data.dataset import PartData, load_files_part
-from grouptron.data.recording import RecordingFormat, parse_columns
-from grouptron.data.samples import SampleSet
-from grouptron.data.spelling import FILE_KEYS
+from grouptron.data.datasets.dataset import PartData, load_files_part
+from grouptron.data.formats.layout import RecordingFormat, parse_columns
+from grouptron.data.formats.spelling import FILE_KEYS
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 
 if sys.version_info >= (3, 11):

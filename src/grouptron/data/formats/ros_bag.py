@@ -20,8 +20,10 @@ from typing import Any
 import numpy as np
 
 from grouptron.constants import DT_S
-from grouptron.data.reader import GapPolicy, TrackTable
-from grouptron.data.recording import Recording, RecordingFormat, check_plausible, resample
+from grouptron.data.formats.layout import Recording, RecordingFormat
+from grouptron.data.formats.plausibility import check_plausible
+from grouptron.data.formats.reader import GapPolicy, TrackTable
+from grouptron.data.formats.recording import resample
 from grouptron.errors import GrouptronError
 
 EXTRA = "pip install 'grouptron[ros]'"
@@ -200,8 +202,9 @@ def read_bag_table(
     max_gap_s: float | None = None,
     check_speed: bool = True,
     on_gap: GapPolicy = "split",
+    dt_s: float = DT_S,
 ) -> tuple[TrackTable, BagTracks]:
-    """A bag topic's people on the 0.4 s grid from its first stamp (``TrackTable.frame``
+    """A bag topic's people on the ``dt_s`` grid from its first stamp (``TrackTable.frame``
     counts grid steps; ``first_frame`` 0), as a ``t,id,x,y`` file of the same rows would be."""
     bag = read_bag(path, topic, fields, fixed)
     fmt = dataclasses.replace(
@@ -209,7 +212,9 @@ def read_bag_table(
         check_speed=check_speed,
         max_gap_s=BAG_FORMAT.max_gap_s if max_gap_s is None else max_gap_s,
     )
-    recording = Recording(Path(path), bag.ped_id, bag.time_s, bag.pos_m, bag.message + 1)
+    recording = Recording(
+        Path(path), bag.ped_id, bag.time_s, bag.pos_m, bag.message + 1, own_times=True
+    )
     if check_speed:
         check_plausible(recording, fmt)
-    return resample(recording, fmt, DT_S, on_gap), bag
+    return resample(recording, fmt, dt_s, on_gap), bag

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from grouptron.data.scene import Scene
+from grouptron.data.prepare.scene import Scene
 from grouptron.errors import GrouptronError
 
 MAX_NEIGHBOURS = 200
@@ -34,15 +34,6 @@ class Edges:
     dst: np.ndarray
     step: np.ndarray
     weight: np.ndarray
-
-
-def ranges_to_indices(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
-    """Concatenate ``arange(start, start + count)`` for every pair, vectorised."""
-    total = int(counts.sum())
-    if total == 0:
-        return np.zeros(0, dtype=np.int64)
-    offsets = np.cumsum(counts) - counts  # where every range begins in the output
-    return np.repeat(starts - offsets, counts) + np.arange(total)
 
 
 def pairs_within(

@@ -57,7 +57,7 @@ def parse_checksums(text: str) -> dict[str, str]:
 
 def shipped_checksums() -> dict[str, str]:
     """The checksum list shipped inside the package."""
-    text = resources.files("grouptron.data").joinpath("SHA256SUMS").read_text()
+    text = resources.files("grouptron.data.datasets").joinpath("SHA256SUMS").read_text()
     return parse_checksums(text)
 
 

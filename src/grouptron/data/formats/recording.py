@@ -15,156 +15,58 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-import re
-from dataclasses import dataclass, field
-from numbers import Real
 from pathlib import Path
 
 import numpy as np
 
-from grouptron.constants import DT_S, FRAMES_PER_STEP, HISTORY_STEPS, HORIZON_STEPS, UNITS_M
-from grouptron.data.fields import (
+from grouptron.constants import (
+    DT_S,
+    FRAMES_PER_STEP,
+    UNITS_M,
+)
+from grouptron.data.formats.fields import (
     MAX_WHOLE_NUMBER,
     empty_field_error,
     is_number,
     parse_numbers_fast,
+    ranges_to_indices,
     read_text_file,
     refuse_bad_numbers,
     refuse_duplicate_times,
     refuse_header_disagreement,
     split_fields,
 )
-from grouptron.data.glitches import MAX_MEDIAN_SPEED_MPS, repair_observations
-from grouptron.data.hints import (
-    TimeScale,
+from grouptron.data.formats.glitches import repair_observations
+from grouptron.data.formats.hints import (
     header_hint,
     layout_hint,
     not_a_number,
-    time_scale,
-    time_scale_hint,
 )
-from grouptron.data.ndjson import read_ndjson
-from grouptron.data.neighbours import ranges_to_indices
-from grouptron.data.reader import (
+from grouptron.data.formats.layout import Recording, RecordingFormat
+from grouptron.data.formats.ndjson import read_ndjson
+from grouptron.data.formats.plausibility import (
+    check_plausible,
+    check_time_scale,
+    recording_time_scale,
+    time_hint,
+)
+from grouptron.data.formats.reader import (
     GapPolicy,
     OffGridError,
     TrackTable,
     read_tracks,
     table_from_values,
 )
-from grouptron.data.scene import MAX_GRID_CELLS
-from grouptron.data.spelling import KEYWORDS, OptionSpelling
-from grouptron.data.time_base import resampled_time_base
+from grouptron.data.formats.time_base import resampled_time_base
 from grouptron.errors import DataFormatError, GrouptronError
 
 log = logging.getLogger(__name__)
 
-DEFAULT_COLUMNS = ("frame", "id", "x", "y")
-ETH_UCY_FPS = FRAMES_PER_STEP / DT_S
-"""The ETH/UCY convention: frame numbers on a 10-frame grid per 0.4 s step (25 per second)."""
 ON_GRID_TOLERANCE = 1e-6
 """Observation times within this many steps of a grid point count as on the grid."""
-IGNORED = {"-", "_", "skip", "z"}
 MAX_SPAN_STEPS = 2**40
 """More 0.4 s steps than this (14,000 years) is a time column misread, not a recording; it
 would also lose exactness in the float64 grid arithmetic."""
-OWN_TIMES = (".ndjson", ".mcap")
-"""Files whose times the file itself says how to read (TrajNet++'s fps, a bag's stamps)."""
-
-
-@dataclass(frozen=True)
-class RecordingFormat:
-    """How a track file is laid out.
-
-    Attributes:
-        columns: the name of every column, in order: ``id``, ``x``, ``y`` and one time column,
-            ``frame`` (frame numbers, with ``fps``) or ``t`` (seconds, any floats, e.g. Unix
-            time); any other name (``z``, ``-``) marks a column that is ignored, as are
-            columns past the named ones.
-        fps: frames per second of a ``frame`` column (None: the ETH/UCY convention, 10 frames
-            per 0.4 s step).
-        units: of x and y: ``m``, ``cm`` or ``mm``.
-        max_gap_s: a track with no observation for longer than this is split in two; shorter
-            gaps are bridged by interpolation.
-        check_speed: refuse recordings whose median walking speed is implausible.
-        as_is: an ETH/UCY-style ``frame id x y`` file read as it is (no layout of its own was
-            given): frames on the step grid, a missed step splits its track (or is refused),
-            nothing is resampled; see :func:`read_table`.
-        spelling: how messages name these options: as keywords (``max_gap_s``), or as the
-            command line's flags (``--max-gap``) for a format the flags set.
-    """
-
-    columns: tuple[str, ...] = DEFAULT_COLUMNS
-    fps: float | None = None
-    units: str = "m"
-    max_gap_s: float = 0.8
-    check_speed: bool = True
-    as_is: bool = False
-    spelling: OptionSpelling = field(default=KEYWORDS, compare=False, repr=False)
-
-    def __post_init__(self) -> None:
-        names = [c for c in self.columns if c not in IGNORED]
-        columns, fps = self.spelling.setting("columns", ",".join(self.columns)), self.option("fps")
-        for needed in ("id", "x", "y"):
-            if names.count(needed) != 1:
-                raise GrouptronError(f"{columns}: needs exactly one {needed!r} column")
-        if ("frame" in names) == ("t" in names):
-            raise GrouptronError(
-                f"{columns}: needs one time column, 'frame' (frame numbers, with {fps}) or 't' "
-                "(seconds)"
-            )
-        if self.fps is not None and "t" in names:
-            raise GrouptronError(f"{fps} applies to a 'frame' column; a 't' column is in seconds")
-        for name, value in (("fps", self.fps), ("max_gap_s", self.max_gap_s)):
-            if value is not None and (isinstance(value, bool) or not isinstance(value, Real)):
-                raise GrouptronError(f"{self.option(name)} must be a number, not {value!r}")
-        if self.fps is not None and not (math.isfinite(self.fps) and self.fps > 0):
-            raise GrouptronError(f"{fps} must be a positive number, not {self.fps}")
-        if self.units not in UNITS_M:
-            raise GrouptronError(
-                f"{self.option('units')} must be one of {', '.join(UNITS_M)}, not {self.units!r}"
-            )
-        if not self.max_gap_s > 0:
-            raise GrouptronError(
-                f"{self.option('max_gap_s')} must be positive (seconds), not {self.max_gap_s}"
-            )
-
-    def option(self, name: str) -> str:
-        """An option's name as whoever set it writes it (``--max-gap`` or ``max_gap_s``)."""
-        return self.spelling.name(name)
-
-    @property
-    def time_column(self) -> str:
-        """The time column's name: ``t`` (seconds) or ``frame`` (frame numbers)."""
-        return "t" if "t" in self.columns else "frame"
-
-    @property
-    def seconds_per_frame(self) -> float:
-        """Seconds per frame number: ``1 / fps`` (ETH/UCY's 25 fps where ``fps`` is None)."""
-        return 1.0 / (self.fps if self.fps is not None else ETH_UCY_FPS)
-
-
-def parse_columns(text: str, spelling: OptionSpelling = KEYWORDS) -> tuple[str, ...]:
-    """``"frame,id,x,y"`` (commas or spaces) -> ``("frame", "id", "x", "y")``."""
-    names = tuple(n.strip().lower() for n in re.split(r"[,\s]+", text.strip()) if n.strip())
-    if not names:
-        example = spelling.setting("columns", "frame,id,x,y")
-        raise GrouptronError(f"{spelling.name('columns')} is empty; e.g. {example}")
-    return names
-
-
-@dataclass(frozen=True)
-class Recording:
-    """Observations of one file: (R,) ids, (R,) times in seconds, (R, 2) positions in metres,
-    (R,) the file line of every row (for error messages), and the seconds per frame number
-    when times came from frame numbers (None for seconds)."""
-
-    path: Path
-    ped_id: np.ndarray
-    time_s: np.ndarray
-    pos_m: np.ndarray
-    line: np.ndarray
-    seconds_per_frame: float | None = None
 
 
 def _numbers(path: Path, fmt: RecordingFormat) -> tuple[np.ndarray, np.ndarray]:
@@ -210,19 +112,23 @@ def _numbers(path: Path, fmt: RecordingFormat) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(rows, dtype=np.float64), np.asarray(lines)
 
 
+def read_ndjson_recording(path: Path, fmt: RecordingFormat) -> Recording:
+    """A TrajNet++ ``.ndjson`` file, which brings its own layout and frame rate (``fmt``: its
+    units and checks); positions in metres, times in seconds."""
+    rows, lines, seconds_per_frame = read_ndjson(Path(path))
+    return Recording(
+        Path(path),
+        rows[:, 1].astype(np.int64),
+        rows[:, 0] * seconds_per_frame,
+        rows[:, 2:4] * UNITS_M[fmt.units],
+        lines,
+        seconds_per_frame,
+        own_times=True,
+    )
+
+
 def read_recording(path: Path, fmt: RecordingFormat) -> Recording:
-    """Read a file laid out as ``fmt`` says (a TrajNet++ ``.ndjson`` file brings its own
-    layout); positions in metres, times in seconds."""
-    if Path(path).suffix == ".ndjson":
-        rows, lines, seconds_per_frame = read_ndjson(Path(path))
-        return Recording(
-            Path(path),
-            rows[:, 1].astype(np.int64),
-            rows[:, 0] * seconds_per_frame,
-            rows[:, 2:4] * UNITS_M[fmt.units],
-            lines,
-            seconds_per_frame,
-        )
+    """Read a file of rows laid out as ``fmt`` says; positions in metres, times in seconds."""
     values, lines = _numbers(Path(path), fmt)
     column = {name: fmt.columns.index(name) for name in ("id", "x", "y", fmt.time_column)}
     used = {i: name for name, i in column.items()}  # ignored columns may hold anything
@@ -234,75 +140,6 @@ def read_recording(path: Path, fmt: RecordingFormat) -> Recording:
     pos_m = values[:, [column["x"], column["y"]]] * scale
     per_frame = fmt.seconds_per_frame if fmt.time_column == "frame" else None
     return Recording(Path(path), ped_id.astype(np.int64), time_s, pos_m, lines, per_frame)
-
-
-def recording_time_scale(recording: Recording) -> TimeScale:
-    """What the recording's times say of their scale (:class:`TimeScale`), at the rate its
-    time column was read: its frame rate, or 1 for seconds."""
-    per_frame = recording.seconds_per_frame
-    rate = 1.0 if per_frame is None else 1.0 / per_frame
-    return time_scale(recording.ped_id, recording.time_s, recording.pos_m, rate)
-
-
-def _time_hint(recording: Recording, fmt: RecordingFormat, scale: TimeScale | None = None) -> str:
-    """``; `` and :func:`time_scale_hint` for a file whose time column ``fmt`` reads, else
-    "" (as for a TrajNet++ file or a bag, whose own times are read)."""
-    if Path(recording.path).suffix in OWN_TIMES:
-        return ""
-    hint = time_scale_hint(scale or recording_time_scale(recording), fmt.columns, fmt.spelling)
-    return "; " + hint if hint else ""
-
-
-def check_plausible(
-    recording: Recording, fmt: RecordingFormat, scale: TimeScale | None = None
-) -> None:
-    """Refuse a recording whose median walking speed is above 3 m/s: a unit or frame-rate
-    mistake (a file in centimetres read as metres walks at 100 m/s). ``scale``: the
-    recording's :func:`recording_time_scale`, where known."""
-    scale = scale or recording_time_scale(recording)
-    median = scale.median_speed_mps
-    if median > MAX_MEDIAN_SPEED_MPS:
-        walking = [u for u in ("cm", "mm") if 0.2 <= median * UNITS_M[u] / UNITS_M[fmt.units] < 3]
-        spelling = fmt.spelling
-        hints = [spelling.setting("units", u) for u in walking]
-        raise GrouptronError(
-            f"{recording.path}: the median walking speed is {median:.3g} m/s, implausible for "
-            f"pedestrians (read with {spelling.setting('units', fmt.units)}"
-            f"{'' if fmt.time_column == 't' else f', {1 / fmt.seconds_per_frame:g} fps'}); "
-            f"check the units{' (' + ' or '.join(hints) + '?)' if hints else ''} and "
-            f"{fmt.option('fps')}, or pass {spelling.setting('check_speed', False)} to go on"
-            f"{'' if hints else _time_hint(recording, fmt, scale)}"
-        )
-
-
-def check_time_scale(
-    recording: Recording, fmt: RecordingFormat, scale: TimeScale, dt_s: float = DT_S
-) -> None:
-    """Where walking speeds say the time column is misread (``scale.likely_rate``), refuse a
-    recording whose tracks would break at nearly every observation, or that would be too
-    large to process, naming the likely rate; warn, naming it, where nobody is seen long
-    enough for a forecast to be scored (the commands then fail for want of samples)."""
-    hint = _time_hint(recording, fmt, scale)
-    if not hint:
-        return
-    if scale.interval_s > fmt.max_gap_s:
-        raise GrouptronError(
-            f"{recording.path}: a person's consecutive observations are {scale.interval_s:.3g} s "
-            f"apart (median), longer than {fmt.option('max_gap_s')} {fmt.max_gap_s:g} s, so "
-            f"nearly every track would break{hint}"
-        )
-    people, steps = len(np.unique(recording.ped_id)), int(scale.span_s / dt_s) + 1
-    if people * steps > MAX_GRID_CELLS:
-        raise GrouptronError(
-            f"{recording.path}: {people} people over {steps:,} steps of {dt_s} s is too large "
-            f"to process at once{hint}"
-        )
-    needed_s = (HISTORY_STEPS + HORIZON_STEPS - 1) * dt_s
-    if scale.longest_s < needed_s:
-        log.warning(
-            "%s: nobody is seen for %.3g s (%d observed and %d future steps of %g s)%s",
-            recording.path, needed_s, HISTORY_STEPS, HORIZON_STEPS, dt_s, hint,
-        )  # fmt: skip
 
 
 # One vectorised pass over every row, kept whole: each step reads the sorted arrays the
@@ -324,7 +161,7 @@ def resample(
         raise GrouptronError(
             f"{recording.path}: its times span {span_steps:.3g} steps of {dt_s} s; check the "
             f"time column (frame numbers with {fmt.option('fps')}, or 't' in seconds)"
-            f"{_time_hint(recording, fmt)}"
+            f"{time_hint(recording, fmt)}"
         )
     order = np.lexsort((recording.time_s, recording.ped_id))
     ids, time_s = recording.ped_id[order], recording.time_s[order]
@@ -391,8 +228,9 @@ def _warn_gaps(
     log.warning(
         "%s: %d track gap(s) longer than %s %g s; split into tracks (first: pedestrian %s is "
         "not observed for %.3g s after line %d)",
-        path, len(ids), fmt.option("max_gap_s"), fmt.max_gap_s, ids[0], seconds[0], lines[0],
-    )  # fmt: skip
+        *(path, len(ids), fmt.option("max_gap_s"), fmt.max_gap_s),
+        *(ids[0], seconds[0], lines[0]),
+    )
 
 
 def _frame_base(recording: Recording, dt_s: float) -> tuple[int, int]:
@@ -417,11 +255,11 @@ def read_table(
 ) -> TrackTable:
     """A track file as a table: with ``fmt.as_is`` an ETH/UCY-style file as it is
     (``frames_per_step`` frames per step, gaps split with a warning or refused per
-    ``on_gap``), else (and for TrajNet++ ``.ndjson``) resampled to ``dt_s`` steps."""
-    if not fmt.as_is or Path(path).suffix == ".ndjson":
+    ``on_gap``), else resampled to ``dt_s`` steps."""
+    if not fmt.as_is:
         return read_resampled(Path(path), fmt, dt_s, on_gap)
     try:
-        table = read_tracks(path, frames_per_step, on_gap, check_jumps=fmt.check_speed)
+        table = read_tracks(path, frames_per_step, on_gap, check_jumps=fmt.check_speed, dt_s=dt_s)
     except DataFormatError as exc:
         hint = layout_hint(Path(path), fmt.spelling, off_grid=isinstance(exc, OffGridError))
         if not hint:
@@ -440,8 +278,14 @@ def read_table(
 def read_resampled(
     path: Path, fmt: RecordingFormat, dt_s: float = DT_S, on_gap: GapPolicy = "split"
 ) -> TrackTable:
-    """Read, check and resample a recording: the one entry point for files of any format."""
-    recording = read_recording(path, fmt)
+    """Read, check and resample a file of rows (:func:`resampled`)."""
+    return resampled(read_recording(path, fmt), fmt, dt_s, on_gap)
+
+
+def resampled(
+    recording: Recording, fmt: RecordingFormat, dt_s: float = DT_S, on_gap: GapPolicy = "split"
+) -> TrackTable:
+    """Check a recording read in any format and resample it to ``dt_s`` steps."""
     if fmt.check_speed:
         scale = recording_time_scale(recording)
         check_plausible(recording, fmt, scale)

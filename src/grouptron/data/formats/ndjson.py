@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from grouptron.data.fields import read_text_file, refuse_bad_numbers
+from grouptron.data.formats.fields import read_text_file, refuse_bad_numbers
 from grouptron.errors import DataFormatError
 from grouptron.io import write_text_atomically
 

@@ -16,10 +16,11 @@ from pathlib import Path
 import numpy as np
 
 from grouptron.constants import DT_S, FRAMES_PER_STEP
-from grouptron.data.reader import GapPolicy, TrackTable
-from grouptron.data.recording import DEFAULT_COLUMNS, RecordingFormat, parse_columns, read_table
-from grouptron.data.ros_bag import BagFields, BagTracks, read_bag_table
-from grouptron.data.spelling import KEYWORDS, OptionSpelling
+from grouptron.data.formats.layout import DEFAULT_COLUMNS, RecordingFormat, parse_columns
+from grouptron.data.formats.reader import GapPolicy, TrackTable
+from grouptron.data.formats.recording import read_ndjson_recording, read_table, resampled
+from grouptron.data.formats.ros_bag import BagFields, BagTracks, read_bag_table
+from grouptron.data.formats.spelling import KEYWORDS, OptionSpelling
 from grouptron.errors import GrouptronError
 
 
@@ -151,6 +152,13 @@ def _read_rows(source: TrackSource, frames_per_step: int, dt_s: float) -> tuple[
     return read_table(Path(source.path), fmt, per_step, source.on_gap, dt_s), None
 
 
+def _read_ndjson(source: TrackSource, frames_per_step: int, dt_s: float) -> tuple[TrackTable, None]:
+    """A TrajNet++ ``.ndjson`` file (its own layout and frame rate), resampled."""
+    fmt = source.recording_format(source.frames_per_step or frames_per_step)
+    recording = read_ndjson_recording(Path(source.path), fmt)
+    return resampled(recording, fmt, dt_s, source.on_gap), None
+
+
 def _read_bag(
     source: TrackSource, frames_per_step: int, dt_s: float
 ) -> tuple[TrackTable, BagTracks]:
@@ -169,10 +177,11 @@ def _read_bag(
         max_gap_s=source.max_gap_s,
         check_speed=source.check_speed,
         on_gap=source.on_gap,
+        dt_s=dt_s,
     )
 
 
-READERS: dict[str, Reader] = {".mcap": _read_bag, ".ndjson": _read_rows, "": _read_rows}
+READERS: dict[str, Reader] = {".mcap": _read_bag, ".ndjson": _read_ndjson, "": _read_rows}
 """The reader of each file suffix (``""``: any other, text rows): the one place that picks."""
 
 

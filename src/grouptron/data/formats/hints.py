@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from grouptron.data.fields import header_column, read_text_file
-from grouptron.data.spelling import OptionSpelling
+from grouptron.data.formats.fields import header_column, read_text_file
+from grouptron.data.formats.spelling import OptionSpelling
 
 _SEPARATOR = re.compile(r"\s*,\s*|\s+")
 _NUMBER = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?")

@@ -16,15 +16,15 @@ from typing import Literal
 import numpy as np
 
 from grouptron.constants import DT_S, FRAMES_PER_STEP
-from grouptron.data.fields import (
+from grouptron.data.formats.fields import (
     empty_field_error,
     read_text_file,
     refuse_bad_numbers,
     refuse_header_disagreement,
     split_fields,
 )
-from grouptron.data.glitches import repair_observations
-from grouptron.data.time_base import TimeBase, frames_time_base
+from grouptron.data.formats.glitches import repair_observations
+from grouptron.data.formats.time_base import TimeBase, frames_time_base
 from grouptron.errors import DataFormatError
 
 log = logging.getLogger(__name__)
@@ -34,6 +34,10 @@ MAX_ABS_COORDINATE_M = 1e8
 """Larger coordinates are refused: projected (e.g. UTM) coordinates stay below 2e7 m, and far
 larger ones overflow squared distances or lose every centimetre to float rounding."""
 GapPolicy = Literal["split", "error"]
+
+
+MAX_GRID_CELLS = 50_000_000
+"""Bound on tracks x steps: per-step grids of the scene are dense (about 1 GB at the bound)."""
 
 
 class OffGridError(DataFormatError):
@@ -163,6 +167,7 @@ def read_tracks(
     on_gap: GapPolicy = "split",
     *,
     check_jumps: bool = False,
+    dt_s: float = DT_S,
 ) -> TrackTable:
     """Read and validate a ``frame id x y`` file (tabs, spaces or commas; ``#`` comments).
 
@@ -171,7 +176,7 @@ def read_tracks(
         frames_per_step: frames between consecutive annotated steps (10 in ETH/UCY).
         on_gap: what to do with a track that misses steps in the middle: ``"split"`` it into
             separate tracks (with a warning) or raise an ``"error"``.
-        check_jumps: repair impossible jumps (``grouptron.data.glitches``) with a warning that
+        check_jumps: repair impossible jumps (``data.formats.glitches``) with a warning that
             names each line; off for the benchmark's own files, which have none.
 
     Raises:
@@ -184,7 +189,7 @@ def read_tracks(
         raise DataFormatError(path, f"frames per step must be >= 1, not {frames_per_step}")
     values, lines = _parse(path)
     return table_from_values(
-        path, values, lines, frames_per_step, on_gap=on_gap, check_jumps=check_jumps
+        path, values, lines, frames_per_step, on_gap=on_gap, check_jumps=check_jumps, dt_s=dt_s
     )
 
 
@@ -228,7 +233,7 @@ def _grid_steps(
 
 # One vectorised pass over every row, kept whole: each step reads the sorted arrays the
 # step before it made, and cutting it up would pass a dozen arrays between the pieces.
-def table_from_values(
+def table_from_values(  # noqa: PLR0913 - the rows, then how to check them, keyword-only
     source: Path,
     values: np.ndarray,
     lines: np.ndarray,
@@ -238,12 +243,14 @@ def table_from_values(
     warn_on_gap: bool = True,
     check_jumps: bool = False,
     pieces: np.ndarray | None = None,
+    dt_s: float = DT_S,
 ) -> TrackTable:
     """Validate finite (R, 4) ``frame id x y`` values into a table; errors name ``source`` and
     the entry of ``lines`` (file line or row number) at fault. See :func:`read_tracks`.
     ``warn_on_gap=False`` splits gapped tracks silently (missed detections in live data);
-    ``check_jumps`` repairs impossible jumps, with a warning. (R,) ``pieces`` (a resampled
-    recording's) keeps rows of one id in different pieces on different tracks."""
+    ``check_jumps`` repairs impossible jumps (steps ``dt_s`` apart), with a warning. (R,)
+    ``pieces`` (a resampled recording's) keeps rows of one id in different pieces on different
+    tracks."""
     if frames_per_step < 1 or len(values) == 0:
         why = "no 'frame id x y' rows" if len(values) == 0 else "frames per step must be >= 1"
         raise DataFormatError(source, f"{why}, not {frames_per_step}" if len(values) else why)
@@ -285,8 +292,8 @@ def table_from_values(
     if pieces is not None:  # e.g. a lasting jump split before resampling
         piece = pieces[order]
         new_track[1:] |= piece[1:] != piece[:-1]
-    if check_jumps:  # steps are DT_S apart whatever the frame rate (the benchmark's convention)
-        keep, pos_m, split = repair_observations(path, ped_id, step * DT_S, pos_m, lines)
+    if check_jumps:  # steps are dt_s apart whatever the frame rate (the benchmark's convention)
+        keep, pos_m, split = repair_observations(path, ped_id, step * dt_s, pos_m, lines)
         new_track |= split
         # A dropped first row hands its track's start to the row after it.
         started = np.flatnonzero(~keep & new_track) + 1

@@ -12,7 +12,7 @@ import dataclasses
 
 import numpy as np
 
-from grouptron.data.samples import PER_EDGE, SampleSet
+from grouptron.data.prepare.samples import PER_EDGE, SampleSet
 from grouptron.geometry import rotate_rows, rotation_matrix
 
 ROTATION_ANGLES_DEG = np.arange(0.0, 360.0, 15.0)

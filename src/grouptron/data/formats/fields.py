@@ -56,6 +56,7 @@ def read_text_file(path: Path) -> str:
 
 KNOWN_COLUMNS = ("frame", "id", "x", "y", "t")
 """Column names a layout gives meaning to: a header that uses them can be checked."""
+# fmt: skip below: a table of synonyms read by name, several to a line (one a line: 40 lines).
 _HEADER_NAMES = {
     "t": ("t", "time", "times", "timestamp", "sec", "secs", "second", "seconds", "time_s", "t_s"),
     "frame": ("frame", "frames", "frame_id", "frameid", "frame_number", "frame_num", "f"),
@@ -250,3 +251,12 @@ def _first(mask: np.ndarray) -> tuple[int, int]:
     """(row, column) of the first True of an (R, C) mask in row-major order."""
     row = int(np.flatnonzero(mask.any(axis=1))[0])
     return row, int(np.flatnonzero(mask[row])[0])
+
+
+def ranges_to_indices(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Concatenate ``arange(start, start + count)`` for every pair, vectorised."""
+    total = int(counts.sum())
+    if total == 0:
+        return np.zeros(0, dtype=np.int64)
+    offsets = np.cumsum(counts) - counts  # where every range begins in the output
+    return np.repeat(starts - offsets, counts) + np.arange(total)
