@@ -2,7 +2,7 @@
 scoring exactly as stored (``tests/golden/compute.py`` says how they were made): the paper's
 two models, the default model and ``grouptron-robust-residual`` (every robust switch), each
 with every point forecast (``ml``, ``ml-argmax``, ``mean``, ``ml-top10``) and one evaluator
-call. Checked by breaking the code on purpose: changing ``TOP_LATENT_VALUES``, scaling the
+call. Checked by breaking the code on purpose: changing the K that ``ml-top10`` names, scaling the
 velocity-residual offset by 0.98, or removing the code path of the ego left out, the scene
 layer norm, the mean edge aggregation, the edge count feature or the dilated temporal layers
 each fails these tests.

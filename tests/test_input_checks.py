@@ -17,6 +17,7 @@ from grouptron.data.formats.layout import RecordingFormat
 from grouptron.data.formats.reader import read_tracks
 from grouptron.data.formats.recording import read_resampled
 from grouptron.data.formats.spelling import FLAGS, KEYWORDS
+from grouptron.data.formats.track_files import TrackSource, read_track_file
 from grouptron.errors import GrouptronError
 from grouptron.groups.labels import read_id_map
 from grouptron.inference.checkpoints import resolve_checkpoint
@@ -77,7 +78,7 @@ def test_ndjson_values_are_checked_and_lines_are_the_files(
     # The same (frame, id) at another position on the last line: both file lines are named.
     moved = '{"track": {"f": 0, "p": 1, "x": 9.0, "y": 9.0}}'
     with pytest.raises(GrouptronError, match=r"d.ndjson:52: .* \(also line 2\)"):
-        read_resampled(ndjson(tmp_path / "d.ndjson", moved), RecordingFormat())
+        read_track_file(TrackSource(ndjson(tmp_path / "d.ndjson", moved)))
 
 
 def test_pictures_with_a_suffix_matplotlib_cannot_write_are_refused_before_any_work(

@@ -360,7 +360,7 @@ def _chosen_forecast(
     keywords ``most_likely`` (its older name) and ``latent_values=K`` (``ml-topK``) with a
     warning."""
     if most_likely is not None:
-        warnings.warn("most_likely= is now called forecast=", FutureWarning, stacklevel=4)
+        warnings.warn("most_likely= is now called forecast=", FutureWarning, stacklevel=3)
         if named is not None:
             raise GrouptronError("give forecast= or its older name most_likely=, not both")
         named = most_likely
@@ -372,7 +372,7 @@ def _chosen_forecast(
         forecast = default_point_forecast(config)
     if latent_values is not None:
         warnings.warn(
-            "latent_values=K is now named as forecast='ml-topK'", FutureWarning, stacklevel=4
+            "latent_values=K is now named as forecast='ml-topK'", FutureWarning, stacklevel=3
         )
         K = integer_argument(latent_values, "latent_values", 1, config.model.latent_values)
         plain_ml = forecast == PointForecast("ml")  # ml of K latent values is ml-topK
