@@ -184,3 +184,15 @@ def test_stored_configs_of_older_runs_keep_the_inputs_they_were_trained_on() -> 
     assert legacy.group_encoder.group_dim == 8
     newer = experiment_from_stored({"data": {"derivatives": "backward", "future_scale_m": 1.0}})
     assert newer.data.backward_start == "zero" and newer.data.future_scale_m == 1.0
+
+
+def test_settings_stored_under_an_older_name_are_read_under_todays() -> None:
+    from grouptron.config import experiment_from_stored, renamed_settings
+    from grouptron.errors import GrouptronError
+
+    stored = {"model": {"latent_modes": 7, "decoder_hidden": 16}}
+    assert experiment_from_stored(stored).model.latent_values == 7
+    assert renamed_settings(stored) == {"model": {"latent_values": 7, "decoder_hidden": 16}}
+    assert stored == {"model": {"latent_modes": 7, "decoder_hidden": 16}}  # left as it was
+    with pytest.raises(GrouptronError, match="latent_modes and model.latent_values are one"):
+        renamed_settings({"model": {"latent_modes": 7, "latent_values": 7}})
