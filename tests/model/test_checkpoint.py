@@ -194,5 +194,5 @@ def test_settings_stored_under_an_older_name_are_read_under_todays() -> None:
     assert experiment_from_stored(stored).model.latent_values == 7
     assert renamed_settings(stored) == {"model": {"latent_values": 7, "decoder_hidden": 16}}
     assert stored == {"model": {"latent_modes": 7, "decoder_hidden": 16}}  # left as it was
-    with pytest.raises(GrouptronError, match="latent_modes and model.latent_values are one"):
+    with pytest.raises(GrouptronError, match=r"latent_modes and model\.latent_values are one"):
         renamed_settings({"model": {"latent_modes": 7, "latent_values": 7}})
