@@ -23,6 +23,14 @@ GOLDEN = Path(__file__).parent / "default_model.npz"
 REGION_QS = (0.5, 0.9)
 
 
+def calibration_tracks() -> np.ndarray:
+    """(R, 4) the scene three times over, each later and under new ids: 48 forecasts with a
+    full future, enough for a calibration (``MIN_FORECASTS``)."""
+    tracks = synthetic_tracks()
+    later = [tracks + np.array([300.0 * k, 100.0 * k, 0.0, 0.0]) for k in range(3)]
+    return np.concatenate(later)
+
+
 def compute() -> dict[str, np.ndarray]:
     """The shipped default model's forecast at ``FORECAST_FRAME`` (its own point forecast),
     its regions, a calibration made on the scene's samples with a full future, and the
@@ -30,7 +38,7 @@ def compute() -> dict[str, np.ndarray]:
     path = resolve_checkpoint(DEFAULT_CHECKPOINT)
     predictor = Predictor.from_checkpoint(path)
     tracks = synthetic_tracks()
-    table = table_from_values(Path("golden"), tracks, np.arange(len(tracks)), 10)
+    table = table_from_values(Path("golden"), calibration_tracks(), np.arange(3 * len(tracks)), 10)
     data = predictor.config.data
     samples = scene_samples(build_scene(table, data, name="golden"), data, data.history_steps)
     calibration = calibrate(predictor.model, predictor.config, samples, predictor.forecast)

@@ -11,6 +11,7 @@ that assumption means for tracks). The file is a few kilobytes of JSON.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -33,6 +34,9 @@ from grouptron.point_forecast import PointForecast
 FORMAT = "grouptron-calibration/1"
 QS = np.round(np.arange(1, 100) / 100, 2)
 """The probabilities a calibration file holds radii for."""
+MIN_FORECASTS = 20
+"""Forecasts a calibration needs to support any q: fewer give radii that one person's walk
+decides (and q needs at least q / (1 - q) of them besides: 9 for 0.9, 99 for 0.99)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,6 +54,12 @@ class RegionCalibration:
         uncalibrated_coverage_q90: (H,) the share of the recording's truths inside the
             model's own 90% regions per step (for the record; empty when unknown).
         step_s: seconds between forecast steps (``DataConfig.dt_s``).
+        joint_scale: (H,) per step, the score that whole-path regions divide by (the
+            calibration's median score); empty when the file has none.
+        joint_radii: (Q,) per q, the radius of the largest scaled score over a path's steps:
+            a whole-path region is step k's ellipse of radius ``joint_radii * joint_scale[k]``.
+        density: the recording's median number of people within 3 m of each person.
+        speed_mps: its median walking speed (m/s).
     """
 
     checkpoint: str
@@ -61,19 +71,50 @@ class RegionCalibration:
     weights_sha256: str = ""
     uncalibrated_coverage_q90: np.ndarray = field(default_factory=lambda: np.zeros(0))
     step_s: float = DT_S
+    joint_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    joint_radii: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    density: float = math.nan
+    speed_mps: float = math.nan
 
-    def radius(self, q: float) -> np.ndarray:
-        """(H,) the calibrated radius at ``q`` (one of ``qs``)."""
+    def radius(self, q: float, joint: bool = False) -> np.ndarray:
+        """(H,) the calibrated radius at ``q`` (one of ``qs``), per step; with ``joint`` that
+        of the whole-path region (its 12 ellipses together hold the path with probability q)."""
         match = np.flatnonzero(np.isclose(self.qs, q))
         if not len(match):
             raise GrouptronError(f"calibrated regions are for q = 0.01, 0.02, ... 0.99, not {q}")
-        radius: np.ndarray = self.radii[match[0]]
-        if not np.isfinite(radius).all():
+        needed = max(MIN_FORECASTS, needed_forecasts(q))
+        if self.samples < needed:
             raise GrouptronError(
-                f"{self.samples} calibration samples cannot support q = {q:g}: it needs at "
-                f"least {int(np.ceil(q / (1 - q) - 1e-9))}; calibrate on a longer recording"
+                f"a calibration from {self.samples} forecasts cannot support q = {q:g}: it "
+                f"needs at least {needed}; calibrate on a longer recording"
             )
+        if joint and not len(self.joint_radii):
+            raise GrouptronError(
+                "this calibration has no whole-path radii (made before them): calibrate again"
+            )
+        scaled = self.joint_radii[match[0]] * self.joint_scale if joint else None
+        radius: np.ndarray = self.radii[match[0]] if scaled is None else scaled
         return radius
+
+
+def condition_mismatch(calibration: RegionCalibration, density: float, speed_mps: float) -> str:
+    """How a site differs from where ``calibration`` was made, where it clearly does (half or
+    twice the neighbours, a third slower or faster), else ""."""
+    denser = (density + 1.0) / (calibration.density + 1.0)  # +1: a sparse site's 0 and 0.5
+    faster = speed_mps / calibration.speed_mps if calibration.speed_mps > 0 else math.nan
+    if not (denser > 2 or denser < 0.5 or faster > 1.5 or faster < 2 / 3):
+        return ""  # alike, or one of them unknown (NaN compares false)
+    return (
+        f"calibrated where people had a median of {calibration.density:g} neighbours within "
+        f"3 m and walked at {calibration.speed_mps:.2g} m/s; here {density:g} and "
+        f"{speed_mps:.2g} m/s: its regions may not hold their q here (calibrate on this site, "
+        "or adapt the radii with --online)"
+    )
+
+
+def needed_forecasts(q: float) -> int:
+    """The fewest calibration forecasts whose conformal radius at ``q`` is finite."""
+    return int(np.ceil(q / (1 - q) - 1e-9))
 
 
 def calibration_scores(
@@ -130,16 +171,33 @@ def calibrate(
             f"{config.data.horizon_steps} future steps, so there is nothing to calibrate on"
         )
     scores, inside = calibration_scores(model, config, samples, forecast)
-    return RegionCalibration(
+    calibration = calibration_from_scores(scores, inside)
+    return dataclasses.replace(
+        calibration,
         checkpoint=config.model_name,
         point_forecast=forecast.name,
+        source=source,
+        weights_sha256=weights_sha256,
+        step_s=config.data.dt_s,
+    )
+
+
+def calibration_from_scores(scores: np.ndarray, inside: np.ndarray) -> RegionCalibration:
+    """The radii of (n, H) scores (and (n, H) truths inside the model's own 90% regions):
+    per step, and of the whole path (the largest score over its steps, each divided by its
+    step's median score)."""
+    scale = conformal_radii(scores, np.array([0.5]))[0] if len(scores) else np.ones(0)
+    scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
+    joint = (scores / scale).max(axis=1, keepdims=True) if len(scores) else np.zeros((0, 1))
+    return RegionCalibration(
+        checkpoint="",
+        point_forecast="",
         samples=len(scores),
         qs=QS,
         radii=conformal_radii(scores, QS),
-        source=source,
-        weights_sha256=weights_sha256,
-        uncalibrated_coverage_q90=inside.mean(axis=0),
-        step_s=config.data.dt_s,
+        uncalibrated_coverage_q90=inside.mean(axis=0) if len(inside) else np.zeros(0),
+        joint_scale=scale,
+        joint_radii=conformal_radii(joint, QS)[:, 0],
     )
 
 
@@ -159,9 +217,18 @@ def calibration_document(calibration: RegionCalibration) -> dict[str, object]:
             round(float(c), 4) for c in calibration.uncalibrated_coverage_q90
         ],
         "step_s": calibration.step_s,
+        "density_median_neighbours_3m": _number(calibration.density),
+        "speed_median_mps": _number(calibration.speed_mps),
         "q": [float(q) for q in calibration.qs],
         "radius_per_step": radii,
+        "whole_path_scale_per_step": [round(float(s), 6) for s in calibration.joint_scale],
+        "whole_path_radius": [_number(r) for r in calibration.joint_radii],
     }
+
+
+def _number(value: float) -> float | None:
+    """A finite number rounded for the file, else null."""
+    return round(float(value), 6) if math.isfinite(value) else None
 
 
 def save_calibration(calibration: RegionCalibration, path: Path) -> None:
@@ -197,6 +264,10 @@ def load_calibration(path: str | Path) -> RegionCalibration:
                 document.get("uncalibrated_coverage_q90_per_step", []), dtype=np.float64
             ),
             step_s=float(document.get("step_s", DT_S)),  # files before it: the 0.4 s step
+            joint_scale=np.asarray(document.get("whole_path_scale_per_step", []), np.float64),
+            joint_radii=_finite_or_inf(document.get("whole_path_radius", [])),
+            density=_float_or_nan(document.get("density_median_neighbours_3m")),
+            speed_mps=_float_or_nan(document.get("speed_median_mps")),
         )
     except OSError as error:
         raise GrouptronError(
@@ -206,6 +277,15 @@ def load_calibration(path: str | Path) -> RegionCalibration:
         raise GrouptronError(
             f"{path}: not a grouptron calibration file ({error}); make one with grouptron calibrate"
         ) from None
+
+
+def _finite_or_inf(values: list[float | None]) -> np.ndarray:
+    """Radii read back: null (unreachable) as infinite."""
+    return np.array([np.inf if v is None else v for v in values], dtype=np.float64)
+
+
+def _float_or_nan(value: float | None) -> float:
+    return math.nan if value is None else float(value)
 
 
 def calibration_for(

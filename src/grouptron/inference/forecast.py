@@ -11,6 +11,7 @@ import numpy as np
 from grouptron.data.formats.time_base import TimeBase
 from grouptron.errors import GrouptronError
 from grouptron.inference.calibration import RegionCalibration
+from grouptron.inference.online import ForecastRadii
 from grouptron.model.mixture import Mixture
 from grouptron.model.regions import MAX_COVERAGE, Regions, calibrated_regions, prediction_regions
 
@@ -45,8 +46,9 @@ class Forecast:
             ``history_steps``; fewer for agents seen only recently), or None.
         filled_points: (N,) positions of that history filled in for missed detections (not
             counted in ``observed_points``), or None.
-        calibration: conformal radii of a site's recording (``grouptron calibrate``) that
-            ``regions`` takes instead of the distribution's own, or None.
+        calibration: conformal radii of a site's recording (``grouptron calibrate``), the radii
+            an online calibration had in force (one set, or per forecast for a replayed
+            file), that ``regions`` takes instead of the distribution's own, or None.
     """
 
     frame: int | None
@@ -59,7 +61,7 @@ class Forecast:
     group: np.ndarray | None = None
     observed_points: np.ndarray | None = None
     filled_points: np.ndarray | None = None
-    calibration: RegionCalibration | None = None
+    calibration: RegionCalibration | ForecastRadii | None = None
 
     @property
     def most_likely(self) -> np.ndarray:
@@ -74,6 +76,7 @@ class Forecast:
         sampled: bool = False,
         regions: tuple[float, ...] = (),
         time_base: TimeBase | None = None,
+        joint: bool = False,
     ) -> tuple[list[str], np.ndarray, list[str]]:
         """CSV header, rows and number formats of the forecasts, layout 2 (docs/guide.md,
         "Forecast files"): ``frame, id, step, x_m, y_m`` of the point forecasts (or of the
@@ -82,7 +85,7 @@ class Forecast:
         number (the nearest one where 0.4 s is not a whole number of frames; 0.4 s steps from
         its first time for a file in seconds) and ``t_s`` its own time in seconds. Each
         probability of ``regions`` adds its ellipse's ``qQ_major_m, qQ_minor_m,
-        qQ_angle_rad`` (point forecasts only)."""
+        qQ_angle_rad`` (point forecasts only; with ``joint``, whole-path regions)."""
         if sampled and self.samples is None:
             raise GrouptronError("this forecast holds no samples")
         positions = self.samples if sampled else self.point[:, None]
@@ -106,19 +109,22 @@ class Forecast:
             formats.append("%d")
         elif regions:
             for q in regions:
-                region = self.regions(q)
+                region = self.regions(q, joint=joint)
                 label = f"q{100 * q:g}"
                 columns += [a[s, h] for a in (region.major_m, region.minor_m, region.angle_rad)]
                 header += [f"{label}_major_m", f"{label}_minor_m", f"{label}_angle_rad"]
                 formats += ["%.4f", "%.4f", "%.4f"]
         return header, np.stack([np.asarray(c, dtype=np.float64) for c in columns], 1), formats
 
-    def regions(self, q: float) -> Regions:
+    def regions(self, q: float, joint: bool = False) -> Regions:
         """Per forecast and step, the ellipse around the point forecast holding probability
         ``q`` (0 < q <= 0.99) of the distribution the point forecast was made from (the
         mixture of its latent values' Gaussians): ``Regions`` of (N, H) semi-axes and angles.
         Their coverage on recordings is measured, not promised (benchmarks/RESULTS.md); with
-        a ``calibration`` (q = 0.01, 0.02, ... 0.99) their size is the site's conformal one."""
+        a ``calibration`` (q = 0.01, 0.02, ... 0.99) their size is the site's conformal one.
+        With ``joint`` (a calibration's whole-path radii), the H ellipses of a forecast
+        together hold its whole path with probability ``q``, for planners that check a
+        trajectory rather than a point."""
         if self.distribution is None:
             raise GrouptronError(
                 "this forecast holds no distribution to draw regions from (whole-file "
@@ -128,6 +134,14 @@ class Forecast:
             raise GrouptronError(
                 f"a region's probability q must be in (0, {MAX_COVERAGE}], not {q}"
             )
+        if joint and not isinstance(self.calibration, RegionCalibration):
+            raise GrouptronError(
+                "whole-path regions (joint) need a calibration's whole-path radii (grouptron "
+                "calibrate, or a checkpoint that ships one); online radii are per step"
+            )
+        if isinstance(self.calibration, RegionCalibration):
+            radius = self.calibration.radius(q, joint=joint)
+            return calibrated_regions(self.point, self.distribution, q, radius)
         if self.calibration is not None:
             return calibrated_regions(self.point, self.distribution, q, self.calibration.radius(q))
         _say_regions_are_uncalibrated()

@@ -44,6 +44,7 @@ from grouptron.inference.inputs import (
     integer_argument,
     refuse_future_neighbours,
 )
+from grouptron.inference.online import OnlineCalibration
 from grouptron.inference.stream import StreamSession
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
@@ -83,6 +84,9 @@ class Predictor:
             restarts the agent's track).
         calibration: a ``grouptron calibrate`` file (or its ``RegionCalibration``) for this
             model and point forecast: ``Forecast.regions`` then takes its conformal radii.
+        online_calibration: live sessions (``stream``) adapt the radii as truths arrive,
+            starting from ``calibration`` (``inference.online``; True, or a saved state's file
+            to resume one).
 
     Attributes:
         group_rule: the rule behind ``Forecast.group``: the model's own for one that reads
@@ -102,6 +106,7 @@ class Predictor:
         min_points: int = 2,
         max_missed_steps: int = 2,
         calibration: str | Path | RegionCalibration | None = None,
+        online_calibration: bool | str | Path | OnlineCalibration = False,
         **older: Any,
     ) -> None:
         refuse_future_neighbours(config.data, source)
@@ -119,6 +124,7 @@ class Predictor:
         self.min_points = integer_argument(min_points, "min_points", 2, history)
         self.max_missed_steps = integer_argument(max_missed_steps, "max_missed_steps", 0)
         self.calibration = calibration_for(calibration, config, self.forecast, source)
+        self.online_calibration = online_calibration
         self._warned_central = False
 
     @classmethod
@@ -226,9 +232,31 @@ class Predictor:
             log.warning("tracks: %s", text)
         return np.concatenate([repaired, values[~past]])
 
-    def stream(self) -> StreamSession:
-        """A session that is fed one frame at a time and keeps the history it needs."""
-        return StreamSession(self)
+    def stream(
+        self, online_calibration: bool | str | Path | OnlineCalibration | None = None
+    ) -> StreamSession:
+        """A session that is fed one frame at a time and keeps the history it needs; with
+        ``online_calibration`` (default: the predictor's) its regions' radii adapt to every
+        forecast whose truth arrives (True: starting from ``calibration``, else the Gaussian
+        radii; a saved state's file, or an ``OnlineCalibration``, resumes it)."""
+        chosen = self.online_calibration if online_calibration is None else online_calibration
+        return StreamSession(self, self._online_state(chosen))
+
+    def _online_state(
+        self, chosen: bool | str | Path | OnlineCalibration
+    ) -> OnlineCalibration | None:
+        if isinstance(chosen, OnlineCalibration):
+            return chosen
+        if isinstance(chosen, str | Path):
+            return OnlineCalibration.load(chosen)
+        if chosen is True:
+            return OnlineCalibration.start(self.config.data.horizon_steps, self.calibration)
+        if chosen is False:
+            return None
+        raise GrouptronError(
+            f"online_calibration must be True, False, a saved state's file or an "
+            f"OnlineCalibration, not {chosen!r}"
+        )
 
     def forecast_window(
         self,

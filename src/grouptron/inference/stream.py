@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from typing import Any, Protocol
 
@@ -11,6 +12,8 @@ from grouptron.data.formats.glitches import MAX_JUMP_SPEED_MPS
 from grouptron.errors import GrouptronError
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.inputs import as_track_array, frame_argument, frame_arrays
+from grouptron.inference.online import OnlineCalibration
+from grouptron.model.regions import region_shapes
 
 
 class WindowForecaster(Protocol):
@@ -62,8 +65,13 @@ class StreamSession:
     reaches a forecast.
     """
 
-    def __init__(self, predictor: WindowForecaster) -> None:
+    def __init__(
+        self, predictor: WindowForecaster, online: OnlineCalibration | None = None
+    ) -> None:
         self.predictor = predictor
+        self.online = online
+        """With online calibration, its state: per q and step the radii in force, adapted to
+        every forecast whose truth arrived (``online.save(path)`` keeps it; ``None``: off)."""
         self._rows = np.zeros((0, 4))
         self._last_frame: int | None = None
         self._judged = False  # units and frame grid judged plausible once (they do not change)
@@ -105,6 +113,21 @@ class StreamSession:
             judged = self.predictor.check_plausible(rows)
         # Kept only once the update is accepted: a refused one leaves the session as it was.
         self._rows, self._last_frame, self._judged = rows, frame, judged
+        return self._calibrated_online(forecast, frame, ids_arr, xy_arr)
+
+    def _calibrated_online(
+        self, forecast: Forecast, frame: int, ids: np.ndarray, xy: np.ndarray
+    ) -> Forecast:
+        """With online calibration: score the earlier forecasts whose truths arrived now, and
+        give this one the radii in force (strictly causal: only truths seen by ``frame``)."""
+        if self.online is None:
+            return forecast
+        step = self.predictor.frames_per_step
+        self.online.observe(frame, ids, xy, step)
+        forecast = dataclasses.replace(forecast, calibration=self.online.calibration())
+        if len(forecast) and forecast.distribution is not None:
+            shapes = region_shapes(forecast.point, forecast.distribution)
+            self.online.remember(frame, forecast.ids, forecast.point, shapes, step)
         return forecast
 
     def _restart_jumped(self, rows: np.ndarray, new: np.ndarray, frame: int) -> np.ndarray:

@@ -142,6 +142,7 @@ def _add_legend(ax: plt.Axes, panel: Panel) -> None:
     if panel.region_q is not None:
         seconds = ", ".join(f"{0.4 * s:g}" for s in REGION_STEPS)
         label = f"{100 * panel.region_q:g}% region at {seconds} s"
+        label += ", calibrated" if panel.forecast.calibration is not None else ", uncalibrated"
         legend.append(Ellipse((0, 0), 1, 1, facecolor="grey", alpha=0.25, label=label))
     if panel.forecast.samples is not None and panel.forecast.samples.shape[1]:
         legend.append(plt.Line2D([0], [0], color="grey", lw=0.5, alpha=0.6, label="samples"))

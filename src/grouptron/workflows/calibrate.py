@@ -10,12 +10,15 @@
 from __future__ import annotations
 
 import dataclasses
+import logging
 from pathlib import Path
 
 from grouptron.data.formats.track_files import TrackFile, read_track_file
+from grouptron.data.prepare.neighbours import scene_conditions
 from grouptron.data.prepare.samples import scene_samples
 from grouptron.data.prepare.scene import build_scene
 from grouptron.inference.calibration import (
+    MIN_FORECASTS,
     RegionCalibration,
     calibrate,
     save_calibration,
@@ -26,6 +29,8 @@ from grouptron.io import refuse_folder
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.predict import default_point_forecast
 from grouptron.point_forecast import PointForecast
+
+log = logging.getLogger(__name__)
 
 
 def calibrate_tracks(
@@ -51,5 +56,16 @@ def calibrate_tracks(
     point = point.for_model(experiment.model.latent_values)
     digest = weights_digest(path)
     calibration = calibrate(model, experiment, samples, point, str(tracks.path), digest)
+    density, speed = scene_conditions(scene, data.perception_radius_m)
+    calibration = dataclasses.replace(calibration, density=density, speed_mps=speed)
+    if calibration.samples < 10 * MIN_FORECASTS:
+        log.warning(
+            "%s: calibrated from %d forecasts; regions need at least %d (and q = 0.9 needs 9, "
+            "0.99 needs 99); a few hundred make the radii steady%s",
+            out,
+            calibration.samples,
+            MIN_FORECASTS,
+            "" if calibration.samples >= MIN_FORECASTS else ": predict and plot refuse it",
+        )
     save_calibration(calibration, out)
     return calibration

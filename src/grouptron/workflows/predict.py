@@ -9,6 +9,7 @@ or Foxglove scene updates (``grouptron predict``).
 from __future__ import annotations
 
 import dataclasses
+import logging
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
@@ -20,18 +21,26 @@ from grouptron.data.formats.ndjson import write_forecast_ndjson
 from grouptron.data.formats.reader import TrackTable
 from grouptron.data.formats.ros_bag import BagTracks
 from grouptron.data.formats.track_files import TrackFile, read_track_file
+from grouptron.data.prepare.neighbours import scene_conditions
 from grouptron.data.prepare.scene import build_scene
 from grouptron.errors import GrouptronError
-from grouptron.inference.calibration import calibration_for
+from grouptron.inference.calibration import (
+    RegionCalibration,
+    calibration_for,
+    condition_mismatch,
+)
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint, warn_look_ahead
 from grouptron.inference.forecast import Forecast
+from grouptron.inference.online import OnlineCalibration, replay
 from grouptron.inference.tracks import forecast_scene
 from grouptron.io import refuse_folder, write_array_csv_atomically
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.predict import default_point_forecast
+from grouptron.model.regions import region_shapes
 from grouptron.point_forecast import PointForecast
 from grouptron.viz.foxglove import write_forecast_mcap
 
+log = logging.getLogger(__name__)
 SAMPLES = "samples"
 """The forecast that writes sampled futures instead of a point forecast."""
 
@@ -53,6 +62,13 @@ class PredictRequest:
         seed: of the sampled futures.
         regions: probabilities Q of the regions added per point (CSV; an MCAP draws the first).
         calibration: a ``grouptron calibrate`` file of this checkpoint for the regions' radii.
+        online: replay the file in time order, the regions' radii adapting to every forecast
+            whose truth has arrived (``inference.online``; from ``calibration``, else from
+            ``online_state`` where that file exists, else from the Gaussian radii).
+        online_state: where the online radii are resumed from (if the file exists) and left
+            when the replay ends.
+        joint: whole-path regions: a forecast's 12 ellipses together hold its path with
+            probability Q (needs a calibration).
         min_points: forecast pedestrians with at least this many observed steps in a row, 2
             to 8 (None: 8, the samples the evaluator scores).
         device: where the network runs.
@@ -67,11 +83,20 @@ class PredictRequest:
     seed: int = 0
     regions: tuple[float, ...] = ()
     calibration: str | Path | None = None
+    online: bool = False
+    online_state: str | Path | None = None
+    joint: bool = False
     min_points: int | None = None
     device: str | torch.device = "cpu"
     progress: bool = False
 
     def __post_init__(self) -> None:
+        if (self.online or self.online_state) and not self.regions:
+            raise GrouptronError("--online adapts the radii of --regions: name their q")
+        if self.joint and (self.online or not self.regions):
+            raise GrouptronError("--joint draws whole-path --regions; online radii are per step")
+        if self.online_state and not self.online:
+            raise GrouptronError("--online-state keeps the radii of --online: add it")
         if self.forecast is not None and self.forecast != SAMPLES:
             object.__setattr__(self, "forecast", PointForecast.parse(self.forecast))
         if self.forecast == SAMPLES and (self.regions or self.calibration):
@@ -114,6 +139,10 @@ def predict_tracks(request: PredictRequest) -> Predicted:
     if (request.regions or request.calibration) and out is not None and out.suffix == ".ndjson":
         raise GrouptronError("--regions and --calibration go with CSV or MCAP output")
     calibrated = calibration_for(request.calibration, experiment, point, str(path))  # before work
+    if calibrated is not None:
+        differs = condition_mismatch(calibrated, *scene_conditions(scene, data.perception_radius_m))
+        if differs:
+            log.warning("%s: %s", request.calibration or "the calibration", differs)
     forecast = forecast_scene(
         model,
         experiment,
@@ -126,7 +155,11 @@ def predict_tracks(request: PredictRequest) -> Predicted:
         device=request.device,
         keep_distribution=bool(request.regions),
     )
-    forecast = dataclasses.replace(forecast, calibration=calibrated)
+    if request.online:
+        start = _online_start(request, data.horizon_steps, calibrated)
+        forecast = _replayed_online(forecast, table, start, request)
+    else:
+        forecast = dataclasses.replace(forecast, calibration=calibrated)
     kind = SAMPLES if sampled else point.name
     done = Predicted(forecast, 0, experiment.model_name, data.derivatives, kind, False)
     if out is not None and out.suffix == ".mcap":
@@ -134,6 +167,35 @@ def predict_tracks(request: PredictRequest) -> Predicted:
         return dataclasses.replace(done, count=count, scene_updates=True)
     count = _write_rows(request, forecast, table, sampled, data.horizon_steps)
     return dataclasses.replace(done, count=count)
+
+
+def _online_start(
+    request: PredictRequest, horizon: int, calibrated: RegionCalibration | None
+) -> OnlineCalibration:
+    """Where the online radii start: a saved state to resume, else the calibration's."""
+    state = request.online_state
+    if state is not None and Path(state).is_file():
+        if calibrated is not None:
+            raise GrouptronError(
+                f"--online-state {state} resumes its own radii: leave out --calibration"
+            )
+        return OnlineCalibration.load(state)
+    return OnlineCalibration.start(horizon, calibrated)
+
+
+def _replayed_online(
+    forecast: Forecast, table: TrackTable, state: OnlineCalibration, request: PredictRequest
+) -> Forecast:
+    """The forecasts with the radii an online calibration had in force when each was made,
+    the file replayed in time order; the final state left in ``request.online_state``."""
+    assert forecast.distribution is not None
+    seen = (table.frame.astype(np.int64), table.ped_id, table.pos_m)
+    shapes = region_shapes(forecast.point, forecast.distribution)
+    made = (forecast.frames, forecast.ids, forecast.point, shapes)
+    radii = replay(state, seen, made, table.frames_per_step, request.regions)
+    if request.online_state is not None:
+        state.save(request.online_state)
+    return dataclasses.replace(forecast, calibration=radii)
 
 
 def _out_path(out: str | Path | TextIO) -> Path | None:
@@ -149,7 +211,7 @@ def _write_rows(
     if out is not None and out.suffix == ".ndjson":
         _write_trajnet(out, forecast, table, sampled=sampled)
         return len(forecast) * horizon * (request.samples if sampled else 1)
-    header, rows, formats = forecast.table(sampled, request.regions, table.times)
+    header, rows, formats = forecast.table(sampled, request.regions, table.times, request.joint)
     if out is not None:
         write_array_csv_atomically(out, header, rows, formats)
     else:

@@ -88,6 +88,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--calibration sizes them for a site. An .mcap --out draws the first Q",
     )
     add_calibration_option(predict)
+    add_online_options(predict)
     predict.add_argument(
         "--min-points",
         type=positive_int,
@@ -115,6 +116,28 @@ def add_calibration_option(parser: argparse.ArgumentParser) -> None:
         "--calibration",
         help="a grouptron calibrate file of this checkpoint: regions take its conformal radii "
         "(q = 0.01, 0.02, ... 0.99)",
+    )
+
+
+def add_online_options(parser: argparse.ArgumentParser) -> None:
+    """``--online`` and ``--online-state FILE`` (predict)."""
+    parser.add_argument(
+        "--online",
+        action="store_true",
+        help="replay the file in time order and adapt the regions' radii to every forecast "
+        "whose truth has arrived, as a live session does: long-run coverage stays at Q on any "
+        "sequence (docs/regions.md, 'Online calibration'); needs --regions",
+    )
+    parser.add_argument(
+        "--joint",
+        action="store_true",
+        help="whole-path --regions: a forecast's 12 ellipses together hold its whole 4.8 s path "
+        "with probability Q (for planners that check a trajectory); needs a calibration",
+    )
+    parser.add_argument(
+        "--online-state",
+        metavar="FILE",
+        help="with --online: resume the radii from FILE where it exists, and leave them there",
     )
 
 

@@ -6,6 +6,7 @@ no Python loop over steps, agents or pairs.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -107,3 +108,18 @@ def _check_density(scene: Scene, row_a: np.ndarray, radius_m: float) -> None:
             f"others within {radius_m:g} m at frame {frame} (at most {MAX_NEIGHBOURS}); are the "
             "positions in metres?"
         )
+
+
+def scene_conditions(scene: Scene, radius_m: float) -> tuple[float, float]:
+    """The site's conditions, to tell whether a calibration made elsewhere fits it: the
+    median number of people within ``radius_m`` of each person at each step, and the median
+    walking speed (m/s; from each track's consecutive steps)."""
+    if not len(scene.step):
+        return math.nan, math.nan
+    first, _ = pairs_within(scene, radius_m)
+    neighbours = np.bincount(first, minlength=len(scene.step))
+    speed = np.hypot(scene.state_scene[:, 2], scene.state_scene[:, 3])  # (R,) m/s
+    moving = np.ones(len(speed), dtype=bool)
+    moving[np.flatnonzero(np.diff(scene.track, prepend=-1))] = False  # a track's first row
+    speeds = speed[moving] if moving.any() else speed
+    return float(np.median(neighbours)), float(np.median(speeds))

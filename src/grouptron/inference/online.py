@@ -1,0 +1,262 @@
+"""Online calibration of prediction regions: radii that follow a site as it drifts.
+
+Every forecast is scored once its truth arrives (step k is known k steps later): the score is
+the true position's Mahalanobis distance under the region's shape, as for a static
+calibration. Per probability q and step k the radius r then moves by quantile tracking (the
+P part of conformal PID control, Angelopoulos et al. 2023; adaptive conformal inference,
+Gibbs & Candes 2021, works on the same error signal)::
+
+    r <- r + lr * scale_k * (missed - (1 - q))        for every scored forecast
+
+where ``missed`` is 1 when the truth fell outside the radius. For any sequence of scores, the
+long-run share of misses at (q, k) then tends to 1 - q: after n scores it is within
+``(B_k + lr * scale_k) / (lr * scale_k * n)`` of it, B_k bounding the scores
+(docs/regions.md). Nothing is assumed of the scores: not exchangeability, not stationarity.
+
+The state (per q and step: the radius, the scores seen and the misses) is a few kilobytes,
+belongs to one session or replay, and is saved and resumed as JSON.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from grouptron.errors import GrouptronError
+from grouptron.inference.calibration import QS, RegionCalibration
+from grouptron.io import write_text_atomically
+
+FORMAT = "grouptron-online-calibration/1"
+LEARNING_RATE = 0.005
+"""Radius change per scored forecast, as a share of the step's scale (its starting 90%
+radius): 50 people move a radius about 2% of its scale per update when coverage is 10 points
+off, so a drift is followed within tens of seconds, while noise moves it little."""
+
+
+def gaussian_radii(qs: np.ndarray, horizon: int) -> np.ndarray:
+    """(Q, H) the radii holding q of a 2-D Gaussian whose covariance is the region's shape:
+    where radii start without a calibration."""
+    radius = np.sqrt(-2.0 * np.log1p(-np.asarray(qs, dtype=np.float64)))
+    return np.repeat(radius[:, None], horizon, axis=1)
+
+
+@dataclass
+class OnlineCalibration:
+    """Per q and step, a radius adapted to the scores of forecasts whose truths arrived.
+
+    Attributes:
+        qs: (Q,) probabilities, 0.01 ... 0.99.
+        radii: (Q, H) current radii (Mahalanobis units of the region's shape).
+        scale: (H,) the step's scale, the starting radius at q = 0.9: steps of the update.
+        scored: (H,) forecasts scored per step so far.
+        missed: (Q, H) of those, how many fell outside the radius in force when scored.
+        learning_rate: the update's step, a share of ``scale`` per scored forecast.
+        source: what the radii started from (a calibration file, or the Gaussian's).
+    """
+
+    qs: np.ndarray
+    radii: np.ndarray
+    scale: np.ndarray
+    scored: np.ndarray
+    missed: np.ndarray
+    learning_rate: float = LEARNING_RATE
+    source: str = ""
+    _pending: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = field(
+        default_factory=list, repr=False
+    )
+
+    @classmethod
+    def start(
+        cls,
+        horizon: int,
+        calibration: RegionCalibration | None = None,
+        learning_rate: float = LEARNING_RATE,
+    ) -> OnlineCalibration:
+        """Radii from ``calibration`` (a shipped or a site's), else the Gaussian's."""
+        if not (isinstance(learning_rate, float | int) and 0 < learning_rate <= 1):
+            raise GrouptronError(f"learning_rate must be in (0, 1], not {learning_rate!r}")
+        qs = QS.astype(np.float64)
+        radii = gaussian_radii(qs, horizon)
+        source = "the Gaussian radii"
+        if calibration is not None:
+            known = np.isfinite(calibration.radii)  # unsupported q: from the Gaussian's
+            radii = np.where(known, calibration.radii, radii)
+            radii = np.maximum.accumulate(radii, axis=0)
+            source = calibration.source or "a calibration"
+        scale = radii[np.flatnonzero(np.isclose(qs, 0.9))[0]].copy()
+        zeros = np.zeros(horizon, dtype=np.int64)
+        missed = np.zeros(radii.shape, dtype=np.int64)
+        return cls(qs, radii, scale, zeros, missed, float(learning_rate), source)
+
+    @property
+    def horizon(self) -> int:
+        """H, the forecast steps."""
+        return int(self.radii.shape[1])
+
+    def coverage(self) -> np.ndarray:
+        """(Q, H) the share of scored truths inside the radius in force when they arrived."""
+        held: np.ndarray = 1.0 - self.missed / np.maximum(self.scored, 1)[None, :]
+        return held
+
+    def calibration(self) -> RegionCalibration:
+        """The radii in force now, as a calibration that regions take."""
+        return RegionCalibration(
+            checkpoint="",
+            point_forecast="",
+            samples=int(self.scored.min()),
+            qs=self.qs,
+            radii=self.radii.copy(),
+            source=f"online, from {self.source}",
+        )
+
+    def remember(
+        self, frame: int, ids: np.ndarray, point: np.ndarray, shapes: np.ndarray, step: int
+    ) -> None:
+        """Keep the forecasts made at ``frame`` ((N,) ids, (N, H, 2) points, (N, H, 2, 2)
+        region shapes) until their truths arrive, ``step`` frames per forecast step."""
+        self._pending.append((frame, ids, point, shapes))
+        horizon_frames = self.horizon * step
+        self._pending = [p for p in self._pending if p[0] >= frame - horizon_frames]
+
+    def observe(self, frame: int, ids: np.ndarray, xy: np.ndarray, step: int) -> None:
+        """Score every kept forecast whose step lands on ``frame`` against the (N, 2) positions
+        of the (N,) ``ids`` seen there, and move the radii."""
+        if not len(ids):
+            return
+        order = np.argsort(ids, kind="stable")
+        seen_ids, seen_xy = ids[order], xy[order]
+        for made, forecast_ids, point, shapes in self._pending:
+            k, off_grid = divmod(frame - made, step)
+            if off_grid or not 1 <= k <= self.horizon:
+                continue
+            at = np.clip(np.searchsorted(seen_ids, forecast_ids), 0, len(seen_ids) - 1)
+            found = seen_ids[at] == forecast_ids
+            if found.any():
+                offset = seen_xy[at[found]] - point[found, k - 1]  # (n, 2)
+                solved = np.linalg.solve(shapes[found, k - 1], offset[..., None])[..., 0]
+                scores = np.sqrt(np.maximum((offset * solved).sum(-1), 0.0))
+                self._update(k - 1, scores)
+
+    def _update(self, h: int, scores: np.ndarray) -> None:
+        """Move step ``h``'s radii by the (n,) scores, each against the radius in force."""
+        missed = (scores[None, :] > self.radii[:, h, None]).sum(axis=1)  # (Q,)
+        self.scored[h] += len(scores)
+        self.missed[:, h] += missed
+        change = self.learning_rate * self.scale[h] * (missed - len(scores) * (1.0 - self.qs))
+        self.radii[:, h] = np.maximum.accumulate(np.maximum(self.radii[:, h] + change, 0.0))
+
+    def save(self, path: str | Path) -> None:
+        """Write the state (not the forecasts awaiting truths) as JSON."""
+        document = {
+            "format": FORMAT,
+            "source": self.source,
+            "learning_rate": self.learning_rate,
+            "q": [float(q) for q in self.qs],
+            "radius_per_step": [[float(r) for r in row] for row in self.radii],  # exact: resumes
+            "scale_per_step": [float(s) for s in self.scale],
+            "scored_per_step": [int(n) for n in self.scored],
+            "missed_per_step": [[int(n) for n in row] for row in self.missed],
+        }
+        write_text_atomically(Path(path), json.dumps(document, indent=1) + "\n")
+
+    @classmethod
+    def load(cls, path: str | Path) -> OnlineCalibration:
+        """Read a state written by :meth:`save` (one line if it is not one)."""
+        try:
+            document = json.loads(Path(path).read_text())
+            if document.get("format") != FORMAT:
+                raise ValueError(f"format {document.get('format')!r}")
+            radii = np.asarray(document["radius_per_step"], dtype=np.float64)
+            state = cls(
+                qs=np.asarray(document["q"], dtype=np.float64),
+                radii=radii,
+                scale=np.asarray(document["scale_per_step"], dtype=np.float64),
+                scored=np.asarray(document["scored_per_step"], dtype=np.int64),
+                missed=np.asarray(document["missed_per_step"], dtype=np.int64),
+                learning_rate=float(document["learning_rate"]),
+                source=str(document.get("source", "")),
+            )
+            if (
+                radii.ndim != 2
+                or state.missed.shape != radii.shape
+                or not all(math.isfinite(r) for r in radii.ravel())
+            ):
+                raise ValueError("radius_per_step and missed_per_step need one row per q")
+            return state
+        except OSError as error:
+            raise GrouptronError(
+                f"{path}: cannot read the online state ({error.strerror})"
+            ) from None
+        except (ValueError, KeyError, TypeError, AttributeError) as error:
+            raise GrouptronError(
+                f"{path}: not a grouptron online calibration state ({error})"
+            ) from None
+
+
+@dataclass(frozen=True, eq=False)
+class ForecastRadii:
+    """Per forecast, the radii in force when it was made (a replay's): what regions take.
+
+    Attributes:
+        qs: (Q,) the probabilities kept.
+        radii: (N, Q, H) radii per forecast, q and step.
+    """
+
+    qs: np.ndarray
+    radii: np.ndarray
+
+    def radius(self, q: float) -> np.ndarray:
+        """(N, H) the radii at ``q`` (one of ``qs``)."""
+        match = np.flatnonzero(np.isclose(self.qs, q))
+        if not len(match):
+            kept = ", ".join(f"{k:g}" for k in self.qs)
+            raise GrouptronError(f"online radii were kept for q = {kept}, not {q}")
+        radius: np.ndarray = self.radii[:, match[0]]
+        return radius
+
+
+def replay(
+    state: OnlineCalibration,
+    seen: tuple[np.ndarray, np.ndarray, np.ndarray],
+    made: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    step: int,
+    qs: tuple[float, ...],
+) -> ForecastRadii:
+    """A recording replayed in time order: at every frame the truths seen there are scored
+    first, then the forecasts made there get the radii in force (strictly causal: a region
+    at frame t uses only truths seen by t).
+
+    Args:
+        state: where the radii start; it ends as the replay leaves it.
+        seen: the observations, (R,) frames, (R,) ids and (R, 2) positions.
+        made: the forecasts, (N,) frames, (N,) ids, (N, H, 2) points, (N, H, 2, 2) shapes.
+        step: frames per forecast step.
+        qs: the probabilities whose radii are kept per forecast.
+    """
+    seen_frames, seen_ids, seen_xy = seen
+    frames, ids, points, shapes = made
+    kept = np.array([np.flatnonzero(np.isclose(state.qs, q))[0] for q in qs], dtype=np.int64)
+    radii = np.zeros((len(frames), len(qs), state.horizon))
+    seen_order, made_order = (
+        np.argsort(seen_frames, kind="stable"),
+        np.argsort(frames, kind="stable"),
+    )
+    seen_sorted, made_sorted = seen_frames[seen_order], frames[made_order]
+    for frame in np.unique(np.concatenate([seen_frames, frames])):  # one pass per time step
+        rows = seen_order[_span(seen_sorted, frame)]
+        state.observe(int(frame), seen_ids[rows], seen_xy[rows], step)
+        now = made_order[_span(made_sorted, frame)]
+        if len(now):
+            radii[now] = state.radii[kept][None]
+            state.remember(int(frame), ids[now], points[now], shapes[now], step)
+    return ForecastRadii(np.asarray(qs, dtype=np.float64), radii)
+
+
+def _span(sorted_frames: np.ndarray, frame: float) -> slice:
+    """The rows of ``frame`` in (R,) sorted frames."""
+    first = int(np.searchsorted(sorted_frames, frame, "left"))
+    return slice(first, int(np.searchsorted(sorted_frames, frame, "right")))
