@@ -5,14 +5,18 @@ Usage:
                                    [--frames 60] [--threads 2]
                                    [--forecast ml|ml-argmax|mean|ml-top10|ml-topK]
                                    [--mixture] [--min-points 2] [--max-missed-steps 2]
-                                   [--regions Q] [--calibration FILE] [--profile]
+                                   [--regions Q] [--calibration FILE|none] [--profile]
 
 A synthetic scene of N pedestrians walking in pairs and alone through a square sized for about
 one person per 4 m^2 is streamed frame by frame; the first 9 frames (before anyone has 8 steps)
 are not timed. By default the default model with its own point forecast (what
 ``Predictor.from_checkpoint()`` gives), and beside it, fed the same frames in turn, the same
 checkpoint's argmax latent: the ratio of the two medians is the figure that holds across
-machines. Prints the median and 90th percentile of the update time per N
+machines. With ``--regions Q``, the same default predictor also runs with its Q-regions drawn
+at every update (from its shipped or ``--calibration`` radii) and with online calibration
+(``stream(online_calibration=True)``: each update also scores the forecasts whose truths
+arrived and moves the radii), each beside the forecast alone in the same run. Prints the
+median and 90th percentile of the update time per N
 (``--most-likely``, the older name of ``--forecast``, and ``--latent-values K``, of
 ``--forecast ml-topK``, still work). ``--profile``
 then prints, per N, where the default predictor's time goes: ``cProfile`` around its updates
@@ -31,7 +35,7 @@ import numpy as np
 import torch
 
 from grouptron import Predictor
-from grouptron.cli.options import point_forecast_option
+from grouptron.cli.options import calibration_option, point_forecast_option
 from grouptron.constants import DEFAULT_CHECKPOINT
 from grouptron.point_forecast import PointForecast
 
@@ -79,7 +83,10 @@ def add_predictor_options(parser: argparse.ArgumentParser, forecast: str | None)
         "--max-missed-steps", type=int, default=2, help="Predictor(max_missed_steps=...)"
     )
     parser.add_argument(
-        "--calibration", help="Predictor(calibration=...): a grouptron calibrate file"
+        "--calibration",
+        type=calibration_option,
+        help="Predictor(calibration=...): a grouptron calibrate file, or none (default: the "
+        "checkpoint's shipped one)",
     )
 
 
@@ -102,23 +109,30 @@ def load_predictor(args: argparse.Namespace, forecast: str | None = None) -> Pre
         mixture=args.mixture,
         min_points=args.min_points,
         max_missed_steps=args.max_missed_steps,
-        calibration=None if forecast else args.calibration,  # the yardstick has none
+        calibration=False if forecast else args.calibration,  # the yardstick has none
     )
 
 
+Variant = tuple[Predictor, bool, float | None]
+"""A timed session: its predictor, whether its radii adapt online, the q of the regions drawn
+with every update (None: none)."""
+
+
 def timed_updates(
-    predictors: list[Predictor], people: int, frames: int, region_q: float | None = None
+    variants: list[Variant], people: int, frames: int
 ) -> tuple[list[list[float]], list[int]]:
-    """Per predictor, the update times (ms) after the first 9 frames and its last forecast
-    count; the predictors take each frame in turn, so a drift of the machine hits all alike."""
-    sessions = [p.stream() for p in predictors]
-    times: list[list[float]] = [[] for _ in predictors]
-    counts = [0] * len(predictors)
+    """Per variant, the update times (ms, its regions included) after the first 9 frames and
+    its last forecast count; the variants take each frame in turn, so a drift of the machine
+    hits all alike."""
+    sessions = [p.stream(online_calibration=online) for p, online, _ in variants]
+    times: list[list[float]] = [[] for _ in variants]
+    counts = [0] * len(variants)
     for k, (ids, xy) in enumerate(synthetic_frames(people, frames)):
         for i, session in enumerate(sessions):
             started = time.perf_counter()
             forecast = session.update(10 * k, ids, xy)
-            if region_q is not None and i == 0:  # the default's regions, timed with its update
+            region_q = variants[i][2]
+            if region_q is not None:  # drawn with the update, as a planner would ask
                 forecast.regions(region_q)
             if k >= 9:
                 times[i].append(1000 * (time.perf_counter() - started))
@@ -170,26 +184,36 @@ def main() -> None:
     parser.add_argument("--profile", action="store_true", help="then profile the default's parts")
     args = parser.parse_args()
     predictor = load_predictor(args)
-    predictors = [predictor]
+    variants: list[Variant] = [(predictor, False, None)]
+    names = ["forecast"]
+    if args.regions is not None:  # the cost of regions, static and online, in the same run
+        variants += [(predictor, False, args.regions), (predictor, True, args.regions)]
+        names += [
+            f"+ {(predictor.calibration and 'calibrated') or 'own'} regions",
+            "+ online regions",
+        ]
     if predictor.point_forecast_name != "ml-argmax":
-        predictors.append(load_predictor(args, "ml-argmax"))  # the yardstick, same run
+        variants.append((load_predictor(args, "ml-argmax"), False, None))  # the yardstick
+        names.append("argmax")
     named = chosen_forecast(args)
     print(
         f"{predictor.source}: {predictor.config.model_name}, {args.threads} threads, "
         f"point forecast {named or 'by default'} ({predictor.point_forecast_name}, "
         f"{predictor.decoded_latent_values} latent values decoded), mixture = {predictor.mixture}"
     )
-    header = f"{'people':>7} {'median ms':>10} {'p90 ms':>8} {'forecasts':>10}"
-    if len(predictors) > 1:
-        header += f" {'argmax median':>14} {'p90':>6} {'ratio':>6}"
+    print("median / p90 ms per update: " + "; ".join(names))
+    header = f"{'people':>7} {'forecasts':>10}" + "".join(f" {n:>22}" for n in names)
+    if names[-1] == "argmax":
+        header += f" {'ratio':>6}"
     print(header)
     for people in (int(n) for n in args.people.split(",")):
-        times, counts = timed_updates(predictors, people, args.frames, args.regions)
+        times, counts = timed_updates(variants, people, args.frames)
         medians = [statistics.median(t) for t in times]
         p90s = [float(np.percentile(t, 90)) for t in times]
-        line = f"{people:>7} {medians[0]:>10.1f} {p90s[0]:>8.1f} {counts[0]:>10}"
-        if len(predictors) > 1:
-            line += f" {medians[1]:>14.1f} {p90s[1]:>6.1f} {medians[0] / medians[1]:>6.2f}"
+        line = f"{people:>7} {counts[0]:>10}"
+        line += "".join(f" {f'{m:.1f} / {p:.1f}':>22}" for m, p in zip(medians, p90s, strict=True))
+        if names[-1] == "argmax":
+            line += f" {medians[0] / medians[-1]:>6.2f}"
         print(line)
     if args.profile:
         for people in (int(n) for n in args.people.split(",")):

@@ -17,6 +17,7 @@ from grouptron.data.datasets.dataset import load_part
 from grouptron.data.prepare.samples import SampleSet
 from grouptron.evaluation import score_cache
 from grouptron.evaluation.evaluate import score_samples
+from grouptron.evaluation.region_scores import RegionScoring
 from grouptron.evaluation.score_cache import cached_score_samples, scoring_sources
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
@@ -84,6 +85,34 @@ def test_any_change_of_weights_samples_or_settings_scores_again(
     assert len(calls) == 8
     cached_score_samples(tmp_path, model, config, samples, ("ml",))  # the last one, kept
     assert len(calls) == 8
+
+
+def test_region_scores_are_kept_per_q_and_calibration(
+    eth: EthTest, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    model, config, samples = eth
+    calls = _count_scored(monkeypatch)
+    q90, q50 = RegionScoring((0.9,)), RegionScoring((0.5,))
+    calibrated = RegionScoring((0.9,), {0.9: np.full(12, 2.0)})
+    modes = ("ml-argmax", "best-of-20")
+    (first, _) = cached_score_samples(tmp_path, model, config, samples, modes, regions=q90)
+    for regions in (q50, calibrated, None, q90):
+        cached_score_samples(tmp_path, model, config, samples, ("ml-argmax",), regions=regions)
+    assert calls == [
+        ("ml-argmax",),
+        ("best-of-20",),
+        ("ml-argmax",),
+        ("ml-argmax",),
+        ("ml-argmax",),
+    ]
+    (again,) = cached_score_samples(tmp_path, model, config, samples, ("ml-argmax",), regions=q90)
+    assert len(calls) == 5  # q = 0.9's scores read back, per step
+    fresh = score_samples(model, config, samples, ("ml-argmax",), regions=q90)[0]
+    for name in ("coverage-q90", "area-q90"):
+        np.testing.assert_array_equal(again.per_step[name], fresh.per_step[name])
+        np.testing.assert_array_equal(first.per_step[name], fresh.per_step[name])
+        np.testing.assert_array_equal(again.get(name), fresh.get(name))
+        assert fresh.per_step[name].shape == (len(samples), 12)
 
 
 def test_other_groups_score_again(
@@ -154,6 +183,9 @@ def test_every_module_that_runs_while_a_model_is_built_and_scored_is_in_the_key(
         load_weights(model, stored.state_dict(), "test")
         for ablate in ((), ("edges",), ("scene",)):
             score_samples(model, config, samples, MODES_ALL, groups=groups, ablate=ablate)
+        score_samples(
+            model, config, samples, MODES_ALL, groups=groups, regions=RegionScoring((0.9,))
+        )
     finally:
         sys.setprofile(None)
     package = Path(grouptron.__file__).resolve().parent

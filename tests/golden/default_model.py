@@ -1,6 +1,6 @@
 """Golden outputs of what ships: the default model with its own point forecast (``ml-top2``),
-its regions without and with a calibration, and that calibration's radii, on the fixed scene
-of ``compute``. Regenerate ``default_model.npz`` only for an intended change of behaviour:
+its regions without a calibration, with one made here and with the one it ships with, and
+those calibrations' radii, on the fixed scene of ``compute``. Regenerate ``default_model.npz`` only for an intended change of behaviour:
 
     python -m tests.golden.default_model
 """
@@ -36,7 +36,9 @@ def compute() -> dict[str, np.ndarray]:
     its regions, a calibration made on the scene's samples with a full future, and the
     regions drawn with it."""
     path = resolve_checkpoint(DEFAULT_CHECKPOINT)
-    predictor = Predictor.from_checkpoint(path)
+    predictor = Predictor.from_checkpoint(path, calibration=False)
+    shipped = Predictor.from_checkpoint(path)  # with the calibration it ships with
+    assert shipped.calibration is not None
     tracks = synthetic_tracks()
     table = table_from_values(Path("golden"), calibration_tracks(), np.arange(3 * len(tracks)), 10)
     data = predictor.config.data
@@ -44,7 +46,9 @@ def compute() -> dict[str, np.ndarray]:
     calibration = calibrate(predictor.model, predictor.config, samples, predictor.forecast)
     calibrated = Predictor.from_checkpoint(path, calibration=calibration)
     out = {"ids": np.asarray([]), "radii": calibration.radii[[49, 89]]}  # q = 0.5, 0.9
-    for name, used in (("own", predictor), ("calibrated", calibrated)):
+    out["shipped/radii"] = shipped.calibration.radii[[49, 89]]
+    out["shipped/whole_path_radii"] = shipped.calibration.joint_radii[[49, 89]]
+    for name, used in (("own", predictor), ("calibrated", calibrated), ("shipped", shipped)):
         forecast = used.predict(tracks, FORECAST_FRAME)
         out["ids"], out["point"] = forecast.ids.astype(np.float64), forecast.point
         for q in REGION_QS:

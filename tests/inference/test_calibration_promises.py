@@ -98,4 +98,4 @@ def test_plots_say_whether_their_regions_are_calibrated(
         patch.setattr(forecasts, "_add_legend", spy)
         assert main(["plot", "--checkpoint", checkpoint, "--tracks", str(recording),
                      "--out", str(tmp_path / "p.png"), "--quiet"]) == 0  # fmt: skip
-    assert any("region" in label and label.endswith("uncalibrated") for label in labels)
+    assert any("region" in label and label.endswith("(uncalibrated)") for label in labels)

@@ -63,12 +63,14 @@ def test_a_state_is_saved_and_resumed_exactly(tmp_path: Path) -> None:
 
 def test_a_live_session_scores_forecasts_as_their_truths_arrive() -> None:
     tracks = synthetic_tracks()
-    session = Predictor.from_checkpoint().stream(online_calibration=True)
+    session = Predictor.from_checkpoint(calibration=False).stream(online_calibration=True)
     assert session.online is not None
     start = session.online.radii.copy()
     for frame in np.unique(tracks[:, 0]):
         now = tracks[tracks[:, 0] == frame]
         forecast = session.update(int(frame), now[:, 1], now[:, 2:4])
+        if len(forecast):  # regions from the first forecast on, at every q
+            assert np.isfinite(forecast.regions(0.99).major_m).all()
     assert session.online.scored[0] > session.online.scored[-1] > 0  # step 12: 12 steps later
     assert not np.allclose(session.online.radii, start)
     region = forecast.regions(0.9)

@@ -30,11 +30,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     torch.set_num_threads(args.threads)
     path = resolve_checkpoint(args.checkpoint)
     model, config = load_trained_model(path)
-    calibration = None
-    if args.calibration:
-        # The file states the default point forecast; a calibration of another would not fit.
-        forecast = default_point_forecast(config)
-        calibration = calibration_for(args.calibration, config, forecast, str(path))
+    # The file states the default point forecast; a calibration of another would not fit.
+    forecast = default_point_forecast(config)
+    calibration = calibration_for(args.calibration, config, forecast, str(path))
     print(f"exporting {config.model_name} from {path} to ONNX (about half a minute)", flush=True)
     names = export_onnx(model, config, out, calibration)
     print(f"wrote {out}: {config.model_name} from {path}, inputs {', '.join(names)}")

@@ -52,6 +52,7 @@ def _plot_request(args: argparse.Namespace) -> PlotRequest:
         seed=args.seed,
         ids=args.ids,
         calibration=args.calibration,
+        online=args.online,
         device=args.device,
         progress=show_progress(args),
     )

@@ -209,6 +209,11 @@ def point_forecast_option(value: str) -> PointForecast:
         raise argparse.ArgumentTypeError(str(error)) from None
 
 
+def calibration_option(value: str) -> str | bool:
+    """``--calibration FILE``, or ``none`` for no calibration (False)."""
+    return False if value == "none" else value
+
+
 def forecast_option(value: str) -> PointForecast | str:
     """What ``predict`` writes: a point forecast (:func:`point_forecast_option`) or
     ``samples``."""

@@ -288,16 +288,39 @@ def _float_or_nan(value: float | None) -> float:
     return math.nan if value is None else float(value)
 
 
+SHIPPED_FILE = "calibration.json"
+"""The calibration a checkpoint ships with, beside its weights (``campaign/ship_calibration.py``
+fits it on files the model never trained on)."""
+
+
+def shipped_calibration(checkpoint: str | Path) -> Path | None:
+    """The calibration file shipped beside a checkpoint's weights, if it has one."""
+    path = Path(checkpoint).parent / SHIPPED_FILE if checkpoint else None
+    return path if path is not None and path.is_file() else None
+
+
 def calibration_for(
-    calibration: str | Path | RegionCalibration | None,
+    calibration: str | Path | RegionCalibration | bool | None,
     config: ExperimentConfig,
     forecast: PointForecast,
     checkpoint: str = "",
 ) -> RegionCalibration | None:
     """``calibration`` (a file or a loaded one), checked to belong to this model, point
-    forecast and (when ``checkpoint``, its file, is known) these weights."""
-    if calibration is None:
+    forecast and (when ``checkpoint``, its file, is known) these weights. None: the one the
+    checkpoint ships with, where it has one for this forecast; False: none."""
+    if calibration is False or calibration is True:
+        if calibration:
+            raise GrouptronError("calibration is a file, a RegionCalibration, None or False")
         return None
+    if calibration is None:
+        shipped = shipped_calibration(checkpoint)
+        if shipped is None:
+            return None
+        loaded = load_calibration(shipped)
+        Z = config.model.latent_values
+        if PointForecast.parse(loaded.point_forecast).for_model(Z) != forecast.for_model(Z):
+            return None  # shipped for the model's own forecast, not this one
+        calibration = loaded
     named = "" if isinstance(calibration, RegionCalibration) else f"{calibration}: "
     loaded = (
         calibration if isinstance(calibration, RegionCalibration) else load_calibration(calibration)

@@ -6,12 +6,16 @@ calibration. Per probability q and step k the radius r then moves by quantile tr
 P part of conformal PID control, Angelopoulos et al. 2023; adaptive conformal inference,
 Gibbs & Candes 2021, works on the same error signal)::
 
-    r <- r + lr * scale_k * (missed - (1 - q))        for every scored forecast
+    r <- r + lr * scale_k * (missed - (1 - q))        at every update with truths of step k
 
-where ``missed`` is 1 when the truth fell outside the radius. For any sequence of scores, the
-long-run share of misses at (q, k) then tends to 1 - q: after n scores it is within
-``(B_k + lr * scale_k) / (lr * scale_k * n)`` of it, B_k bounding the scores
+where ``missed`` is the share of the truths arriving at that update that fell outside the
+radius their forecasts were made with. Summed over n updates these changes telescope:
+``sum(missed) - n (1 - q) = (r_n - r_0) / (lr * scale_k)``, so while the radius stays bounded
+(it does: it shrinks whenever it exceeds every score and grows whenever it is below them) the
+long-run average share of misses tends to 1 - q, for any sequence of scores, at a rate 1 / n
 (docs/regions.md). Nothing is assumed of the scores: not exchangeability, not stationarity.
+Each q is tracked alone; the regions drawn take, for each q, the largest radius of any q up
+to it, so that they nest, which can only add coverage.
 
 The state (per q and step: the radius, the scores seen and the misses) is a few kilobytes,
 belongs to one session or replay, and is saved and resumed as JSON.
@@ -31,10 +35,16 @@ from grouptron.inference.calibration import QS, RegionCalibration
 from grouptron.io import write_text_atomically
 
 FORMAT = "grouptron-online-calibration/1"
-LEARNING_RATE = 0.005
-"""Radius change per scored forecast, as a share of the step's scale (its starting 90%
-radius): 50 people move a radius about 2% of its scale per update when coverage is 10 points
-off, so a drift is followed within tens of seconds, while noise moves it little."""
+LEARNING_RATE = 0.1
+"""Radius change per update, as a share of the step's scale (its starting 90% radius) and of
+how far the update's share of misses is from 1 - q: 1% of the scale when coverage is 10
+points off, so a drift is followed within tens of seconds, while the noise of a few people's
+misses moves it little."""
+
+
+GAUSSIAN_PRIOR = 100
+"""Forecasts the Gaussian starting radii stand for: enough for regions at every q up to 0.99
+from the first update on (they are a guess that the updates correct, not a promise)."""
 
 
 def gaussian_radii(qs: np.ndarray, horizon: int) -> np.ndarray:
@@ -53,9 +63,12 @@ class OnlineCalibration:
         radii: (Q, H) current radii (Mahalanobis units of the region's shape).
         scale: (H,) the step's scale, the starting radius at q = 0.9: steps of the update.
         scored: (H,) forecasts scored per step so far.
-        missed: (Q, H) of those, how many fell outside the radius in force when scored.
+        missed: (Q, H) of those, how many fell outside the region drawn with them.
         learning_rate: the update's step, a share of ``scale`` per scored forecast.
         source: what the radii started from (a calibration file, or the Gaussian's).
+        prior_samples: the forecasts the starting radii stand for (a calibration's; the
+            Gaussian radii count as ``GAUSSIAN_PRIOR``), so that regions are drawn from the
+            first update on.
     """
 
     qs: np.ndarray
@@ -65,7 +78,8 @@ class OnlineCalibration:
     missed: np.ndarray
     learning_rate: float = LEARNING_RATE
     source: str = ""
-    _pending: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = field(
+    prior_samples: int = 0
+    _pending: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = field(
         default_factory=list, repr=False
     )
 
@@ -81,16 +95,16 @@ class OnlineCalibration:
             raise GrouptronError(f"learning_rate must be in (0, 1], not {learning_rate!r}")
         qs = QS.astype(np.float64)
         radii = gaussian_radii(qs, horizon)
-        source = "the Gaussian radii"
+        source, prior = "the Gaussian radii", GAUSSIAN_PRIOR
         if calibration is not None:
+            prior = calibration.samples
             known = np.isfinite(calibration.radii)  # unsupported q: from the Gaussian's
             radii = np.where(known, calibration.radii, radii)
-            radii = np.maximum.accumulate(radii, axis=0)
             source = calibration.source or "a calibration"
         scale = radii[np.flatnonzero(np.isclose(qs, 0.9))[0]].copy()
         zeros = np.zeros(horizon, dtype=np.int64)
         missed = np.zeros(radii.shape, dtype=np.int64)
-        return cls(qs, radii, scale, zeros, missed, float(learning_rate), source)
+        return cls(qs, radii, scale, zeros, missed, float(learning_rate), source, prior)
 
     @property
     def horizon(self) -> int:
@@ -98,7 +112,8 @@ class OnlineCalibration:
         return int(self.radii.shape[1])
 
     def coverage(self) -> np.ndarray:
-        """(Q, H) the share of scored truths inside the radius in force when they arrived."""
+        """(Q, H) the share of scored truths inside the regions their forecasts were drawn
+        with: the long-run coverage that the updates keep at q."""
         held: np.ndarray = 1.0 - self.missed / np.maximum(self.scored, 1)[None, :]
         return held
 
@@ -107,9 +122,9 @@ class OnlineCalibration:
         return RegionCalibration(
             checkpoint="",
             point_forecast="",
-            samples=int(self.scored.min()),
+            samples=self.prior_samples + int(self.scored.min()),
             qs=self.qs,
-            radii=self.radii.copy(),
+            radii=np.maximum.accumulate(self.radii, axis=0),  # regions that nest in q
             source=f"online, from {self.source}",
         )
 
@@ -117,8 +132,9 @@ class OnlineCalibration:
         self, frame: int, ids: np.ndarray, point: np.ndarray, shapes: np.ndarray, step: int
     ) -> None:
         """Keep the forecasts made at ``frame`` ((N,) ids, (N, H, 2) points, (N, H, 2, 2)
-        region shapes) until their truths arrive, ``step`` frames per forecast step."""
-        self._pending.append((frame, ids, point, shapes))
+        region shapes), with the radii they were drawn with, until their truths arrive,
+        ``step`` frames per forecast step."""
+        self._pending.append((frame, ids, point, shapes, self.radii.copy()))
         horizon_frames = self.horizon * step
         self._pending = [p for p in self._pending if p[0] >= frame - horizon_frames]
 
@@ -129,7 +145,7 @@ class OnlineCalibration:
             return
         order = np.argsort(ids, kind="stable")
         seen_ids, seen_xy = ids[order], xy[order]
-        for made, forecast_ids, point, shapes in self._pending:
+        for made, forecast_ids, point, shapes, drawn in self._pending:
             k, off_grid = divmod(frame - made, step)
             if off_grid or not 1 <= k <= self.horizon:
                 continue
@@ -139,15 +155,19 @@ class OnlineCalibration:
                 offset = seen_xy[at[found]] - point[found, k - 1]  # (n, 2)
                 solved = np.linalg.solve(shapes[found, k - 1], offset[..., None])[..., 0]
                 scores = np.sqrt(np.maximum((offset * solved).sum(-1), 0.0))
-                self._update(k - 1, scores)
+                self._update(k - 1, scores, drawn[:, k - 1])
 
-    def _update(self, h: int, scores: np.ndarray) -> None:
-        """Move step ``h``'s radii by the (n,) scores, each against the radius in force."""
-        missed = (scores[None, :] > self.radii[:, h, None]).sum(axis=1)  # (Q,)
+    def _update(self, h: int, scores: np.ndarray, drawn: np.ndarray | None = None) -> None:
+        """Move step ``h``'s radii by the (n,) scores, each against the (Q,) radii its region
+        was drawn with (default: those in force)."""
+        drawn = self.radii[:, h] if drawn is None else drawn
+        missed = (scores[None, :] > drawn[:, None]).sum(axis=1)  # (Q,)
         self.scored[h] += len(scores)
         self.missed[:, h] += missed
-        change = self.learning_rate * self.scale[h] * (missed - len(scores) * (1.0 - self.qs))
-        self.radii[:, h] = np.maximum.accumulate(np.maximum(self.radii[:, h] + change, 0.0))
+        share = missed / len(scores) - (1.0 - self.qs)
+        self.radii[:, h] = np.maximum(
+            self.radii[:, h] + self.learning_rate * self.scale[h] * share, 0.0
+        )
 
     def save(self, path: str | Path) -> None:
         """Write the state (not the forecasts awaiting truths) as JSON."""
@@ -155,6 +175,7 @@ class OnlineCalibration:
             "format": FORMAT,
             "source": self.source,
             "learning_rate": self.learning_rate,
+            "prior_samples": self.prior_samples,
             "q": [float(q) for q in self.qs],
             "radius_per_step": [[float(r) for r in row] for row in self.radii],  # exact: resumes
             "scale_per_step": [float(s) for s in self.scale],
@@ -179,6 +200,7 @@ class OnlineCalibration:
                 missed=np.asarray(document["missed_per_step"], dtype=np.int64),
                 learning_rate=float(document["learning_rate"]),
                 source=str(document.get("source", "")),
+                prior_samples=int(document.get("prior_samples", 0)),
             )
             if (
                 radii.ndim != 2

@@ -84,6 +84,8 @@ class Predictor:
             restarts the agent's track).
         calibration: a ``grouptron calibrate`` file (or its ``RegionCalibration``) for this
             model and point forecast: ``Forecast.regions`` then takes its conformal radii.
+            None (the default): the calibration the checkpoint ships with, where it has one
+            for this forecast (``campaign/ship_calibration.py``); False: none.
         online_calibration: live sessions (``stream``) adapt the radii as truths arrive,
             starting from ``calibration`` (``inference.online``; True, or a saved state's file
             to resume one).
@@ -105,7 +107,7 @@ class Predictor:
         device: str | torch.device = "cpu",
         min_points: int = 2,
         max_missed_steps: int = 2,
-        calibration: str | Path | RegionCalibration | None = None,
+        calibration: str | Path | RegionCalibration | bool | None = None,
         online_calibration: bool | str | Path | OnlineCalibration = False,
         **older: Any,
     ) -> None:

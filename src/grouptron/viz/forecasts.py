@@ -4,6 +4,7 @@ frame (PNG) or a range (GIF/MP4)."""
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -142,7 +143,7 @@ def _add_legend(ax: plt.Axes, panel: Panel) -> None:
     if panel.region_q is not None:
         seconds = ", ".join(f"{0.4 * s:g}" for s in REGION_STEPS)
         label = f"{100 * panel.region_q:g}% region at {seconds} s"
-        label += ", calibrated" if panel.forecast.calibration is not None else ", uncalibrated"
+        label += "\n(calibrated)" if panel.forecast.calibration is not None else "\n(uncalibrated)"
         legend.append(Ellipse((0, 0), 1, 1, facecolor="grey", alpha=0.25, label=label))
     if panel.forecast.samples is not None and panel.forecast.samples.shape[1]:
         legend.append(plt.Line2D([0], [0], color="grey", lw=0.5, alpha=0.6, label="samples"))
@@ -171,7 +172,8 @@ def plot_forecasts(panels: Sequence[Panel], frame: int, out: Path) -> None:
             _draw_panel(ax, panel, frame)
         _add_legend(axes[-1], panels[0])
         fig.tight_layout()
-        save_atomically(out, fig.savefig)
+        # "tight": the legend outside the axes is part of the picture, not cut at its edge.
+        save_atomically(out, functools.partial(fig.savefig, bbox_inches="tight"))
     finally:
         plt.close(fig)
 

@@ -18,9 +18,13 @@ from tqdm import tqdm
 
 from grouptron.data.formats.reader import TrackTable
 from grouptron.data.formats.track_files import TrackFile, read_track_file, table_rows
+from grouptron.data.prepare.scene import build_scene
 from grouptron.errors import GrouptronError
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, warn_look_ahead
+from grouptron.inference.online import ForecastRadii, OnlineCalibration, replay
 from grouptron.inference.predictor import Predictor
+from grouptron.inference.tracks import forecast_scene
+from grouptron.model.regions import region_shapes
 from grouptron.point_forecast import PointForecast
 from grouptron.presets import describe_group_rule
 from grouptron.viz.files import check_picture_path
@@ -55,7 +59,11 @@ class PlotRequest:
         samples: sampled futures drawn as thin lines (K).
         seed: of the samples.
         ids: write each person's id beside them.
-        calibration: a ``grouptron calibrate`` file of ``checkpoint`` for the regions' radii.
+        calibration: a ``grouptron calibrate`` file of ``checkpoint`` for the regions' radii
+            (None: the one each checkpoint ships with, where it has one; False: none).
+        online: the first model's regions take the radii an online calibration has in force
+            at the frame drawn, the file replayed in time order from its start (strictly
+            causal: only truths seen by then).
         device: where the network runs.
         progress: a progress bar over an animation's frames.
     """
@@ -72,11 +80,14 @@ class PlotRequest:
     samples: int = 0
     seed: int = 0
     ids: bool = False
-    calibration: str | Path | None = None
+    calibration: str | Path | bool | None = None
+    online: bool = False
     device: str | torch.device = "cpu"
     progress: bool = False
 
     def __post_init__(self) -> None:
+        if self.online and not self.region:
+            raise GrouptronError("--online adapts the radii of the drawn regions: keep --region")
         if self.forecast is not None:
             object.__setattr__(self, "forecast", PointForecast.parse(self.forecast))
 
@@ -111,8 +122,10 @@ def plot_tracks(request: PlotRequest) -> Plotted:
     for predictor in predictors:  # forecast on the file's own frame grid
         data = dataclasses.replace(predictor.config.data, frames_per_step=table.frames_per_step)
         predictor.config = dataclasses.replace(predictor.config, data=data)
+    online = _online_radii(predictors[0], table, request) if request.online else None
     if until is None:
-        plot_forecasts(_panels(request, predictors, table_rows(table), frame), frame, request.out)
+        panels = _panels(request, predictors, table_rows(table), frame, online=online)
+        plot_forecasts(panels, frame, request.out)
         return Plotted((frame,), f"wrote {request.out}: forecasts at {_file_time(table, frame)}")
     return _animate(request, predictors, table, frame, until)
 
@@ -136,8 +149,11 @@ def _animate(
         unit="frame",
         disable=not request.progress,
     )
+    online = _online_radii(predictors[0], table, request) if request.online else None
     drawn = [
-        (f, _panels(request, predictors, rows, f, required=False)) for f in wanted if f in present
+        (f, _panels(request, predictors, rows, f, required=False, online=online))
+        for f in wanted
+        if f in present
     ]
     drawn = [(f, panels) for f, panels in drawn if panels]
     if not drawn:
@@ -164,6 +180,32 @@ def _predictors(request: PlotRequest) -> list[Predictor]:
         for c in (request.checkpoint, request.compare)
         if c
     ]
+
+
+def _online_radii(
+    predictor: Predictor, table: TrackTable, request: PlotRequest
+) -> tuple[np.ndarray, np.ndarray]:
+    """The file replayed from its start with online calibration (the predictor's radii to
+    begin with): (F,) frames where forecasts were made and (F, H) the radii in force there."""
+    assert request.region is not None
+    config = predictor.config
+    scene = build_scene(table, config.data, name=str(request.tracks.path))
+    made = forecast_scene(
+        predictor.model, config, scene, predictor.forecast, keep_distribution=True
+    )
+    assert made.distribution is not None
+    state = OnlineCalibration.start(config.data.horizon_steps, predictor.calibration)
+    seen = (table.frame.astype(np.int64), table.ped_id, table.pos_m)
+    shapes = region_shapes(made.point, made.distribution)
+    radii = replay(
+        state,
+        seen,
+        (made.frames, made.ids, made.point, shapes),
+        table.frames_per_step,
+        (request.region,),
+    )
+    frames, first = np.unique(made.frames, return_index=True)
+    return frames, radii.radii[first, 0]
 
 
 def _table_frames(request: PlotRequest, table: TrackTable) -> tuple[int | None, int | None]:
@@ -212,13 +254,21 @@ def _panels(
     frame: int,
     *,
     required: bool = True,
+    online: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> list[Panel]:
     """One panel per model at ``frame`` from (R, 4) ``frame, id, x, y`` ``rows`` (empty when
-    nobody can be forecast and not ``required``)."""
+    nobody can be forecast and not ``required``); ``online``: the first model's radii in force
+    per frame ((F,) frames, (F, H) radii at the drawn q)."""
     data = predictors[0].config.data
     panels = []
-    for predictor in predictors:
+    for k, predictor in enumerate(predictors):
         forecast = predictor.predict(rows, frame, request.samples, request.seed, live=False)
+        if online is not None and k == 0 and request.region:
+            frames, radii = online
+            at = max(int(np.searchsorted(frames, frame, "right")) - 1, 0)
+            per_forecast = np.broadcast_to(radii[at], (len(forecast), 1, radii.shape[1]))
+            calibration = ForecastRadii(np.array([request.region]), per_forecast)
+            forecast = dataclasses.replace(forecast, calibration=calibration)
         if not len(forecast):
             if not required:
                 return []

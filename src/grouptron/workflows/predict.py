@@ -61,7 +61,8 @@ class PredictRequest:
         samples: futures per pedestrian and frame of ``forecast`` ``samples`` (K).
         seed: of the sampled futures.
         regions: probabilities Q of the regions added per point (CSV; an MCAP draws the first).
-        calibration: a ``grouptron calibrate`` file of this checkpoint for the regions' radii.
+        calibration: a ``grouptron calibrate`` file of this checkpoint for the regions' radii
+            (None: the one the checkpoint ships with, where it has one; False: none).
         online: replay the file in time order, the regions' radii adapting to every forecast
             whose truth has arrived (``inference.online``; from ``calibration``, else from
             ``online_state`` where that file exists, else from the Gaussian radii).
@@ -82,7 +83,7 @@ class PredictRequest:
     samples: int = 20
     seed: int = 0
     regions: tuple[float, ...] = ()
-    calibration: str | Path | None = None
+    calibration: str | Path | bool | None = None
     online: bool = False
     online_state: str | Path | None = None
     joint: bool = False
@@ -99,7 +100,7 @@ class PredictRequest:
             raise GrouptronError("--online-state keeps the radii of --online: add it")
         if self.forecast is not None and self.forecast != SAMPLES:
             object.__setattr__(self, "forecast", PointForecast.parse(self.forecast))
-        if self.forecast == SAMPLES and (self.regions or self.calibration):
+        if self.forecast == SAMPLES and (self.regions or self.calibration not in (None, False)):
             raise GrouptronError(
                 "--regions and --calibration go with a point forecast (--forecast), not samples"
             )
@@ -136,13 +137,14 @@ def predict_tracks(request: PredictRequest) -> Predicted:
     point = default_point_forecast(experiment)
     if isinstance(request.forecast, PointForecast):
         point = request.forecast.for_model(experiment.model.latent_values)
-    if (request.regions or request.calibration) and out is not None and out.suffix == ".ndjson":
+    named = request.calibration not in (None, False)
+    if (request.regions or named) and out is not None and out.suffix == ".ndjson":
         raise GrouptronError("--regions and --calibration go with CSV or MCAP output")
     calibrated = calibration_for(request.calibration, experiment, point, str(path))  # before work
-    if calibrated is not None:
+    if calibrated is not None and request.regions:
         differs = condition_mismatch(calibrated, *scene_conditions(scene, data.perception_radius_m))
         if differs:
-            log.warning("%s: %s", request.calibration or "the calibration", differs)
+            log.warning("%s: %s", calibrated.source or request.calibration, differs)
     forecast = forecast_scene(
         model,
         experiment,

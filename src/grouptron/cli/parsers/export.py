@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from grouptron.cli.options import Formatter, add_threads_option
+from grouptron.cli.options import Formatter, add_threads_option, calibration_option
 from grouptron.constants import DEFAULT_CHECKPOINT, EXPORT_FORMATS
 
 
@@ -37,8 +37,10 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     )
     export.add_argument(
         "--calibration",
+        type=calibration_option,
         help="a grouptron calibrate file of this checkpoint, stored in the file's metadata "
-        "(grouptron.region_calibration) for the caller's regions (docs/regions.md)",
+        "(grouptron.region_calibration) for the caller's regions (docs/regions.md); default: "
+        "the calibration the checkpoint ships with, where it has one; 'none' for none",
     )
     add_threads_option(export)
     export.set_defaults(handler="grouptron.cli.export:cmd_export")

@@ -11,6 +11,7 @@ from grouptron.cli.options import (
     add_gap_option,
     add_recording_options,
     add_threads_option,
+    calibration_option,
     non_negative_int,
     plot_region_probability,
     positive_int,
@@ -114,8 +115,11 @@ def add_calibration_option(parser: argparse.ArgumentParser) -> None:
     """``--calibration FILE`` (predict, plot)."""
     parser.add_argument(
         "--calibration",
+        type=calibration_option,
         help="a grouptron calibrate file of this checkpoint: regions take its conformal radii "
-        "(q = 0.01, 0.02, ... 0.99)",
+        "(q = 0.01, 0.02, ... 0.99). Default: the calibration the checkpoint ships with, where "
+        "it has one (the default model's: fitted on held-back crowds, docs/regions.md); "
+        "'none' for the model's own uncalibrated regions",
     )
 
 
@@ -249,6 +253,12 @@ def _add_plot(commands: argparse._SubParsersAction) -> None:
     )
     plot.add_argument("--ids", action="store_true", help="write each person's id beside them")
     add_calibration_option(plot)
+    plot.add_argument(
+        "--online",
+        action="store_true",
+        help="draw the regions with the radii an online calibration has in force at the frame, "
+        "the file replayed from its start (docs/regions.md, 'Online calibration')",
+    )
     plot.add_argument("--seed", type=int, default=0, help="seed of the samples")
     plot.add_argument("--quiet", action="store_true", help="no progress bar")
     add_threads_option(plot)
