@@ -21,6 +21,17 @@ MISSING = Path("no-such-folder") / "tracks.txt"
         (Tracks((MISSING,)), "x.safetensors", ("nll",), EvaluationOptions(), "nll is scored on"),
         (Benchmark(), "x.safetensors", ("ml-best",), EvaluationOptions(), "unknown mode ml-best"),
         (Benchmark(), "x.safetensors", "ml", EvaluationOptions(), "a sequence of evaluation"),
+        (Benchmark(), None, None, EvaluationOptions(regions=(0.9,)), "no distribution to draw"),
+        (Benchmark(), "x.safetensors", None, EvaluationOptions(regions=(1.0,)), "in \\(0, 0.99"),
+        (Benchmark(), "x.safetensors", None, EvaluationOptions(regions=0.9), "a sequence of prob"),
+        (Benchmark(), "x.safetensors", None, EvaluationOptions(calibration="c.json"), "--regions"),
+        (
+            Benchmark(),
+            "x.safetensors",
+            ("best-of-20",),
+            EvaluationOptions(regions=(0.9,)),
+            "--mode best-of-20 has none",
+        ),
     ],
 )
 def test_meaningless_requests_are_refused_in_one_line(

@@ -78,6 +78,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         device=args.device,
         use_cache=not getattr(args, "no_cache", False),
         progress=show_progress(args),
+        regions=args.regions,
+        calibration=None if args.calibration == "none" else args.calibration,
     )
     rows = evaluate(_source(args), checkpoint, _modes(args), options)
     print(results_json(rows) if args.format == "json" else results_table(rows))

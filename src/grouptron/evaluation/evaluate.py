@@ -1,9 +1,10 @@
-"""Evaluate a trained model on a sample set: ML, ML-argmax, best-of-20 and KDE NLL."""
+"""Evaluate a trained model on a sample set: ML, ML-argmax, best-of-20 and KDE NLL, and the
+prediction regions of point forecasts (coverage and area per step)."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
@@ -14,14 +15,16 @@ from grouptron.baselines.constant_velocity import constant_velocity
 from grouptron.config import ExperimentConfig
 from grouptron.data.prepare.samples import SampleSet
 from grouptron.evaluation import metrics
+from grouptron.evaluation.region_scores import RegionScoring
 from grouptron.groups.assign import SampleGroups
 from grouptron.model.batch import batches
 from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.mixture import Mixture
 from grouptron.model.predict import (
     Ablation,
+    Decoded,
     decode,
     mixture_mean_positions,
-    predict_point,
     predict_samples,
 )
 from grouptron.point_forecast import PointForecast, is_evaluation_mode, is_point_forecast
@@ -38,12 +41,14 @@ class ModeScores:
     Attributes:
         means: mean of each metric by name (the registered ones; ``nll`` for the NLL mode).
         nll_undefined: samples whose KDE could not be built (all draws identical at some step).
+        step_means: per metric scored per step (the region metrics), its (H,) means.
     """
 
     mode: str
     samples: int
     means: dict[str, float]
     nll_undefined: int = 0
+    step_means: dict[str, tuple[float, ...]] = field(default_factory=dict)
 
     @property
     def ade(self) -> float:
@@ -67,10 +72,13 @@ class SampleScores:
 
     Point forecasts and best-of-20 carry every registered metric
     (:data:`grouptron.evaluation.metrics.METRICS`); the ``nll`` mode carries ``nll`` alone.
+    Point forecasts scored with regions carry the region metrics too: ``per_step`` holds their
+    (S, H) scores and ``values`` each sample's mean over the H steps.
     """
 
     mode: str
     values: dict[str, np.ndarray]
+    per_step: dict[str, np.ndarray] = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(next(iter(self.values.values())))
@@ -97,14 +105,20 @@ class SampleScores:
 
     def subset(self, keep: np.ndarray) -> SampleScores:
         """The scores of the samples where the (S,) mask ``keep`` is true."""
-        return SampleScores(self.mode, {k: v[keep] for k, v in self.values.items()})
+        return SampleScores(
+            self.mode,
+            {k: v[keep] for k, v in self.values.items()},
+            {k: v[keep] for k, v in self.per_step.items()},
+        )
 
     def summary(self, keep: np.ndarray | None = None) -> ModeScores:
         """Means over all samples, or over the samples where the (S,) mask ``keep`` is true."""
         kept = self if keep is None else self.subset(keep)
         count = len(kept)
         if self.mode != metrics.NLL:
-            return ModeScores(self.mode, count, {k: _mean(v) for k, v in kept.values.items()})
+            means = {k: _mean(v) for k, v in kept.values.items()}
+            steps = {k: _step_means(v) for k, v in kept.per_step.items()}
+            return ModeScores(self.mode, count, means, step_means=steps)
         nll = kept.nll
         undefined = int(np.isnan(nll).sum())
         return ModeScores(self.mode, count, {metrics.NLL: _mean(nll[~np.isnan(nll)])}, undefined)
@@ -112,6 +126,13 @@ class SampleScores:
 
 def _mean(values: np.ndarray) -> float:
     return float(values.mean()) if len(values) else math.nan
+
+
+def _step_means(values: np.ndarray) -> tuple[float, ...]:
+    """(S, H) scores -> their H means over the samples (NaN without samples)."""
+    if not len(values):
+        return tuple(math.nan for _ in range(values.shape[1]))
+    return tuple(float(v) for v in values.mean(axis=0))
 
 
 # One loop over modes and batches, so that point forecasts, best-of-20 and the NLL read the
@@ -129,8 +150,10 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
     groups: SampleGroups | None = None,
     device: torch.device | str = "cpu",
     ablate: Ablation = (),
+    regions: RegionScoring | None = None,
 ) -> list[SampleScores]:
-    """Per-sample ADE/FDE (metres) of each requested mode, and the KDE NLL for ``"nll"``.
+    """Per-sample ADE/FDE (metres) of each requested mode, and the KDE NLL for ``"nll"``;
+    with ``regions``, every point forecast's region metrics (coverage, area) per step too.
 
     Every sample is predicted independently of its batch, so means over a subset of these
     scores equal an evaluation of that subset (UNIV-N is scored this way). Each sampling mode
@@ -148,7 +171,15 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
     results: dict[str, SampleScores] = {}
     if all(mode in modes for mode in SHARED_DECODE):
         results = _score_shared_decode(
-            model, config, samples, batch_size, groups, device, ablate, progress
+            model,
+            config,
+            samples,
+            batch_size=batch_size,
+            groups=groups,
+            device=device,
+            ablate=ablate,
+            progress=progress,
+            regions=regions,
         )
     for mode in (m for m in modes if m not in results):
         values: dict[str, np.ndarray] = {}
@@ -163,8 +194,10 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
             truth = batch.fut_rel_m.double().cpu().numpy()  # (B, H, 2)
             if is_point_forecast(mode):
                 named = PointForecast.parse(mode)
-                point = predict_point(model, batch, named, horizon, dt, ablate)
-                _store(values, index, count, metrics.point_scores(point.double().numpy(), truth))
+                decoded = decode(model, batch, named, horizon, dt, ablate=ablate)
+                point = decoded.point.double().cpu().numpy()  # (B, H, 2)
+                made_from = _distribution(decoded, regions)
+                _store(values, index, count, _point_scores(point, made_from, truth, regions))
                 continue
             k = BEST_OF if mode == "best-of-20" else NLL_SAMPLES
             draws = predict_samples(
@@ -175,21 +208,45 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
                 _store(values, index, count, metrics.best_of_scores(draws_np, truth))
             else:
                 _store(values, index, count, {metrics.NLL: metrics.kde_nll(draws_np, truth)})
-        results[mode] = SampleScores(mode, _complete(values, count))
+        results[mode] = _completed(mode, values, count)
     return [results[mode] for mode in modes]
+
+
+def _distribution(decoded: Decoded, regions: RegionScoring | None) -> Mixture | None:
+    """The distribution a point forecast was made from, where regions are scored."""
+    return decoded.distribution().mixture() if regions is not None else None
+
+
+def _point_scores(
+    point: np.ndarray,
+    distribution: Mixture | None,
+    truth: np.ndarray,
+    regions: RegionScoring | None,
+) -> dict[str, np.ndarray]:
+    """Every registered metric of a batch's (B, H, 2) point forecast, name -> (B,); with
+    ``regions``, every region metric of the ``distribution`` it was made from, -> (B, H)."""
+    scores = metrics.point_scores(point, truth)
+    if regions is not None and distribution is not None:
+        scores.update(regions.scores(point, distribution, truth))
+    return scores
 
 
 def _store(
     values: dict[str, np.ndarray], index: np.ndarray, count: int, batch: dict[str, np.ndarray]
 ) -> None:
-    """Write one batch's (B,) scores per metric into the (S,) arrays at ``index``."""
+    """Write one batch's (B,) or (B, H) scores per metric into the (S,) or (S, H) arrays at
+    ``index``."""
     for name, scores in batch.items():
-        values.setdefault(name, np.full(count, np.nan))[index] = scores
+        values.setdefault(name, np.full((count, *scores.shape[1:]), np.nan))[index] = scores
 
 
-def _complete(values: dict[str, np.ndarray], count: int) -> dict[str, np.ndarray]:
-    """The scores of an empty sample set still name their metrics."""
-    return values or {name: np.full(count, np.nan) for name in metrics.METRICS}
+def _completed(mode: str, values: dict[str, np.ndarray], count: int) -> SampleScores:
+    """The scores of one mode: (S, H) ones kept per step, with their per-sample means beside
+    the (S,) ones; an empty sample set's still name the registered metrics."""
+    found = values or {name: np.full(count, np.nan) for name in metrics.METRICS}
+    per_step = {name: v for name, v in found.items() if v.ndim == 2}
+    means = {name: v.mean(axis=1) if v.ndim == 2 else v for name, v in found.items()}
+    return SampleScores(mode, means, per_step)
 
 
 SHARED_DECODE = ("ml", "mean")
@@ -197,17 +254,20 @@ SHARED_DECODE = ("ml", "mean")
 together, that decode runs once per batch instead of once per forecast, with the same numbers."""
 
 
-def _score_shared_decode(
+def _score_shared_decode(  # noqa: PLR0913 - score_samples's options, all keyword-only
     model: TrajectronCVAE,
     config: ExperimentConfig,
     samples: SampleSet,
+    *,
     batch_size: int,
     groups: SampleGroups | None,
     device: torch.device | str,
     ablate: Ablation,
     progress: bool,
+    regions: RegionScoring | None,
 ) -> dict[str, SampleScores]:
-    """The ``SHARED_DECODE`` forecasts' per-sample ADE/FDE, in one pass over the batches."""
+    """The ``SHARED_DECODE`` forecasts' per-sample scores, in one pass over the batches (both
+    made from the one distribution of all Z latent values)."""
     horizon, dt, count = config.data.horizon_steps, config.data.dt_s, len(samples)
     scores: dict[str, dict[str, np.ndarray]] = {mode: {} for mode in SHARED_DECODE}
     iterator = batches(samples, config, batch_size, groups)
@@ -222,10 +282,11 @@ def _score_shared_decode(
             "ml": decoded.point,
             "mean": mixture_mean_positions(decoded.encoding, decoded.velocity, dt),
         }
+        made_from = _distribution(decoded, regions)  # all Z: the same for both
         for mode, values in scores.items():
             pred = predictions[mode].double().cpu().numpy()  # (B, H, 2)
-            _store(values, index, count, metrics.point_scores(pred, truth))
-    return {mode: SampleScores(mode, _complete(v, count)) for mode, v in scores.items()}
+            _store(values, index, count, _point_scores(pred, made_from, truth, regions))
+    return {mode: _completed(mode, v, count) for mode, v in scores.items()}
 
 
 def evaluate_model(  # noqa: PLR0913 - score_samples's options, all keyword-only

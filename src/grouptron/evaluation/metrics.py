@@ -7,6 +7,12 @@ A metric is one function from forecasts and truths to a per-sample score and one
 :func:`register_metric` line; every point forecast, best-of-K, ``grouptron evaluate`` (table
 and JSON) and the dataset report then carry it. Every metric is lower-is-better per sample, so
 that best-of-K is its minimum over the K forecasts.
+
+A region metric scores a point forecast's prediction regions (``model.regions.Regions``)
+against the truths, per sample and step, for each probability ``q`` asked
+(:func:`register_region_metric`): ``coverage-q90`` (1 where the truth lies inside the 90%
+region) and ``area-q90`` (the region's area, m^2). They are read together, not each alone:
+a region is better when it is smaller at the same coverage.
 """
 
 from __future__ import annotations
@@ -15,6 +21,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+
+from grouptron.model.regions import Regions
 
 KDE_LOG_DENSITY_FLOOR = -20.0
 """Per-step log-density clip of the KDE NLL, as in the reference evaluation."""
@@ -177,3 +185,80 @@ def best_of_scores(samples: np.ndarray, truth: np.ndarray) -> dict[str, np.ndarr
     return {
         name: metric.score(samples, truth[:, None]).min(axis=1) for name, metric in METRICS.items()
     }
+
+
+@dataclass(frozen=True)
+class RegionMetric:
+    """A per-sample, per-step score of a point forecast's prediction regions.
+
+    Attributes:
+        name: its key with the probability appended (``coverage`` -> ``coverage-q90``).
+        label: its column heading in tables, ``{q}`` standing for the percentage (``cov{q}``).
+        score: ``Regions`` of (N, H) ellipses and (N, H, 2) true positions -> (N, H) scores.
+    """
+
+    name: str
+    label: str
+    score: Callable[[Regions, np.ndarray], np.ndarray]
+
+
+REGION_METRICS: dict[str, RegionMetric] = {}
+"""Every registered region metric by name, in the order of registration."""
+
+
+def register_region_metric(metric: RegionMetric) -> RegionMetric:
+    """Add ``metric`` to :data:`REGION_METRICS` (a name is registered once)."""
+    if metric.name in REGION_METRICS:
+        raise ValueError(f"a region metric named {metric.name!r} is registered already")
+    REGION_METRICS[metric.name] = metric
+    return metric
+
+
+def region_coverage(regions: Regions, truth: np.ndarray) -> np.ndarray:
+    """(N, H) 1 where the (N, H, 2) true position lies inside its step's region, else 0."""
+    return regions.contains(truth).astype(np.float64)
+
+
+def region_area_m2(regions: Regions, truth: np.ndarray) -> np.ndarray:
+    """(N, H) each step's region area, pi * major * minor semi-axes, m^2 (``truth`` unread)."""
+    area: np.ndarray = np.pi * regions.major_m * regions.minor_m
+    return area
+
+
+register_region_metric(RegionMetric("coverage", "cov{q}", region_coverage))
+register_region_metric(RegionMetric("area", "area{q} m2", region_area_m2))
+
+
+def percent(q: float) -> str:
+    """A probability as the percentage that names it: 0.9 -> ``90``, 0.975 -> ``97.5``."""
+    return f"{100 * q:g}"
+
+
+def region_metric_name(name: str, q: float) -> str:
+    """The key of a region metric at probability ``q``: ``coverage``, 0.9 -> ``coverage-q90``."""
+    return f"{name}-q{percent(q)}"
+
+
+def region_metric_names(qs: tuple[float, ...]) -> tuple[str, ...]:
+    """Every registered region metric's key at every ``q``, q by q."""
+    return tuple(region_metric_name(name, q) for q in qs for name in REGION_METRICS)
+
+
+def region_scores(regions: Regions, truth: np.ndarray) -> dict[str, np.ndarray]:
+    """Every registered region metric of ``regions`` (at their ``q``): name -> (N, H)."""
+    return {
+        region_metric_name(name, regions.q): metric.score(regions, truth)
+        for name, metric in REGION_METRICS.items()
+    }
+
+
+def metric_label(name: str) -> str:
+    """A metric's column heading: its registered label (a region metric's with its
+    percentage), else its name."""
+    if name in METRICS:
+        return METRICS[name].label
+    for metric in REGION_METRICS.values():
+        prefix = f"{metric.name}-q"
+        if name.startswith(prefix):
+            return metric.label.format(q=name[len(prefix) :])
+    return name

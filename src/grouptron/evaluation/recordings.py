@@ -20,6 +20,7 @@ from grouptron.data.prepare.samples import SampleSet, concatenate_samples, scene
 from grouptron.data.prepare.scene import build_scene
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
+from grouptron.evaluation.region_scores import RegionScoring
 from grouptron.evaluation.results import EvaluationResult, score_rows
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model
@@ -148,12 +149,13 @@ def evaluate_recordings(  # noqa: PLR0913 - the model and scoring options, all k
     by_density: bool = False,
     ablate: Ablation = (),
     baseline: bool = False,
+    regions: RegionScoring | None = None,
 ) -> list[EvaluationResult]:
     """Constant velocity (``model`` None) or a checkpoint on the files: rows per file and mode,
     then the pooled row (and its density bins with ``by_density``); ``baseline`` adds constant
     velocity's rows on the same samples after the model's. ``data`` is the checkpoint's data
     settings (or the baseline's); the network runs on ``device`` with the ``ablate`` inputs
-    taken away."""
+    taken away; ``regions``: the point forecasts' prediction regions to score too."""
     samples = recording_samples(sources, data)
     files = [Path(source.path) for source in sources]
     template = EvaluationResult("", CONSTANT_VELOCITY, None, 0, 0.0, 0.0)
@@ -173,6 +175,7 @@ def evaluate_recordings(  # noqa: PLR0913 - the model and scoring options, all k
         groups=groups,
         device=device,
         ablate=ablate,
+        regions=regions,
     )
     name = experiment.model_name + (f" without {' and '.join(ablate)}" if ablate else "")
     for scores in per_mode:

@@ -47,20 +47,37 @@ class EvaluationResult:
     """Means of the registered metrics other than ADE and FDE, by name."""
     metrics_ci: dict[str, tuple[float, float]] = field(default_factory=dict)
     """Their 95% intervals, where computed."""
+    per_step: dict[str, tuple[float, ...]] = field(default_factory=dict)
+    """The (H,) per-step means of the metrics scored per step (the region metrics: their
+    mean over the steps is in ``metrics``)."""
 
     def to_dict(self) -> dict[str, object]:
         """The row as JSON values: optional fields left out where unset, every other metric
-        beside ADE and FDE (``miss_2m``, with ``miss_2m_ci``), NaN as None."""
+        beside ADE and FDE (``miss_2m``, with ``miss_2m_ci``; a region metric's steps as
+        ``coverage-q90_per_step``), NaN as None."""
         row = dataclasses.asdict(self)
         for optional in ("mode", "nll", "checkpoint", "derivatives", "ade_ci", "fde_ci"):
             if row[optional] is None:
                 del row[optional]
         extra, intervals = row.pop("metrics"), row.pop("metrics_ci")
+        per_step = row.pop("per_step")
         for name, value in extra.items():
             row[name] = value
             if name in intervals:
                 row[f"{name}_ci"] = intervals[name]
-        return {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in row.items()}
+            if name in per_step:
+                row[f"{name}{PER_STEP}"] = [_json_number(v) for v in per_step[name]]
+        return {k: _json_number(v) if isinstance(v, float) else v for k, v in row.items()}
+
+
+PER_STEP = "_per_step"
+"""The suffix of a metric's per-step means in JSON."""
+TABLE_STEPS = (4, 8, 12)
+"""The forecast steps (1.6, 3.2 and 4.8 s ahead) whose per-step means a table shows."""
+
+
+def _json_number(value: float) -> float | None:
+    return None if math.isnan(value) else value
 
 
 def score_rows(
@@ -101,15 +118,19 @@ def score_rows(
                 fde_ci=intervals.get("fde"),
                 metrics={k: v for k, v in summary.means.items() if k not in NAMED},
                 metrics_ci={k: v for k, v in intervals.items() if k not in NAMED},
+                per_step=summary.step_means,
             )
         )
     return rows
 
 
 def mean_over_splits(results: Sequence[EvaluationResult]) -> EvaluationResult:
-    """The unweighted mean of split scores (the papers' "AVG" column)."""
+    """The unweighted mean of split scores (the papers' "AVG" column), of every metric all
+    splits hold (per step too)."""
     first = results[0]
     nll = [r.nll for r in results if r.nll is not None]
+    shared = [n for n in first.metrics if all(n in r.metrics for r in results)]
+    stepped = [n for n in first.per_step if all(n in r.per_step for r in results)]
     return dataclasses.replace(
         first,
         split=MEAN_ROW,
@@ -120,12 +141,25 @@ def mean_over_splits(results: Sequence[EvaluationResult]) -> EvaluationResult:
         checkpoint=None,
         ade_ci=None,
         fde_ci=None,
+        metrics={n: float(np.mean([r.metrics[n] for r in results])) for n in shared},
+        metrics_ci={},
+        per_step={
+            n: tuple(float(v) for v in np.mean([r.per_step[n] for r in results], axis=0))
+            for n in stepped
+        },
     )
 
 
 def results_json(results: Sequence[EvaluationResult]) -> str:
-    """The rows as a JSON document ``{"results": [...]}``, NaN written as null."""
-    return json.dumps({"results": [r.to_dict() for r in results]}, indent=2)
+    """The rows as a JSON document ``{"results": [...]}``, NaN written as null; every row
+    names every metric a row has (null where it has none: constant velocity's regions)."""
+    rows = [r.to_dict() for r in results]
+    names = [n for r in results for n in r.metrics]
+    names += [f"{n}{PER_STEP}" for r in results for n in r.per_step]
+    for row in rows:
+        for name in dict.fromkeys(names):
+            row.setdefault(name, None)
+    return json.dumps({"results": rows}, indent=2)
 
 
 def _fmt(value: float | None) -> str:
@@ -134,10 +168,10 @@ def _fmt(value: float | None) -> str:
 
 def results_table(results: Sequence[EvaluationResult]) -> str:
     """A fixed-width text table: split (or file), subset, model, samples, ADE, FDE (metres),
-    NLL, every other registered metric, and the 95% interval of FDE where one was computed."""
+    NLL, every other registered metric (a region metric at steps 4, 8 and 12 and its mean over
+    the steps), and the 95% interval of FDE where one was computed."""
     with_nll = any(r.nll is not None for r in results)
-    extra = list(dict.fromkeys(name for r in results for name in r.metrics))
-    labels = [metrics.METRICS[n].label if n in metrics.METRICS else n for n in extra]
+    columns = _metric_columns(results)
     with_ci = any(r.fde_ci is not None for r in results)
     width = max([7, *(len(r.split) for r in results)])
     sub = max([9, *(len(r.subset or "") for r in results)])
@@ -147,7 +181,7 @@ def results_table(results: Sequence[EvaluationResult]) -> str:
         f"{'FDE m':>7}"
     )
     header += f" {'NLL':>7}" if with_nll else ""
-    header += "".join(f" {label:>{max(7, len(label))}}" for label in labels)
+    header += "".join(f" {label:>{max(7, len(label))}}" for label, _, _ in columns)
     header += f" {'FDE 95% interval':>18}" if with_ci else ""
     lines = [header, "-" * len(header)]
     for r in results:
@@ -158,11 +192,30 @@ def results_table(results: Sequence[EvaluationResult]) -> str:
         )
         line += f" {_fmt(r.nll):>7}" if with_nll else ""
         line += "".join(
-            f" {_fmt(r.metrics.get(n)):>{max(7, len(label))}}"
-            for n, label in zip(extra, labels, strict=True)
+            f" {_fmt(_cell(r, n, step)):>{max(7, len(label))}}" for label, n, step in columns
         )
         if with_ci:
             interval = f"[{_fmt(r.fde_ci[0])}, {_fmt(r.fde_ci[1])}]" if r.fde_ci else "-"
             line += f" {interval:>18}"
         lines.append(line)
     return "\n".join(lines)
+
+
+def _metric_columns(results: Sequence[EvaluationResult]) -> list[tuple[str, str, int | None]]:
+    """(heading, metric name, step or None for the mean) of every column after ADE and FDE:
+    each metric's mean, a metric scored per step at :data:`TABLE_STEPS` first."""
+    columns: list[tuple[str, str, int | None]] = []
+    for name in dict.fromkeys(n for r in results for n in r.metrics):
+        label = metrics.metric_label(name)
+        horizon = max((len(r.per_step[name]) for r in results if name in r.per_step), default=0)
+        columns += [(f"{label} @{s}", name, s) for s in TABLE_STEPS if s <= horizon]
+        columns.append((label, name, None))
+    return columns
+
+
+def _cell(row: EvaluationResult, name: str, step: int | None) -> float | None:
+    """A row's mean of metric ``name``, or its mean at (1-based) ``step``; None where unset."""
+    if step is None:
+        return row.metrics.get(name)
+    values = row.per_step.get(name)
+    return values[step - 1] if values is not None and step <= len(values) else None

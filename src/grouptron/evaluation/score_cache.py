@@ -1,10 +1,11 @@
 """Per-sample scores kept on disk, so that a report scores only what it has not scored before.
 
 Regenerating a report after one checkpoint was added or retrained should cost that
-checkpoint's scoring, not every checkpoint's again. Each mode's (S,) ADE/FDE/NLL arrays are
-stored as one ``.npz`` (never pickle) as soon as that mode is scored, under a key that hashes
-everything they depend on: the model's weights and configuration, the test samples and groups
-(their contents, not their file names), the mode, seed, batch size and ablation, and the
+checkpoint's scoring, not every checkpoint's again. Each mode's (S,) ADE/FDE/NLL arrays (and
+(S, H) region metrics, where asked) are stored as one ``.npz`` (never pickle) as soon as that
+mode is scored, under a key that hashes everything they depend on: the model's weights and
+configuration, the test samples and groups (their contents, not their file names), the mode,
+seed, batch size and ablation, the regions' probabilities and calibrated radii, and the
 library versions. The files sit in a subfolder named by a hash of the source of every
 grouptron module that builds the model or scores it, so that edited code never reads old
 scores and the sets of older code can be deleted whole (any of it can be, at any time).
@@ -27,10 +28,12 @@ from grouptron.config import ExperimentConfig
 from grouptron.data.prepare.samples import SampleSet
 from grouptron.evaluation import metrics
 from grouptron.evaluation.evaluate import SHARED_DECODE, SampleScores, score_samples
+from grouptron.evaluation.region_scores import RegionScoring
 from grouptron.groups.assign import SampleGroups
 from grouptron.io import keep_cache_npz, read_cache_npz
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.predict import Ablation
+from grouptron.point_forecast import is_point_forecast
 
 SCORE_CACHE_FORMAT = 1
 PACKAGE = "grouptron"
@@ -51,10 +54,12 @@ def cached_score_samples(  # noqa: PLR0913 - score_samples's options, all keywor
     progress: bool = False,
     groups: SampleGroups | None = None,
     ablate: Ablation = (),
+    regions: RegionScoring | None = None,
 ) -> list[SampleScores]:
     """:func:`score_samples` on the CPU, each mode read from ``folder`` when it was scored
     before (None: no cache). The modes not found are scored and stored one by one (``ml`` and
-    ``mean`` together: they share a decode), so a run stopped half-way keeps what it scored."""
+    ``mean`` together: they share a decode), so a run stopped half-way keeps what it scored.
+    A point forecast's scores with ``regions`` are kept under a key of their own."""
     score = partial(
         score_samples,
         model,
@@ -65,31 +70,44 @@ def cached_score_samples(  # noqa: PLR0913 - score_samples's options, all keywor
         progress=progress,
         groups=groups,
         ablate=ablate,
+        regions=regions,
     )
     if folder is None:
         return score(tuple(modes))
     common = _common_key(model, config, samples, groups, batch_size, seed, ablate)
     subfolder = folder / scoring_source_digest(_model_modules(model))[:16]
-    paths = {mode: subfolder / f"{_mode_key(common, mode)}.npz" for mode in modes}
-    found = {mode: _read(paths[mode], mode, len(samples)) for mode in modes}
+    paths = {mode: subfolder / f"{_mode_key(common, mode, regions)}.npz" for mode in modes}
+    shape = (len(samples), config.data.horizon_steps)
+    found = {mode: _read(paths[mode], mode, shape, regions) for mode in modes}
     missing = [mode for mode in modes if found[mode] is None]
     together = SHARED_DECODE if set(SHARED_DECODE) <= set(missing) else ()
     calls = [together] if together else []
     for call in calls + [(mode,) for mode in missing if mode not in together]:
         for scores in score(call):
-            _write(paths[scores.mode], scores)
+            _write(paths[scores.mode], scores, regions)
             found[scores.mode] = scores
     return [found[mode] for mode in modes]  # type: ignore[misc]
 
 
-def _read(path: Path, mode: str, count: int) -> SampleScores | None:
-    """The stored scores, or None when absent or unreadable (then scored again)."""
+def _read(
+    path: Path, mode: str, shape: tuple[int, int], regions: RegionScoring | None
+) -> SampleScores | None:
+    """The stored scores, or None when absent or unreadable (then scored again). ``shape``:
+    (S, H), the shape of the per-step scores; the others are (S,)."""
+    count = shape[0]
 
     def parse(stored: dict[str, np.ndarray]) -> SampleScores:
         arrays = {name: np.asarray(stored[name], dtype=np.float64) for name in _names(mode)}
+        per_step = {
+            name: np.asarray(stored[name], dtype=np.float64)
+            for name in _region_names(mode, regions)
+        }
         if any(a.shape != (count,) for a in arrays.values()):
             raise ValueError(f"not {count} samples")
-        return SampleScores(mode, arrays)
+        if any(a.shape != shape for a in per_step.values()):
+            raise ValueError(f"not {shape[0]} samples of {shape[1]} steps")
+        arrays.update({name: a.mean(axis=1) for name, a in per_step.items()})
+        return SampleScores(mode, arrays, per_step)
 
     return read_cache_npz(path, parse)  # a metric missing from the file: scored again
 
@@ -99,12 +117,23 @@ def _names(mode: str) -> tuple[str, ...]:
     return (metrics.NLL,) if mode == metrics.NLL else tuple(metrics.METRICS)
 
 
-def _write(path: Path, scores: SampleScores) -> None:
-    keep_cache_npz(path, {name: scores.get(name) for name in _names(scores.mode)})
+def _region_names(mode: str, regions: RegionScoring | None) -> tuple[str, ...]:
+    """The region metrics a mode's stored scores must hold per step (point forecasts only)."""
+    return regions.names if regions is not None and is_point_forecast(mode) else ()
 
 
-def _mode_key(common: str, mode: str) -> str:
-    return hashlib.sha256(f"{common}:{mode}".encode()).hexdigest()[:32]
+def _write(path: Path, scores: SampleScores, regions: RegionScoring | None) -> None:
+    arrays = {name: scores.get(name) for name in _names(scores.mode)}
+    arrays.update({name: scores.per_step[name] for name in _region_names(scores.mode, regions)})
+    keep_cache_npz(path, arrays)
+
+
+def _mode_key(common: str, mode: str, regions: RegionScoring | None) -> str:
+    """A mode's key: a point forecast scored with regions keys on their q and radii too."""
+    scored = f"{common}:{mode}"
+    if regions is not None and is_point_forecast(mode):
+        scored += f":{regions.key()}"
+    return hashlib.sha256(scored.encode()).hexdigest()[:32]
 
 
 def _common_key(

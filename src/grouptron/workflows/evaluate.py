@@ -1,9 +1,11 @@
 """One ``evaluate`` for every source: the benchmark's test sets, track files of one's own, and
 a dataset description's test part; a checkpoint's scores beside constant velocity's on the
-same samples (or constant velocity alone).
+same samples (or constant velocity alone), with its point forecast's prediction regions
+(coverage and area per step) where asked.
 
     from grouptron.workflows.evaluate import Benchmark, evaluate
     rows = evaluate(Benchmark(splits=("univ",)), "grouptron-univ-backward", ("ml", "best-of-20"))
+    rows = evaluate(Tracks(("site.txt",)), options=EvaluationOptions(regions=(0.5, 0.9)))
 """
 
 from __future__ import annotations
@@ -18,7 +20,13 @@ from typing import Literal
 import numpy as np
 
 from grouptron.config import DataConfig, ExperimentConfig
-from grouptron.constants import ALL_LOCATIONS, CONSTANT_VELOCITY, EVALUATION_MODES, SPLITS
+from grouptron.constants import (
+    ALL_LOCATIONS,
+    CONSTANT_VELOCITY,
+    EVALUATION_MODES,
+    MAX_REGION_Q,
+    SPLITS,
+)
 from grouptron.data.datasets.custom import DatasetDescription, load_dataset_part
 from grouptron.data.datasets.locate import resolve_data_dir, split_files
 from grouptron.data.datasets.subsets import density_masks, parse_univ_n
@@ -27,16 +35,18 @@ from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
 from grouptron.evaluation.recordings import evaluate_recordings, training_files
+from grouptron.evaluation.region_scores import RegionScoring
 from grouptron.evaluation.results import EvaluationResult, mean_over_splits, score_rows
 from grouptron.evaluation.test_sets import load_test_set
 from grouptron.geometry import DerivativeScheme
 from grouptron.groups.assign import SampleGroups
+from grouptron.inference.calibration import calibration_for
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model, uses_groups
 from grouptron.model.predict import ABLATIONS, default_point_forecast
-from grouptron.point_forecast import is_evaluation_mode
+from grouptron.point_forecast import PointForecast, is_evaluation_mode, is_point_forecast
 from grouptron.workflows.adapt import adapted_parts
 
 log = logging.getLogger("grouptron")
@@ -90,6 +100,10 @@ class EvaluationOptions:
         device: where the network runs.
         use_cache: read and keep samples and groups in the cache.
         progress: progress bars.
+        regions: probabilities q of prediction regions to score each point forecast's by
+            (coverage and area per step: ``coverage-q90``, ``area-q90``); empty: none.
+        calibration: a ``grouptron calibrate`` file of the checkpoint and point forecast whose
+            radii size the regions (None: the model's own regions, uncalibrated).
     """
 
     seed: int = 0
@@ -100,6 +114,8 @@ class EvaluationOptions:
     device: str = "cpu"
     use_cache: bool = True
     progress: bool = False
+    regions: tuple[float, ...] = ()
+    calibration: str | Path | None = None
 
 
 @dataclass(frozen=True)
@@ -126,14 +142,16 @@ def evaluate(
     line's one-line errors.
     """
     _refuse_meaningless(source, checkpoint, modes, options)
+    _refuse_meaningless_regions(checkpoint, modes, options)
     loaded = _load(checkpoint, options)
     chosen = tuple(modes) if modes else _default_modes(loaded.experiment)
     _check_ablations(options.ablate, loaded)
+    regions = _region_scoring(loaded, chosen, options)
     if isinstance(source, Tracks):
-        return _evaluate_tracks(source, loaded, chosen, options)
+        return _evaluate_tracks(source, loaded, chosen, options, regions=regions)
     if isinstance(source, DatasetDescription):
-        return _evaluate_dataset(source, loaded, chosen, options)
-    return _evaluate_benchmark(source, loaded, chosen, options)
+        return _evaluate_dataset(source, loaded, chosen, options, regions=regions)
+    return _evaluate_benchmark(source, loaded, chosen, options, regions=regions)
 
 
 def _refuse_meaningless(
@@ -161,6 +179,47 @@ def _refuse_meaningless(
         raise GrouptronError("--ablate takes inputs away from a checkpoint's model")
     if isinstance(source, Tracks) and "nll" in (modes or ()):
         raise GrouptronError("--mode nll is scored on benchmark test sets, not on --tracks")
+
+
+def _refuse_meaningless_regions(
+    checkpoint: str | Path | None, modes: Sequence[str] | None, options: EvaluationOptions
+) -> None:
+    """Refuse regions without a distribution (constant velocity, sampled modes alone), of
+    probabilities outside (0, 0.99], and a calibration without regions."""
+    qs = options.regions
+    if isinstance(qs, str | int | float):
+        raise GrouptronError(f"regions is a sequence of probabilities such as (0.9,), not {qs!r}")
+    if any(not 0.0 < q <= MAX_REGION_Q for q in qs):
+        raise GrouptronError(f"--regions probabilities must be in (0, {MAX_REGION_Q}]: {qs}")
+    if options.calibration is not None and not qs:
+        raise GrouptronError("--calibration sizes prediction regions: give --regions too")
+    if qs and checkpoint is None:
+        raise GrouptronError(
+            "constant velocity has no distribution to draw regions from: --regions needs a "
+            "--checkpoint"
+        )
+    if qs and modes and not any(is_point_forecast(m) for m in modes):
+        raise GrouptronError(f"--regions are a point forecast's; --mode {','.join(modes)} has none")
+
+
+def _region_scoring(
+    loaded: _Loaded, modes: tuple[str, ...], options: EvaluationOptions
+) -> RegionScoring | None:
+    """The regions to score: the model's own, or sized by the calibration file, which must
+    belong to this checkpoint and every point forecast scored (checked before reading data)."""
+    if not options.regions or loaded.experiment is None:
+        return None
+    qs = tuple(options.regions)
+    if options.calibration is None:
+        return RegionScoring(qs)
+    checkpoint = str(loaded.path or "")
+    found = [
+        calibration_for(options.calibration, loaded.experiment, PointForecast.parse(m), checkpoint)
+        for m in modes
+        if is_point_forecast(m)
+    ]
+    radii = {q: c.radius(q) for c in found[:1] if c is not None for q in qs}
+    return RegionScoring(qs, radii)
 
 
 def _load(checkpoint: str | Path | None, options: EvaluationOptions) -> _Loaded:
@@ -203,6 +262,8 @@ def _model_scores(
     groups: SampleGroups | None,
     modes: tuple[str, ...],
     options: EvaluationOptions,
+    *,
+    regions: RegionScoring | None,
 ) -> list[tuple[str, str | None, SampleScores]]:
     """(model name, checkpoint, scores) of the model per mode, then constant velocity's."""
     scored: list[tuple[str, str | None, SampleScores]] = []
@@ -220,6 +281,7 @@ def _model_scores(
                 groups=groups,
                 ablate=options.ablate,
                 device=options.device,
+                regions=regions,
             )
         ]
     baseline = constant_velocity_scores(samples, loaded.data.horizon_steps)
@@ -241,7 +303,12 @@ def _rows(
 
 
 def _evaluate_benchmark(
-    source: Benchmark, loaded: _Loaded, modes: tuple[str, ...], options: EvaluationOptions
+    source: Benchmark,
+    loaded: _Loaded,
+    modes: tuple[str, ...],
+    options: EvaluationOptions,
+    *,
+    regions: RegionScoring | None,
 ) -> list[EvaluationResult]:
     """Every split's test set (and its UNIV-N subset), the mean over the five splits."""
     experiment = loaded.experiment
@@ -280,7 +347,7 @@ def _evaluate_benchmark(
         )
         masks: dict[str | None, np.ndarray | None] = {source.subset: None}
         masks.update(density_masks(samples) if options.by_density else {})
-        scored = _model_scores(loaded, samples, groups, modes, options)
+        scored = _model_scores(loaded, samples, groups, modes, options, regions=regions)
         rows += _rows(split, scored, masks, loaded.data.derivatives)
     rows = [r for r in rows if r.samples or r.subset is None]
     if len(splits) == len(SPLITS) and not options.by_density:
@@ -304,7 +371,12 @@ def _refuse_seen_test_files(loaded: _Loaded, data_dir: Path, split: str) -> None
 
 
 def _evaluate_tracks(
-    source: Tracks, loaded: _Loaded, modes: tuple[str, ...], options: EvaluationOptions
+    source: Tracks,
+    loaded: _Loaded,
+    modes: tuple[str, ...],
+    options: EvaluationOptions,
+    *,
+    regions: RegionScoring | None,
 ) -> list[EvaluationResult]:
     """Rows per file and pooled, with intervals; a file the checkpoint trained on is named."""
     if loaded.experiment is not None:
@@ -344,6 +416,7 @@ def _evaluate_tracks(
         by_density=options.by_density,
         ablate=options.ablate,
         baseline=loaded.model is not None,
+        regions=regions,
     )
 
 
@@ -352,6 +425,8 @@ def _evaluate_dataset(
     loaded: _Loaded,
     modes: tuple[str, ...],
     options: EvaluationOptions,
+    *,
+    regions: RegionScoring | None,
 ) -> list[EvaluationResult]:
     """The test part of a dataset of one's own (and its density bins)."""
     part = load_dataset_part(source, "test", loaded.data, use_cache=options.use_cache)
@@ -360,5 +435,5 @@ def _evaluate_dataset(
     groups = None
     if loaded.experiment is not None:
         groups = groups_for_model(part.samples, loaded.experiment)
-    scored = _model_scores(loaded, part.samples, groups, modes, options)
+    scored = _model_scores(loaded, part.samples, groups, modes, options, regions=regions)
     return _rows(source.name, scored, masks, loaded.data.derivatives)

@@ -10,8 +10,22 @@ from grouptron.cli.options import (
     add_device_option,
     add_recording_options,
     add_threads_option,
+    region_probabilities,
 )
 from grouptron.constants import CONSTANT_VELOCITY, EVALUATION_MODES, SPLITS
+
+EXAMPLES = (
+    "examples:\n"
+    "  grouptron evaluate --tracks corridor.txt --columns id,frame,x,y,z --fps 16 --units cm\n"
+    "  grouptron evaluate --model constant-velocity --split all\n"
+    "  grouptron evaluate --checkpoint grouptron-eth-central --mode ml\n"
+    "  grouptron evaluate --checkpoint CKPT --split univ --subset univ-45 --mode all "
+    "--format json\n"
+    "  grouptron evaluate --model constant-velocity --tracks corridor.txt "
+    "--columns id,frame,x,y,z --fps 16 --units cm\n"
+    "  grouptron evaluate --tracks site.csv --columns t,id,x,y --regions 0.5,0.9 "
+    "--calibration site.json"
+)
 
 
 def add_parser(commands: argparse._SubParsersAction) -> None:
@@ -28,14 +42,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "FDE over 20 samples, taken independently) and 'nll' (KDE NLL of 2000 samples). "
         "With --split all the unweighted mean over the five splits is added.",
         formatter_class=Formatter,
-        epilog="examples:\n"
-        "  grouptron evaluate --tracks corridor.txt --columns id,frame,x,y,z --fps 16 --units cm\n"
-        "  grouptron evaluate --model constant-velocity --split all\n"
-        "  grouptron evaluate --checkpoint grouptron-eth-central --mode ml\n"
-        "  grouptron evaluate --checkpoint CKPT --split univ --subset univ-45 --mode all "
-        "--format json\n"
-        "  grouptron evaluate --model constant-velocity --tracks corridor.txt "
-        "--columns id,frame,x,y,z --fps 16 --units cm",
+        epilog=EXAMPLES,
     )
     evaluate.add_argument(
         "--checkpoint",
@@ -62,6 +69,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "checkpoint's own point forecast, the one predict writes)",
     )
     evaluate.add_argument("--seed", type=int, default=0, help="seed of the sampling modes")
+    _add_region_options(evaluate)
     evaluate.add_argument(
         "--format", choices=("table", "json"), default="table", help="output format"
     )
@@ -100,4 +108,25 @@ def _add_other_data_options(evaluate: argparse.ArgumentParser) -> None:
         "--dataset",
         metavar="FILE",
         help="score the test part of a dataset of your own (its description file)",
+    )
+
+
+def _add_region_options(evaluate: argparse.ArgumentParser) -> None:
+    """Prediction regions scored as metrics."""
+    evaluate.add_argument(
+        "--regions",
+        type=region_probabilities,
+        default=(),
+        metavar="Q[,Q...]",
+        help="also score the point forecast's prediction regions (the ellipses predict "
+        "--regions writes): per forecast step the share of true positions inside the "
+        "Q-region (coverage-qQ) and its mean area in m^2 (area-qQ), e.g. --regions 0.5,0.9; "
+        "the table shows steps 4, 8 and 12 and the mean over the steps, JSON every step. "
+        "Compare areas at equal coverage: a smaller region that holds Q is sharper",
+    )
+    evaluate.add_argument(
+        "--calibration",
+        metavar="FILE",
+        help="size the --regions with a grouptron calibrate file of this checkpoint and point "
+        "forecast (default, or 'none': the model's own regions, uncalibrated)",
     )
