@@ -111,7 +111,8 @@ def score_file(
     name = Path(source.path).stem
     if args.halves:
         return _halves(name, forecast, seen, step, scores, known, (model, config, scene), args)
-    state, radii = replayed(forecast, seen, step, OnlineCalibration.start(H, start, args.learning_rate), args.q)
+    online = OnlineCalibration.start(H, start, args.learning_rate)
+    state, radii = replayed(forecast, seen, step, online, args.q)
     rows = [_row(name, "online", scores, radii, known)]
     if start is not None:
         rows.append(
@@ -154,7 +155,8 @@ def _halves(
         filled_points=None,
     )
     H = config.data.horizon_steps
-    _, radii = replayed(second, seen, step, OnlineCalibration.start(H, calibration, args.learning_rate), args.q)
+    online = OnlineCalibration.start(H, calibration, args.learning_rate)
+    _, radii = replayed(second, seen, step, online, args.q)
     static = np.broadcast_to(calibration.radius(args.q), radii.shape)
     return [
         _row(name, "second half, online", scores[later], radii, known[later]),

@@ -1,8 +1,9 @@
 """Golden outputs of what ships: the default model with its own point forecast, its regions
-without a calibration, with one and with the one it ships with, and those calibrations' radii (``tests/golden/default_model.py``
-says how they were made; they equal those of the code before the forecasting core was made
-one). Checked by breaking the code on purpose: renaming the stored point forecast to
-``ml-top3``, or scaling ``model.regions``' mass radius by 1.01, fails these tests."""
+without a calibration, with one and with the one it ships with, and those calibrations' radii
+(``tests/golden/default_model.py`` says how they were made; the first three equal those of the
+code before the forecasting core was made one). Checked by breaking the code on purpose:
+renaming the stored point forecast to ``ml-top3``, or scaling ``model.regions``' mass radius by
+1.01, fails these tests."""
 
 from __future__ import annotations
 

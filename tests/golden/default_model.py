@@ -1,6 +1,7 @@
 """Golden outputs of what ships: the default model with its own point forecast (``ml-top2``),
 its regions without a calibration, with one made here and with the one it ships with, and
-those calibrations' radii, on the fixed scene of ``compute``. Regenerate ``default_model.npz`` only for an intended change of behaviour:
+those calibrations' radii, on the fixed scene of ``compute``. Regenerate ``default_model.npz``
+only for an intended change of behaviour:
 
     python -m tests.golden.default_model
 """

@@ -79,7 +79,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         use_cache=not getattr(args, "no_cache", False),
         progress=show_progress(args),
         regions=args.regions,
-        calibration=None if args.calibration == "none" else args.calibration,
+        calibration=False if args.calibration == "none" else args.calibration,
     )
     rows = evaluate(_source(args), checkpoint, _modes(args), options)
     print(results_json(rows) if args.format == "json" else results_table(rows))

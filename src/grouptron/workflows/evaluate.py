@@ -103,7 +103,8 @@ class EvaluationOptions:
         regions: probabilities q of prediction regions to score each point forecast's by
             (coverage and area per step: ``coverage-q90``, ``area-q90``); empty: none.
         calibration: a ``grouptron calibrate`` file of the checkpoint and point forecast whose
-            radii size the regions (None: the model's own regions, uncalibrated).
+            radii size the regions (None: the one the checkpoint ships with, where it fits
+            every point forecast scored, as ``predict`` draws them; False: the model's own).
     """
 
     seed: int = 0
@@ -115,7 +116,7 @@ class EvaluationOptions:
     use_cache: bool = True
     progress: bool = False
     regions: tuple[float, ...] = ()
-    calibration: str | Path | None = None
+    calibration: str | Path | bool | None = None
 
 
 @dataclass(frozen=True)
@@ -191,7 +192,7 @@ def _refuse_meaningless_regions(
         raise GrouptronError(f"regions is a sequence of probabilities such as (0.9,), not {qs!r}")
     if any(not 0.0 < q <= MAX_REGION_Q for q in qs):
         raise GrouptronError(f"--regions probabilities must be in (0, {MAX_REGION_Q}]: {qs}")
-    if options.calibration is not None and not qs:
+    if options.calibration not in (None, False) and not qs:
         raise GrouptronError("--calibration sizes prediction regions: give --regions too")
     if qs and checkpoint is None:
         raise GrouptronError(
@@ -205,12 +206,14 @@ def _refuse_meaningless_regions(
 def _region_scoring(
     loaded: _Loaded, modes: tuple[str, ...], options: EvaluationOptions
 ) -> RegionScoring | None:
-    """The regions to score: the model's own, or sized by the calibration file, which must
-    belong to this checkpoint and every point forecast scored (checked before reading data)."""
+    """The regions to score, as ``predict`` draws them: sized by the calibration file (which
+    must belong to this checkpoint and every point forecast scored; checked before reading
+    data), else by the one the checkpoint ships with where it fits every point forecast
+    scored, else (and with ``calibration=False``) the model's own."""
     if not options.regions or loaded.experiment is None:
         return None
     qs = tuple(options.regions)
-    if options.calibration is None:
+    if options.calibration is False:
         return RegionScoring(qs)
     checkpoint = str(loaded.path or "")
     found = [
@@ -218,6 +221,8 @@ def _region_scoring(
         for m in modes
         if is_point_forecast(m)
     ]
+    if not found or any(c is None for c in found):  # no shipped one for some forecast
+        return RegionScoring(qs)
     radii = {q: c.radius(q) for c in found[:1] if c is not None for q in qs}
     return RegionScoring(qs, radii)
 

@@ -128,5 +128,6 @@ def _add_region_options(evaluate: argparse.ArgumentParser) -> None:
         "--calibration",
         metavar="FILE",
         help="size the --regions with a grouptron calibrate file of this checkpoint and point "
-        "forecast (default, or 'none': the model's own regions, uncalibrated)",
+        "forecast; without it the checkpoint's shipped one where it has one for the forecasts "
+        "scored, as predict draws them; 'none': the model's own regions, uncalibrated",
     )

@@ -118,8 +118,8 @@ def add_calibration_option(parser: argparse.ArgumentParser) -> None:
         type=calibration_option,
         help="a grouptron calibrate file of this checkpoint: regions take its conformal radii "
         "(q = 0.01, 0.02, ... 0.99). Default: the calibration the checkpoint ships with, where "
-        "it has one (the default model's: fitted on held-back crowds, docs/regions.md); "
-        "'none' for the model's own uncalibrated regions",
+        "it has one (for the shipped deployment model: fitted on held-back crowds, "
+        "docs/regions.md); 'none' for the model's own uncalibrated regions",
     )
 
 
