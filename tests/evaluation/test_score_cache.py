@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import sys
+from functools import partial
 from pathlib import Path
 from types import FrameType
 
@@ -15,7 +16,7 @@ import grouptron
 from grouptron.config import ExperimentConfig
 from grouptron.data.datasets.dataset import load_part
 from grouptron.data.prepare.samples import SampleSet
-from grouptron.evaluation import score_cache
+from grouptron.evaluation import metrics, score_cache
 from grouptron.evaluation.evaluate import score_samples
 from grouptron.evaluation.region_scores import RegionScoring
 from grouptron.evaluation.score_cache import cached_score_samples, scoring_sources
@@ -213,3 +214,54 @@ def test_a_report_run_again_reads_every_score_from_the_cache(
     assert calls == []
     assert again.rows == first.rows
     np.testing.assert_array_equal(again.ablated["scene"].fde, first.ablated["scene"].fde)
+
+
+def _miss_rate(threshold_m: float):
+    """A user's metric with a parameter in its closure: 1 where the final error exceeds it."""
+
+    def miss(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
+        return (metrics.fde(pred, truth) > threshold_m).astype(np.float64)
+
+    return miss
+
+
+def test_a_metric_registered_again_with_another_definition_is_scored_again(
+    eth: EthTest, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    model, config, samples = eth
+    calls = _count_scored(monkeypatch)
+    (plain,) = score_samples(model, config, samples, ("ml",))
+    cut_m = float(np.median(plain.fde))  # half the samples on either side
+    monkeypatch.setitem(
+        metrics.METRICS, "miss", metrics.Metric("miss", "miss", _miss_rate(2 * cut_m))
+    )
+    (first,) = cached_score_samples(tmp_path, model, config, samples, ("ml",))
+    (again,) = cached_score_samples(tmp_path, model, config, samples, ("ml",))
+    assert len(calls) == 1  # read back while the definition is the same
+    np.testing.assert_array_equal(first.get("miss"), again.get("miss"))
+    for definition in (_miss_rate(cut_m), partial(_threshold_miss, threshold_m=cut_m / 2)):
+        monkeypatch.setitem(metrics.METRICS, "miss", metrics.Metric("miss", "miss", definition))
+        (changed,) = cached_score_samples(tmp_path, model, config, samples, ("ml",))
+        expected = plain.fde > getattr(definition, "keywords", {}).get("threshold_m", cut_m)
+        np.testing.assert_array_equal(changed.get("miss"), expected.astype(np.float64))
+        assert not np.array_equal(changed.get("miss"), first.get("miss"))
+    assert len(calls) == 3
+    global _LIMIT_M
+    _LIMIT_M = 0.0  # a global it reads changes: scored again too
+    monkeypatch.setitem(metrics.METRICS, "miss", metrics.Metric("miss", "miss", _global_miss))
+    (before,) = cached_score_samples(tmp_path, model, config, samples, ("ml",))
+    _LIMIT_M = 1e9
+    (after,) = cached_score_samples(tmp_path, model, config, samples, ("ml",))
+    assert before.get("miss").all() and not after.get("miss").any()
+    assert len(calls) == 5
+
+
+_LIMIT_M = 0.0
+
+
+def _threshold_miss(pred: np.ndarray, truth: np.ndarray, threshold_m: float) -> np.ndarray:
+    return (metrics.fde(pred, truth) > threshold_m).astype(np.float64)
+
+
+def _global_miss(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    return (metrics.fde(pred, truth) > _LIMIT_M).astype(np.float64)

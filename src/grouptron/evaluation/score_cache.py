@@ -5,8 +5,10 @@ checkpoint's scoring, not every checkpoint's again. Each mode's (S,) ADE/FDE/NLL
 (S, H) region metrics, where asked) are stored as one ``.npz`` (never pickle) as soon as that
 mode is scored, under a key that hashes everything they depend on: the model's weights and
 configuration, the test samples and groups (their contents, not their file names), the mode,
-seed, batch size and ablation, the regions' probabilities and calibrated radii, and the
-library versions. The files sit in a subfolder named by a hash of the source of every
+seed, batch size and ablation, the definition of every metric scored (a digest of its code,
+parameters and the values it reads: a metric registered again under its name with another
+definition is scored again), the regions' probabilities and calibrated radii, and the
+Python and library versions. The files sit in a subfolder named by a hash of the source of every
 grouptron module that builds the model or scores it, so that edited code never reads old
 scores and the sets of older code can be deleted whole (any of it can be, at any time).
 """
@@ -17,6 +19,7 @@ import ast
 import dataclasses
 import hashlib
 import json
+import sys
 from collections.abc import Sequence
 from functools import cache, partial
 from pathlib import Path
@@ -27,6 +30,7 @@ import torch
 from grouptron.config import ExperimentConfig
 from grouptron.data.prepare.samples import SampleSet
 from grouptron.evaluation import metrics
+from grouptron.evaluation.definition import definition_digest
 from grouptron.evaluation.evaluate import SHARED_DECODE, SampleScores, score_samples
 from grouptron.evaluation.region_scores import RegionScoring
 from grouptron.groups.assign import SampleGroups
@@ -129,11 +133,29 @@ def _write(path: Path, scores: SampleScores, regions: RegionScoring | None) -> N
 
 
 def _mode_key(common: str, mode: str, regions: RegionScoring | None) -> str:
-    """A mode's key: a point forecast scored with regions keys on their q and radii too."""
-    scored = f"{common}:{mode}"
+    """A mode's key: the definitions of the metrics it holds too, and for a point forecast
+    scored with regions their q and radii."""
+    scored = f"{common}:{mode}:{metric_definitions(mode, regions)}"
     if regions is not None and is_point_forecast(mode):
         scored += f":{regions.key()}"
     return hashlib.sha256(scored.encode()).hexdigest()[:32]
+
+
+def metric_definitions(mode: str, regions: RegionScoring | None = None) -> str:
+    """What defines the scores a mode's file holds, as text: the digest of each registered
+    metric's definition (its function's code, parameters, closure and the globals it reads:
+    ``evaluation.definition``), so that a metric registered again under its name with another
+    definition (a user's, outside the package's source) is scored again, never read back
+    stale; and of each region metric where regions are scored. The NLL's code is the
+    package's, keyed by the folder."""
+    found = {}
+    if mode != metrics.NLL:
+        found.update({name: definition_digest(m) for name, m in metrics.METRICS.items()})
+    if regions is not None and is_point_forecast(mode):
+        found.update(
+            {f"region:{n}": definition_digest(m) for n, m in metrics.REGION_METRICS.items()}
+        )
+    return hashlib.sha256(json.dumps(found, sort_keys=True).encode()).hexdigest()
 
 
 def _common_key(
@@ -153,6 +175,7 @@ def _common_key(
         "format": SCORE_CACHE_FORMAT,
         "torch": torch.__version__,
         "numpy": np.__version__,
+        "python": sys.version,
         "config": stored,
         "batch_size": batch_size,
         "seed": seed,
