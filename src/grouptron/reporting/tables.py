@@ -30,7 +30,15 @@ from grouptron.reporting.cells import (
 )
 from grouptron.reporting.diagnostics import diagnostics_markdown
 from grouptron.reporting.out_of_domain import out_of_domain_markdown
-from grouptron.reporting.published import TABLE_I, TABLE_II
+from grouptron.reporting.published import (
+    BEST_OF_20,
+    MOST_LIKELY,
+    TABLE_I,
+    TABLE_I_ROWS,
+    TABLE_II,
+    published_lines,
+    sources_note,
+)
 from grouptron.reporting.stats import PairedDifference, Report, SeedSpread
 from grouptron.reporting.targets import target_checks
 
@@ -72,8 +80,10 @@ def _ml_table(
     columns: Sequence[str],
     published: dict[str, dict[str, tuple[float, float]]],
     schemes: Sequence[str],
+    seeds: Sequence[SeedSpread] = (),
 ) -> list[str]:
-    """Published rows, our rows per derivatives, Δ to published (central) and Grouptron vs ours."""
+    """Published rows, our rows per derivatives (each with its seeds' spread where it has
+    several), Δ to published (central) and Grouptron vs ours."""
     lines: list[list[str]] = []
 
     def ours(model: str, derivatives: str, column: str) -> EvaluationResult | None:
@@ -100,6 +110,7 @@ def _ml_table(
                     *(fde_ade(r.fde, r.ade) if r else "-" for r in cells),
                 ]
             )
+            lines += _seed_line(seeds, model, derivatives, columns)
             if derivatives == "central" and model in published:
                 lines.append(
                     [
@@ -127,6 +138,28 @@ def _ml_table(
     return markdown_table(["method", "source", *(display_name(c) for c in columns)], lines)
 
 
+def _seed_line(
+    seeds: Sequence[SeedSpread], model: str, derivatives: str, columns: Sequence[str]
+) -> list[list[str]]:
+    """The line under a model's row where it has several seeds: per column, FDE mean ± sd
+    over the seeds and, in brackets, the worst seed's FDE (the row is the lowest seed's)."""
+    found = {s.column: s for s in seeds if (s.model, s.derivatives) == (model, derivatives)}
+    spreads = [found[c] for c in columns if c in found]
+    if not spreads:
+        return []
+    listed = {s.seeds for s in spreads}
+    named = f"seeds {', '.join(map(str, spreads[0].seeds))}" if len(listed) == 1 else "seeds"
+    cells = []
+    for column in columns:
+        spread = found.get(column)
+        if spread is None:
+            cells.append("-")
+            continue
+        mean, sd = seed_spread(spread.fde)
+        cells.append(f"{mean:.3f} ± {sd:.3f} ({max(spread.fde):.3f})")
+    return [["", f"{named}: FDE mean ± sd (worst)", *cells]]
+
+
 def _column_of(key: Key) -> str:
     return key[2]
 
@@ -139,8 +172,9 @@ def _mode_table(
     *,
     with_baseline: bool = False,
 ) -> list[str]:
-    """One line per (model, derivatives): FDE/ADE, or the NLL in nats for ``nll``."""
-    lines = []
+    """One line per (model, derivatives): FDE/ADE, or the NLL in nats for ``nll``; first the
+    published rows of the mode's kind (best-of-20: Table I's)."""
+    lines = published_lines(TABLE_I_ROWS, mode, tuple(columns)) if mode == BEST_OF_20 else []
     models = (*OURS_MODELS, CONSTANT_VELOCITY) if with_baseline else OURS_MODELS
     for derivatives in schemes:
         for model in models:
@@ -233,12 +267,19 @@ def _per_seed(spread: SeedSpread) -> list[str]:
     ]
 
 
-def _paper_tables(rows: dict[Key, EvaluationResult], schemes: Sequence[str]) -> list[str]:
+def _paper_tables(
+    rows: dict[Key, EvaluationResult], schemes: Sequence[str], seeds: Sequence[SeedSpread] = ()
+) -> list[str]:
     """Tables I and II (the paper's UNIV-N), then UNIV-N counting pedestrians present."""
     out = [
         "## Table I: ETH/UCY, most likely prediction",
         "",
-        *_ml_table(rows, TABLE_I_COLUMNS, TABLE_I, schemes),
+        *_ml_table(rows, TABLE_I_COLUMNS, TABLE_I, schemes, seeds),
+        *sources_note(TABLE_I_ROWS, MOST_LIKELY),
+        "",
+        "The paper's Table I also prints Social-GAN and SoPhie: their numbers are the best of 20",
+        "sampled futures per person, not one forecast, so they are printed with the best-of-20",
+        "scores (`--mode best-of-20`).",
         "",
         "## Table II: dense UNIV subsets, most likely",
         "",
@@ -246,7 +287,7 @@ def _paper_tables(rows: dict[Key, EvaluationResult], schemes: Sequence[str]) -> 
         "predicted agents (test samples). Scoring the public Trajectron++ univ weights this way",
         "reproduces the paper's Trajectron++ row to within 0.007 m.",
         "",
-        *_ml_table(rows, TABLE_II_COLUMNS, TABLE_II, schemes),
+        *_ml_table(rows, TABLE_II_COLUMNS, TABLE_II, schemes, seeds),
     ]
     present = [c for c in PRESENT_COLUMNS if any(_column_of(k) == c for k in rows)]
     if present:
@@ -313,6 +354,7 @@ def _other_modes(
         if mode in modes:
             table = _mode_table(rows, (*TABLE_I_COLUMNS, *TABLE_II_COLUMNS[1:]), mode, schemes)
             out += ["", f"## {title}", "", *table]
+            out += sources_note(TABLE_I_ROWS, mode)  # the published rows of its kind
     return out
 
 
@@ -326,12 +368,15 @@ def report_markdown(report: Report, schemes: Sequence[str], command: str) -> str
         "",
         f"Generated by `{command}` from the checkpoints listed at the end; do not edit by hand.",
         "Cells are FDE/ADE in metres on the test sets (leave one location out), as in the",
-        "Grouptron paper. *published* rows are copied from the paper (central derivatives);",
-        "*ours* rows are measured. Δ is the difference in percent (negative: lower error).",
+        "Grouptron paper. *published* rows are copied from the papers (central derivatives),",
+        "each in the table of the forecast it scores, its source under that table. *ours* rows",
+        "are measured, each from one training run: the lowest seed found; where a model has",
+        "more seeds, the line under its row gives the FDE mean ± sd over them and, in",
+        "brackets, the worst seed's. Δ is the difference in percent (negative: lower error).",
         "Derivatives: `central` ones are the papers' inputs (the velocity at the last observed",
         "step uses the next, unobserved position); `backward` ones are causal.",
         "",
-        *_paper_tables(rows, schemes),
+        *_paper_tables(rows, schemes, report.seeds),
         "",
         *_certainty_sections(report, rows, schemes),
         *_other_modes(rows, modes, schemes),
