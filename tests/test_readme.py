@@ -4,9 +4,9 @@ on a tiny synthetic benchmark)."""
 from __future__ import annotations
 
 import re
-import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tests.conftest import REPO
@@ -19,14 +19,38 @@ def _python_blocks() -> list[str]:
     return blocks
 
 
+def _tracker_csv(path: Path, hz: float, start_s: float, jitter_s: float = 0.0) -> None:
+    """A tracker's CSV at ``hz``: five people walking, times from ``start_s`` (with jitter and
+    one message in ten dropped when ``jitter_s``)."""
+    rng = np.random.default_rng(1)
+    times = start_s + np.arange(0.0, 12.0, 1.0 / hz)
+    if jitter_s:
+        times = np.sort(times + rng.uniform(-jitter_s, jitter_s, len(times)))
+        times = times[rng.uniform(size=len(times)) > 0.1]
+    rows = ["time_s,person,x_m,y_m"]
+    for person in range(1, 6):
+        start, velocity = rng.uniform(-3, 3, 2), rng.normal(0, 0.8, 2)
+        for t in times:
+            x, y = start + velocity * (t - start_s)
+            rows.append(f"{t:.6f},{person},{x:.4f},{y:.4f}")
+    path.write_text("\n".join(rows) + "\n")
+
+
+@pytest.mark.parametrize(
+    ("hz", "start_s", "jitter_s"), [(30.0, 0.0, 0.0), (10.0, 1_700_000_000.0, 0.02)]
+)
 def test_readme_python_example_runs(
     tiny_checkpoints: Path,
-    synthetic_data_dir: Path,
     tmp_path: Path,
     monkeypatch: pytest.MonkeyPatch,
+    hz: float,
+    start_s: float,
+    jitter_s: float,
 ) -> None:
+    """Verbatim on a 30 fps recording in seconds and on a 10 Hz tracker file in Unix seconds
+    with jitter and dropped messages."""
     code, _ = _python_blocks()
-    shutil.copy(next((synthetic_data_dir / "eth/test").glob("*.txt")), tmp_path / "my_tracks.txt")
+    _tracker_csv(tmp_path / "my_tracks.csv", hz, start_s, jitter_s)
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("GROUPTRON_CHECKPOINTS", str(tiny_checkpoints))
     namespace: dict[str, object] = {}

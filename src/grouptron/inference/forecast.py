@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import logging
 from dataclasses import dataclass
@@ -46,6 +47,8 @@ class Forecast:
             ``history_steps``; fewer for agents seen only recently), or None.
         filled_points: (N,) positions of that history filled in for missed detections (not
             counted in ``observed_points``), or None.
+        time_s: the time in seconds every forecast was made at, for a session fed times in
+            seconds (then ``frame`` is None), else None.
         calibration: conformal radii of a site's recording (``grouptron calibrate``), the radii
             an online calibration had in force (one set, or per forecast for a replayed
             file), that ``regions`` takes instead of the distribution's own, or None.
@@ -62,6 +65,7 @@ class Forecast:
     observed_points: np.ndarray | None = None
     filled_points: np.ndarray | None = None
     calibration: RegionCalibration | ForecastRadii | None = None
+    time_s: float | None = None
 
     @property
     def most_likely(self) -> np.ndarray:
@@ -70,6 +74,29 @@ class Forecast:
 
     def __len__(self) -> int:
         return len(self.ids)
+
+    def rows(self, index: np.ndarray, ids: np.ndarray | None = None) -> Forecast:
+        """The forecasts ``index`` selects, in its order (with ``ids`` instead of their own)."""
+
+        def pick(array: np.ndarray | None) -> np.ndarray | None:
+            return None if array is None else array[index]
+
+        radii = self.calibration
+        if isinstance(radii, ForecastRadii):
+            radii = ForecastRadii(radii.qs, radii.radii[index])
+        return dataclasses.replace(
+            self,
+            frames=self.frames[index],
+            ids=self.ids[index] if ids is None else ids,
+            point=self.point[index],
+            samples=pick(self.samples),
+            distribution=None if self.distribution is None else self.distribution.rows(index),
+            mixture=None if self.mixture is None else self.mixture.rows(index),
+            group=pick(self.group),
+            observed_points=pick(self.observed_points),
+            filled_points=pick(self.filled_points),
+            calibration=radii,
+        )
 
     def table(
         self,

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -81,7 +82,7 @@ class OnlineCalibration:
     learning_rate: float = LEARNING_RATE
     source: str = ""
     prior_samples: int = 0
-    _pending: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = field(
+    _pending: list[tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = field(
         default_factory=list, repr=False
     )
 
@@ -131,7 +132,7 @@ class OnlineCalibration:
         )
 
     def remember(
-        self, frame: int, ids: np.ndarray, point: np.ndarray, shapes: np.ndarray, step: int
+        self, frame: float, ids: np.ndarray, point: np.ndarray, shapes: np.ndarray, step: float
     ) -> None:
         """Keep the forecasts made at ``frame`` ((N,) ids, (N, H, 2) points, (N, H, 2, 2)
         region shapes), with the radii they were drawn with, until their truths arrive,
@@ -148,7 +149,8 @@ class OnlineCalibration:
         order = np.argsort(ids, kind="stable")
         seen_ids, seen_xy = ids[order], xy[order]
         for made, forecast_ids, point, shapes, drawn in self._pending:
-            k, off_grid = divmod(frame - made, step)
+            steps, off_grid = divmod(frame - made, step)
+            k = int(steps)
             if off_grid or not 1 <= k <= self.horizon:
                 continue
             at = np.clip(np.searchsorted(seen_ids, forecast_ids), 0, len(seen_ids) - 1)
@@ -158,6 +160,29 @@ class OnlineCalibration:
                 solved = np.linalg.solve(shapes[found, k - 1], offset[..., None])[..., 0]
                 scores = np.sqrt(np.maximum((offset * solved).sum(-1), 0.0))
                 self._update(k - 1, scores, drawn[:, k - 1])
+
+    def observe_between(
+        self,
+        since: float,
+        now: float,
+        step: float,
+        positions_at: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]],
+    ) -> None:
+        """Score every kept forecast whose step lands in (``since``, ``now``] (times in
+        seconds, ``step`` seconds per forecast step) against the positions that
+        ``positions_at(ids, times)`` gives there ((Q, 2) positions, (Q,) whether known), and
+        move the radii: for a tracker's own rate, where truths fall between its messages."""
+        for made, forecast_ids, point, shapes, drawn in self._pending:
+            for k in range(1, self.horizon + 1):
+                target = made + k * step
+                if not since < target <= now:
+                    continue
+                xy, found = positions_at(forecast_ids, np.full(len(forecast_ids), target))
+                if found.any():
+                    offset = xy[found] - point[found, k - 1]
+                    solved = np.linalg.solve(shapes[found, k - 1], offset[..., None])[..., 0]
+                    scores = np.sqrt(np.maximum((offset * solved).sum(-1), 0.0))
+                    self._update(k - 1, scores, drawn[:, k - 1])
 
     def _update(self, h: int, scores: np.ndarray, drawn: np.ndarray | None = None) -> None:
         """Move step ``h``'s radii by the (n,) scores, each against the (Q,) radii its region

@@ -12,6 +12,7 @@ from grouptron.data.formats.glitches import MAX_JUMP_SPEED_MPS
 from grouptron.errors import GrouptronError
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.inputs import as_track_array, frame_argument, frame_arrays
+from grouptron.inference.live import IdBook, LiveTracks
 from grouptron.inference.online import OnlineCalibration
 from grouptron.model.regions import region_shapes
 
@@ -75,6 +76,8 @@ class StreamSession:
         self._rows = np.zeros((0, 4))
         self._last_frame: int | None = None
         self._judged = False  # units and frame grid judged plausible once (they do not change)
+        self._book: IdBook | None = None  # where ids are not all numbers, or times in seconds
+        self._live: LiveTracks | None = None  # a tracker's own rate: times in seconds
 
     @property
     def window_frames(self) -> int:
@@ -82,11 +85,29 @@ class StreamSession:
         return self.predictor.window_frames
 
     def update(
-        self, frame: int, ids: Any, xy: Any, num_samples: int = 0, *, seed: int = 0
+        self, frame: int | float, ids: Any, xy: Any, num_samples: int = 0, *, seed: int = 0
     ) -> Forecast:
         """Add the agents observed at ``frame`` ((N,) ids, (N, 2) positions in metres) and
-        forecast every agent with enough history."""
+        forecast every agent with enough history.
+
+        ``frame``: a time in seconds (a float: a tracker's stamp, at any rate and regularity;
+        the history is resampled onto the model's step at every update, ``inference.live``),
+        or a frame number (an int, 10 per 0.4 s step as in ETH/UCY). Ids: any hashable
+        values (numbers, strings); a forecast's ``ids`` are the ones given.
+        """
+        if isinstance(frame, float | np.floating):
+            return self._update_seconds(float(frame), ids, xy, num_samples, seed)
+        if self._live is not None:
+            raise GrouptronError(
+                f"frame {frame}: this session was fed times in seconds; keep to seconds (floats)"
+            )
         frame = frame_argument(frame, "frame")
+        if self._book is not None or not _numeric(ids):
+            return self._update_named_frame(frame, ids, xy, num_samples, seed)
+        return self._update_frame(frame, ids, xy, num_samples, seed)
+
+    def _update_frame(self, frame: int, ids: Any, xy: Any, num_samples: int, seed: int) -> Forecast:
+        """An update at a frame number, ids numbers (the session as it always was)."""
         ids_arr, xy_arr = frame_arrays(frame, ids, xy)
         if self._last_frame is not None:
             if frame <= self._last_frame:
@@ -114,6 +135,62 @@ class StreamSession:
         # Kept only once the update is accepted: a refused one leaves the session as it was.
         self._rows, self._last_frame, self._judged = rows, frame, judged
         return self._calibrated_online(forecast, frame, ids_arr, xy_arr)
+
+    def _update_named_frame(
+        self, frame: int, ids: Any, xy: Any, num_samples: int, seed: int
+    ) -> Forecast:
+        """A frame-numbered update whose ids are not all numbers: numbered, then named back."""
+        self._book = self._book or IdBook()
+        names = list(ids) if not isinstance(ids, np.ndarray) else ids
+        codes = self._book.encode(names, f"frame {frame}")
+        forecast = self._update_frame(frame, codes.astype(np.float64), xy, num_samples, seed)
+        return _named(forecast, self._book)
+
+    def _update_seconds(
+        self, t_s: float, ids: Any, xy: Any, num_samples: int, seed: int
+    ) -> Forecast:
+        """An update at a time in seconds: the history resampled onto the step, ending at
+        ``t_s``; answered at every update."""
+        where = f"time {t_s} s"
+        if self._last_frame is not None:
+            raise GrouptronError(f"{where}: this session was fed frame numbers; keep to ints")
+        xy_arr = _positions(xy, len(ids) if hasattr(ids, "__len__") else -1, where)
+        predictor, data = self.predictor, self.predictor.config.data
+        if self._live is None:
+            window = (self.window_frames / self.predictor.frames_per_step + 1) * data.dt_s
+            gap = (getattr(predictor, "max_missed_steps", 2) + 1) * data.dt_s
+            self._live = LiveTracks(window, gap, predictor.check_speed)
+            self._book = IdBook()
+        assert self._book is not None
+        codes = self._book.encode(list(ids) if not isinstance(ids, np.ndarray) else ids, where)
+        since = self._live.last_s
+        jumped = self._live.add(t_s, codes, xy_arr)
+        if jumped:
+            names = ", ".join(str(n) for n in self._book.decode(np.array(jumped))[:5])
+            log.warning(
+                "%s: %s moved faster than %g m/s since last seen (an id swap?): their tracks "
+                "restart",
+                *(where, names, MAX_JUMP_SPEED_MPS),
+            )
+        steps = self.window_frames // self.predictor.frames_per_step + 1
+        step = self.predictor.frames_per_step
+        rows = self._live.grid_rows(t_s, codes, steps, data.dt_s, step)
+        now = (steps - 1) * step
+        judged = self._judged or predictor.check_plausible(rows, min_pairs=STREAM_MIN_PAIRS)
+        forecast = predictor.forecast_window(rows, now, num_samples, seed)
+        if not judged and len(forecast):
+            judged = predictor.check_plausible(rows)
+        self._judged = judged
+        forecast = dataclasses.replace(forecast, frame=None, time_s=t_s)
+        if self.online is not None:
+            live = self._live
+            if since is not None:
+                self.online.observe_between(since, t_s, data.dt_s, live.positions_at)
+            forecast = dataclasses.replace(forecast, calibration=self.online.calibration())
+            if len(forecast) and forecast.distribution is not None:
+                shapes = region_shapes(forecast.point, forecast.distribution)
+                self.online.remember(t_s, forecast.ids, forecast.point, shapes, data.dt_s)
+        return _named(forecast, self._book)
 
     def _calibrated_online(
         self, forecast: Forecast, frame: int, ids: np.ndarray, xy: np.ndarray
@@ -157,3 +234,34 @@ class StreamSession:
             MAX_JUMP_SPEED_MPS,
         )
         return rows[~np.isin(rows[:, 1], jumped)]
+
+
+def _numeric(ids: Any) -> bool:
+    """Whether every id is a number (the frame-numbered session's ids as they always were)."""
+    try:
+        np.asarray(ids, dtype=np.float64)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def _positions(xy: Any, count: int, where: str) -> np.ndarray:
+    """(N, 2) finite positions for ``count`` ids, refused in one line otherwise."""
+    try:
+        xy_arr = np.asarray(xy, dtype=np.float64).reshape(-1, 2) if count else np.zeros((0, 2))
+    except (TypeError, ValueError):
+        raise GrouptronError(f"{where}: positions must be numbers, (N, 2) x, y") from None
+    if len(xy_arr) != count or not np.isfinite(xy_arr).all():
+        raise GrouptronError(
+            f"{where}: positions must be (N, 2) = ({count}, 2) finite numbers, one row per id"
+        )
+    return xy_arr
+
+
+def _named(forecast: Forecast, book: IdBook) -> Forecast:
+    """The forecast with the ids as given (its rows in that order where they are numbers)."""
+    names = book.decode(forecast.ids.astype(np.int64))
+    if names.dtype == object:
+        return dataclasses.replace(forecast, ids=names)
+    order = np.argsort(names, kind="stable")
+    return forecast.rows(order, ids=names[order])
