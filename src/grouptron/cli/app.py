@@ -22,6 +22,7 @@ from grouptron.cli.parsers import (
     forecast,
     groups,
     report,
+    ros2,
     train,
 )
 from grouptron.errors import GrouptronError
@@ -45,7 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"grouptron {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log more detail")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
-    for module in (data, evaluate, report, forecast, export, train, adapt, groups, config):
+    for module in (data, evaluate, report, forecast, export, train, adapt, groups, config, ros2):
         module.add_parser(commands)
     _accept_global_options_everywhere(parser)
     return parser

@@ -1,0 +1,73 @@
+"""The parser of ``grouptron ros2`` (handler: ``grouptron.cli.ros2``)."""
+
+from __future__ import annotations
+
+import argparse
+
+from grouptron.cli.options import (
+    Formatter,
+    add_forecast_option,
+    add_threads_option,
+    calibration_option,
+    plot_region_probability,
+)
+from grouptron.constants import DEFAULT_CHECKPOINT
+
+
+def add_parser(commands: argparse._SubParsersAction) -> None:
+    """Add the command and its options to the ``grouptron`` parser."""
+    ros2 = commands.add_parser(
+        "ros2",
+        help="a live ROS 2 node: tracked people in, forecasts, markers and diagnostics out",
+        formatter_class=Formatter,
+        description=(
+            "Join a live ROS 2 graph (pip install 'grouptron[ros2]'): forecast every message "
+            "of tracked people on --topic and publish /grouptron/forecasts "
+            "(trajectory_msgs/msg/MultiDOFJointTrajectory: joint_names the person ids, points[k-1] "
+            "step k, 0.4 s apart), /grouptron/markers (visualization_msgs/msg/MarkerArray: a "
+            "line per person and the region ellipses, for RViz and Foxglove) and /diagnostics. "
+            "With --replay, publish a bag's people on --topic at their recorded rate instead, so "
+            "that the node can be shown without a robot (docs/robots.md)."
+        ),
+        epilog="example:\n  grouptron ros2 --topic /tracked_people\n"
+        "  grouptron ros2 --replay run.mcap --topic /people --out-topic /tracked_people",
+    )
+    ros2.add_argument("--checkpoint", default=DEFAULT_CHECKPOINT, help="the model")
+    ros2.add_argument("--topic", default="/tracked_people", help="the tracked people's topic")
+    ros2.add_argument(
+        "--type",
+        default="visualization_msgs/msg/MarkerArray",
+        help="its message type (any installed one; people_msgs/msg/People and "
+        "vision_msgs/msg/Detection3DArray are read without --ros-fields)",
+    )
+    ros2.add_argument(
+        "--ros-fields", help="where another type holds its people: people=PATH,id=PATH,x=..,y=.."
+    )
+    ros2.add_argument(
+        "--fixed-frame", action="append", help="a frame of one's own fixed to the world"
+    )
+    add_forecast_option(ros2, "the point forecast (default: the model's own)", samples=False)
+    ros2.add_argument(
+        "--regions",
+        type=plot_region_probability,
+        default=0.9,
+        help="the probability of the region ellipses on the markers topic (0: none)",
+    )
+    ros2.add_argument(
+        "--calibration",
+        type=calibration_option,
+        help="a grouptron calibrate file for the regions (without it: the shipped one; none: "
+        "the model's own)",
+    )
+    ros2.add_argument(
+        "--online", action="store_true", help="adapt the regions' radii as truths arrive"
+    )
+    ros2.add_argument("--replay", metavar="BAG", help="publish this bag's --topic instead")
+    ros2.add_argument(
+        "--out-topic", default="/tracked_people", help="with --replay: where its people go"
+    )
+    ros2.add_argument(
+        "--seconds", type=float, help="stop after this many seconds (default: run until Ctrl-C)"
+    )
+    add_threads_option(ros2)
+    ros2.set_defaults(handler="grouptron.cli.ros2:cmd_ros2")

@@ -1,0 +1,195 @@
+"""Messages of tracked people in, forecasts out: conversions between ROS 2 messages and the
+arrays a live session takes and gives (no node, no graph here)."""
+
+from __future__ import annotations
+
+import importlib
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from grouptron.data.formats.ros_bag import KNOWN_MESSAGES, BagFields
+from grouptron.errors import GrouptronError
+from grouptron.inference.forecast import Forecast
+from grouptron.model.regions import Regions
+
+MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
+MARKER_ADD = 0
+"""``visualization_msgs/msg/Marker.ADD`` (MODIFY is the same number); DELETE and DELETEALL
+markers name nobody."""
+
+
+@dataclass(frozen=True)
+class Tracked:
+    """The people of one message: when (seconds of its header stamp), in which frame, who
+    (ids as strings, as messages name them) and where ((N, 2) metres)."""
+
+    time_s: float
+    frame_id: str
+    ids: list[str]
+    xy: np.ndarray
+
+
+def message_class(kind: str) -> Any:
+    """The message class of ``pkg/msg/Type``, imported from the ROS environment."""
+    parts = kind.split("/")
+    if len(parts) != 3 or parts[1] != "msg":
+        raise GrouptronError(f"--type must be PACKAGE/msg/TYPE, not {kind!r}")
+    try:
+        return getattr(importlib.import_module(f"{parts[0]}.msg"), parts[2])
+    except (ImportError, AttributeError):
+        raise GrouptronError(
+            f"message type {kind} is not installed in this ROS environment (pip install "
+            f"ros-jazzy-{parts[0].replace('_', '-')}, or source its workspace)"
+        ) from None
+
+
+def _attribute(value: Any, path: str) -> Any:
+    for name in path.split("."):
+        value = getattr(value, name)
+    return value
+
+
+def _stamp_s(header: Any) -> float:
+    return float(header.stamp.sec) + 1e-9 * float(header.stamp.nanosec)
+
+
+def tracked(message: Any, kind: str, fields: BagFields | None = None) -> Tracked:
+    """The people of ``message`` of type ``kind``: a MarkerArray's markers (one per person:
+    its ``ns``/``id``, ``pose.position``; DELETE markers ignored), or where ``fields`` (the
+    bags' ``--ros-fields`` mapping, or a known type's) says they are. Refuses, in one line, a
+    message with no header, NaN positions or an id twice."""
+    if kind == MARKER_ARRAY:
+        shown = [m for m in message.markers if m.action == MARKER_ADD]
+        if not message.markers:
+            raise GrouptronError("an empty MarkerArray: no stamp, nobody to forecast")
+        header = message.markers[0].header
+        ids = [(m.ns if m.id == 0 else f"{m.ns}/{m.id}") if m.ns else str(m.id) for m in shown]
+        xy = [(m.pose.position.x, m.pose.position.y) for m in shown]
+    else:
+        fields = fields or KNOWN_MESSAGES.get(kind)
+        if fields is None:
+            raise GrouptronError(
+                f"{kind}: say where its people are with --ros-fields "
+                "people=PATH,id=PATH,x=PATH,y=PATH"
+            )
+        try:
+            people = list(_attribute(message, fields.people))
+            header = message.header
+            ids = [str(_attribute(p, fields.id)) for p in people]
+            xy = [(_attribute(p, fields.x), _attribute(p, fields.y)) for p in people]
+        except AttributeError as error:
+            raise GrouptronError(f"{kind}: {error}; check --ros-fields") from None
+    positions = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if not np.isfinite(positions).all():
+        raise GrouptronError("a position that is not a finite number")
+    if len(set(ids)) != len(ids):
+        raise GrouptronError("an id named twice in one message")
+    time_s = _stamp_s(header)
+    if not math.isfinite(time_s) or time_s <= 0:
+        raise GrouptronError("a message without a time stamp")
+    return Tracked(time_s, str(header.frame_id), ids, positions)
+
+
+def trajectory_message(forecast: Forecast, header: Any, dt_s: float) -> Any:
+    """``trajectory_msgs/msg/MultiDOFJointTrajectory``: ``joint_names`` the person ids,
+    ``points[k - 1]`` step k (``time_from_start`` k x ``dt_s``), ``transforms[i]`` person i's
+    position."""
+    from builtin_interfaces.msg import Duration
+    from geometry_msgs.msg import Transform
+    from trajectory_msgs.msg import MultiDOFJointTrajectory, MultiDOFJointTrajectoryPoint
+
+    out = MultiDOFJointTrajectory(header=header, joint_names=[str(i) for i in forecast.ids])
+    for k in range(forecast.point.shape[1]):
+        seconds = (k + 1) * dt_s
+        point = MultiDOFJointTrajectoryPoint(
+            time_from_start=Duration(sec=int(seconds), nanosec=round((seconds % 1) * 1e9))
+        )
+        for x, y in forecast.point[:, k]:
+            transform = Transform()
+            transform.translation.x, transform.translation.y = float(x), float(y)
+            transform.rotation.w = 1.0
+            point.transforms.append(transform)
+        out.points.append(point)
+    return out
+
+
+def marker_message(
+    forecast: Forecast, header: Any, regions: Regions | None, lifetime_s: float
+) -> Any:
+    """``visualization_msgs/msg/MarkerArray`` for RViz and Foxglove: the previous update's
+    markers deleted, then a line per person (namespace ``forecast``) and, with ``regions``,
+    the ellipse of every step (``region``, a flat cylinder)."""
+    from builtin_interfaces.msg import Duration
+    from visualization_msgs.msg import Marker, MarkerArray
+
+    lifetime = Duration(sec=int(lifetime_s), nanosec=round((lifetime_s % 1) * 1e9))
+    out = MarkerArray(markers=[Marker(header=header, action=Marker.DELETEALL)])
+    for i, person in enumerate(forecast.ids):
+        line = Marker(header=header, ns="forecast", id=i, type=Marker.LINE_STRIP, lifetime=lifetime)
+        line.scale.x = 0.05
+        line.color.r, line.color.g, line.color.b, line.color.a = 0.9, 0.3, 0.1, 1.0
+        line.text = str(person)
+        for x, y in forecast.point[i]:
+            line.points.append(_point(x, y))
+        out.markers.append(line)
+        if regions is None:
+            continue
+        for k in range(regions.major_m.shape[1]):
+            ellipse = Marker(
+                header=header, ns="region", id=i * 100 + k, type=Marker.CYLINDER, lifetime=lifetime
+            )
+            ellipse.pose.position = _point(*regions.centre[i, k])
+            half = 0.5 * float(regions.angle_rad[i, k])
+            ellipse.pose.orientation.z, ellipse.pose.orientation.w = math.sin(half), math.cos(half)
+            ellipse.scale.x = 2 * float(regions.major_m[i, k])
+            ellipse.scale.y = 2 * float(regions.minor_m[i, k])
+            ellipse.scale.z = 0.01
+            ellipse.color.r, ellipse.color.g, ellipse.color.b, ellipse.color.a = 0.9, 0.3, 0.1, 0.15
+            out.markers.append(ellipse)
+    return out
+
+
+def _point(x: float, y: float) -> Any:
+    from geometry_msgs.msg import Point
+
+    return Point(x=float(x), y=float(y), z=0.0)
+
+
+def diagnostics_message(header: Any, name: str, values: dict[str, str], level: int) -> Any:
+    """``diagnostic_msgs/msg/DiagnosticArray`` with one status of ``values``."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+    status = DiagnosticStatus(
+        level=bytes([level]),
+        name=name,
+        message="forecasting" if level == 0 else "inputs refused",
+        hardware_id="grouptron",
+        values=[KeyValue(key=k, value=v) for k, v in values.items()],
+    )
+    return DiagnosticArray(header=header, status=[status])
+
+
+def marker_array(tracks: Tracked, header: Any) -> Any:
+    """A MarkerArray of people (a sphere each, ``id`` their number): what ``--replay``
+    publishes, and what the node reads."""
+    from visualization_msgs.msg import Marker, MarkerArray
+
+    out = MarkerArray()
+    for name, (x, y) in zip(tracks.ids, tracks.xy, strict=True):
+        number = name.isdigit() and int(name) < 2**31
+        marker = Marker(
+            header=header,
+            ns="" if number else name,  # a name that is no number rides in the namespace
+            id=int(name) if number else 0,
+            type=Marker.SPHERE,
+            action=MARKER_ADD,
+        )
+        marker.pose.position = _point(x, y)
+        marker.pose.orientation.w = 1.0
+        marker.scale.x = marker.scale.y = marker.scale.z = 0.4
+        marker.color.a = 1.0
+        out.markers.append(marker)
+    return out

@@ -1,0 +1,145 @@
+"""The node: forecasts every message of tracked people on a live ROS 2 graph.
+
+In: a topic of tracked people (``visualization_msgs/msg/MarkerArray`` by default, or any
+installed type with a field mapping). Out, on every input: ``/grouptron/forecasts``
+(``trajectory_msgs/msg/MultiDOFJointTrajectory``), ``/grouptron/markers``
+(``visualization_msgs/msg/MarkerArray``: lines and region ellipses) and ``/diagnostics``.
+When updates fall behind, the newest input wins and the ones it replaced are counted, never
+queued without bound; a malformed message gives one warning and is skipped.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from grouptron.data.formats.ros_bag import BagFields, check_fixed_frame
+from grouptron.errors import GrouptronError
+from grouptron.inference.predictor import Predictor
+from grouptron.ros2.messages import (
+    MARKER_ARRAY,
+    diagnostics_message,
+    marker_message,
+    message_class,
+    tracked,
+    trajectory_message,
+)
+
+
+@dataclass(frozen=True)
+class NodeOptions:
+    """The node's settings (ROS parameters of the same names; flags of ``grouptron ros2``).
+
+    Attributes:
+        topic: the tracked people's topic.
+        type: its message type, ``pkg/msg/Type``.
+        ros_fields: where another type holds its people (``people=PATH,id=PATH,x=..,y=..``).
+        fixed_frames: frames of one's own fixed to the world (besides map, odom, world, ...).
+        regions: the q of the region ellipses on the markers topic (0: none).
+        namespace: of the output topics (``/grouptron/forecasts``, ``/grouptron/markers``).
+        name: the node's name.
+    """
+
+    topic: str = "/tracked_people"
+    type: str = MARKER_ARRAY
+    ros_fields: str | None = None
+    fixed_frames: tuple[str, ...] = ()
+    regions: float = 0.9
+    namespace: str = "/grouptron"
+    name: str = "grouptron"
+
+
+def make_node(predictor: Predictor, options: NodeOptions, *, online: bool = False) -> Any:
+    """The node (rclpy must be initialised); ``predictor`` forecasts, its session adapts its
+    radii with ``online``."""
+    from rclpy.node import Node
+    from rclpy.qos import QoSProfile
+
+    class ForecastNode(Node):
+        """See the module: forecasts on every message of tracked people."""
+
+        def __init__(self) -> None:
+            super().__init__(options.name)
+            self.kind = options.type
+            self.fields = BagFields.parse(options.ros_fields) if options.ros_fields else None
+            self.session = predictor.stream(online_calibration=online)
+            self.dt_s = predictor.config.data.dt_s
+            self.latest: Any = None
+            self.counts = {"received": 0, "forecast": 0, "dropped": 0, "malformed": 0}
+            self.last_update_ms = 0.0
+            self.last_people = 0
+            self.warned: set[str] = set()
+            queue = QoSProfile(depth=10)
+            incoming = message_class(options.type)
+            self.create_subscription(incoming, options.topic, self._received, queue)
+            out = options.namespace.rstrip("/")
+            self.forecasts = self.create_publisher(
+                message_class("trajectory_msgs/msg/MultiDOFJointTrajectory"),
+                f"{out}/forecasts",
+                queue,
+            )
+            self.markers = self.create_publisher(
+                message_class("visualization_msgs/msg/MarkerArray"), f"{out}/markers", queue
+            )
+            self.diagnostics = self.create_publisher(
+                message_class("diagnostic_msgs/msg/DiagnosticArray"), "/diagnostics", queue
+            )
+            self.create_timer(0.001, self._process)
+
+        def _received(self, message: Any) -> None:
+            self.counts["received"] += 1
+            if self.latest is not None:  # the newest input wins
+                self.counts["dropped"] += 1
+            self.latest = message
+
+        def _process(self) -> None:
+            message, self.latest = self.latest, None
+            if message is None:
+                return
+            try:
+                people = tracked(message, self.kind, self.fields)
+                check_fixed_frame(Path(options.topic), people.frame_id, options.fixed_frames)
+                started = time.perf_counter()
+                forecast = self.session.update(people.time_s, people.ids, people.xy)
+            except GrouptronError as error:
+                self.counts["malformed"] += 1
+                self._warn_once(str(error))
+                return
+            regions = (
+                forecast.regions(options.regions) if options.regions and len(forecast) else None
+            )
+            self.last_update_ms = 1000 * (time.perf_counter() - started)
+            self.last_people = len(people.ids)
+            self.counts["forecast"] += 1
+            header = _header_of(message, self.kind)
+            self.forecasts.publish(trajectory_message(forecast, header, self.dt_s))
+            self.markers.publish(marker_message(forecast, header, regions, self.dt_s))
+            self.diagnostics.publish(self._diagnostics(header))
+
+        def _diagnostics(self, header: Any) -> Any:
+            online_state = self.session.online
+            calibrated = "shipped or given" if predictor.calibration is not None else "none"
+            values = {
+                "update time ms": f"{self.last_update_ms:.1f}",
+                "people": str(self.last_people),
+                **{f"{k} inputs": str(v) for k, v in self.counts.items()},
+                "calibration": "online" if online_state is not None else calibrated,
+                "learning": "off",
+            }
+            level = 0 if not self.counts["malformed"] else 1
+            return diagnostics_message(header, "grouptron forecasts", values, level)
+
+        def _warn_once(self, text: str) -> None:
+            kind = text.split(":")[0]
+            if kind not in self.warned:
+                self.warned.add(kind)
+                self.get_logger().warning(f"skipped a message of {options.topic}: {text}")
+
+    return ForecastNode()
+
+
+def _header_of(message: Any, kind: str) -> Any:
+    """The input's header (a MarkerArray's: its first marker's)."""
+    return message.markers[0].header if kind == MARKER_ARRAY else message.header

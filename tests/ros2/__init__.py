@@ -1,0 +1,1 @@
+"""Tests of the live ROS 2 node."""

@@ -1,0 +1,127 @@
+"""The node on a real rclpy graph (an isolated domain on this machine): forecasts equal to
+``predict`` on the same tracks, markers and diagnostics on every input, malformed inputs
+survived, a moving frame refused."""
+
+from __future__ import annotations
+
+import os
+import random
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from grouptron.cli import main
+from grouptron.inference.predictor import Predictor
+from grouptron.ros2.messages import Tracked, marker_array
+from grouptron.ros2.node import NodeOptions, make_node
+from tests.golden.compute import synthetic_tracks
+
+rclpy = pytest.importorskip("rclpy")
+
+
+@pytest.fixture(scope="module")
+def graph() -> Iterator[None]:
+    """rclpy on a domain of its own, on this machine only."""
+    os.environ["ROS_DOMAIN_ID"] = str(random.randint(10, 99))
+    os.environ["ROS_LOCALHOST_ONLY"] = "1"
+    rclpy.init()
+    yield
+    rclpy.try_shutdown()
+
+
+class Probe:
+    """A node that publishes tracked people and keeps what the grouptron node says."""
+
+    def __init__(self) -> None:
+        from diagnostic_msgs.msg import DiagnosticArray
+        from trajectory_msgs.msg import MultiDOFJointTrajectory
+        from visualization_msgs.msg import MarkerArray
+
+        self.node = rclpy.create_node(f"probe_{random.randint(0, 10**6)}")
+        self.publisher = self.node.create_publisher(MarkerArray, "/tracked_people", 10)
+        self.got: dict[str, list[Any]] = {"forecasts": [], "markers": [], "diagnostics": []}
+        for name, kind, topic in (
+            ("forecasts", MultiDOFJointTrajectory, "/grouptron/forecasts"),
+            ("markers", MarkerArray, "/grouptron/markers"),
+            ("diagnostics", DiagnosticArray, "/diagnostics"),
+        ):
+            self.node.create_subscription(kind, topic, self.got[name].append, 10)
+
+    def send(self, people: Tracked, forecaster: Any, wait_s: float = 5.0) -> bool:
+        """Publish one message and spin both nodes until the forecaster answered it."""
+        from std_msgs.msg import Header
+
+        header = Header(frame_id=people.frame_id)
+        header.stamp.sec, header.stamp.nanosec = (
+            int(people.time_s),
+            round((people.time_s % 1) * 1e9),
+        )
+        before = len(self.got["diagnostics"])
+        self.publisher.publish(marker_array(people, header))
+        deadline = time.monotonic() + wait_s
+        while time.monotonic() < deadline and len(self.got["diagnostics"]) == before:
+            rclpy.spin_once(forecaster, timeout_sec=0.01)
+            rclpy.spin_once(self.node, timeout_sec=0.01)
+        return len(self.got["diagnostics"]) > before
+
+
+def _people(tracks: np.ndarray, frame: int) -> Tracked:
+    now = tracks[tracks[:, 0] == frame]
+    return Tracked(frame / 25.0 + 100.0, "map", [str(int(i)) for i in now[:, 1]], now[:, 2:4])
+
+
+def test_the_node_forecasts_as_predict_does_and_says_so(
+    graph: None, tiny_checkpoints: Path, tmp_path: Path
+) -> None:
+    checkpoint = tiny_checkpoints / "grouptron-eth-backward" / "best.safetensors"
+    forecaster = make_node(Predictor.from_checkpoint(checkpoint), NodeOptions(name="gt_a"))
+    probe = Probe()
+    tracks = synthetic_tracks()
+    for frame in np.unique(tracks[:, 0]):
+        assert probe.send(_people(tracks, int(frame)), forecaster), frame
+    last = probe.got["forecasts"][-1]
+    assert len(last.points) == 12 and last.header.frame_id == "map"
+    assert last.points[0].time_from_start.nanosec == 400_000_000
+    path = tmp_path / "tracks.txt"
+    np.savetxt(path, tracks, fmt="%.6f")
+    out = tmp_path / "f.csv"
+    assert main(["predict", "--checkpoint", str(checkpoint), "--tracks", str(path), "--out",
+                 str(out), "--quiet"]) == 0  # fmt: skip
+    rows = np.loadtxt(out, delimiter=",", skiprows=1)
+    final = rows[rows[:, 0] == tracks[:, 0].max()]
+    assert len(final)
+    for person in np.unique(final[:, 1]):
+        i = last.joint_names.index(str(int(person)))
+        sent = np.array([[p.transforms[i].translation.x, p.transforms[i].translation.y]
+                         for p in last.points])  # fmt: skip
+        np.testing.assert_allclose(sent, final[final[:, 1] == person][:, 3:5], atol=1e-3)
+    assert any(m.ns == "region" for m in probe.got["markers"][-1].markers)
+    values = {kv.key: kv.value for kv in probe.got["diagnostics"][-1].status[0].values}
+    assert values["forecast inputs"] == str(len(np.unique(tracks[:, 0])))
+    forecaster.destroy_node()
+    probe.node.destroy_node()
+
+
+def test_malformed_inputs_are_survived_and_a_moving_frame_refused(
+    graph: None, tiny_checkpoints: Path
+) -> None:
+    checkpoint = tiny_checkpoints / "grouptron-eth-backward" / "best.safetensors"
+    forecaster = make_node(Predictor.from_checkpoint(checkpoint), NodeOptions(name="gt_b"))
+    probe = Probe()
+    good = Tracked(100.0, "map", ["1", "2"], np.array([[0.0, 0.0], [1.0, 1.0]]))
+    assert probe.send(good, forecaster)
+    bad = [
+        Tracked(100.4, "map", ["1", "2"], np.array([[np.nan, 0.0], [1.0, 1.0]])),
+        Tracked(100.8, "base_link", ["1", "2"], np.array([[0.0, 0.0], [1.0, 1.0]])),
+    ]
+    for message in bad:
+        probe.send(message, forecaster, wait_s=0.5)  # no answer: a counted refusal
+    assert probe.send(Tracked(101.2, "map", ["1", "2"], np.array([[0.5, 0], [1, 1.5]])), forecaster)
+    values = {kv.key: kv.value for kv in probe.got["diagnostics"][-1].status[0].values}
+    assert values["malformed inputs"] == "2" and values["forecast inputs"] == "2"
+    forecaster.destroy_node()
+    probe.node.destroy_node()
