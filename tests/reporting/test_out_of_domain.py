@@ -202,3 +202,30 @@ def test_the_report_command_appends_the_section(
     assert f"--out-of-domain {corridor}" in text  # the command that regenerates it
     assert f"| run12.txt | {BACKWARD} (ml) |" in text and f"| {BACKWARD} (mean) |" in text
     assert "## Mean trajectory (every latent value's, weighted by p(z|x))" in text
+
+
+def test_a_checkpoint_that_trained_on_a_recording_is_refused_before_any_scoring(
+    corridor: Path, tiny_checkpoints: Path, tmp_path: Path
+) -> None:
+    import dataclasses
+
+    from grouptron.model.checkpoint import load_checkpoint, save_checkpoint
+
+    root = corridor.parent
+    site = root / "site.toml"  # a dataset of one's own that trains on run11.txt
+    site.write_text(
+        'name = "site"\n[format]\ncolumns = "id,frame,x,y,z"\nfps = 16\nunits = "cm"\n'
+        '[parts]\ntrain = ["run11.txt"]\nval = ["run11.txt"]\ntest = ["run12.txt"]\n'
+    )
+    stored = load_checkpoint(tiny_checkpoints / BACKWARD / "best.safetensors")
+    config = dataclasses.replace(stored.config, split="site", dataset=str(site))
+    save_checkpoint(
+        tmp_path / "site-model" / "best.safetensors", dataclasses.replace(stored, config=config)
+    )
+    prepared = prepare_out_of_domain([read_dataset(corridor)])
+    checkpoints = [
+        *causal_checkpoints(tiny_checkpoints),
+        tmp_path / "site-model" / "best.safetensors",
+    ]
+    with pytest.raises(GrouptronError, match=r"site-model trained or validated on run11\.txt"):
+        score_out_of_domain(prepared, checkpoints)

@@ -80,6 +80,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         progress=show_progress(args),
         regions=args.regions,
         calibration=False if args.calibration == "none" else args.calibration,
+        include_seen=args.include_seen,
     )
     rows = evaluate(_source(args), checkpoint, _modes(args), options)
     print(results_json(rows) if args.format == "json" else results_table(rows))

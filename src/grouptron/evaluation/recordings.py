@@ -11,9 +11,10 @@ import numpy as np
 import torch
 
 from grouptron.config import DataConfig, ExperimentConfig
-from grouptron.constants import ALL_LOCATIONS, CONSTANT_VELOCITY
+from grouptron.constants import ALL_LOCATIONS, CONSTANT_VELOCITY, SPLITS
 from grouptron.data.datasets.custom import read_dataset
 from grouptron.data.datasets.download import file_sha256, shipped_checksums
+from grouptron.data.datasets.locate import split_files
 from grouptron.data.datasets.subsets import density_masks, time_step_ids
 from grouptron.data.formats.track_files import TrackSource, read_track_file
 from grouptron.data.prepare.samples import SampleSet, concatenate_samples, scene_samples
@@ -73,6 +74,24 @@ def training_files(files: Sequence[Path], experiment: ExperimentConfig) -> list[
                 found.append(str(path))
                 break
     return found
+
+
+def benchmark_seen(experiment: ExperimentConfig, data_dir: Path, split: str) -> str | None:
+    """Why the test recordings of benchmark ``split`` are not held out from the checkpoint
+    ``experiment`` describes, or None where they are. A benchmark split leaves one location
+    out, so a checkpoint of one split trained and validated on every other split's test
+    location (hotel's test file holds the very tracks of eth's hotel train and val files); an
+    all-locations checkpoint on all of them; a checkpoint of a dataset of one's own on those
+    its train and val parts hold, and any checkpoint on a file that is, byte for byte, ETH/UCY
+    data it trained on (:func:`training_files`)."""
+    if experiment.split == ALL_LOCATIONS:
+        return "it trained on every ETH/UCY location"
+    if experiment.split in SPLITS and experiment.split != split:
+        return f"its {experiment.split} split trains and validates on {split}'s test location"
+    seen = training_files(split_files(data_dir, split, "test"), experiment)
+    if seen:
+        return f"it trained or validated on {Path(seen[0]).name}"
+    return None
 
 
 def _dataset_files(files: Sequence[Path], description: str) -> list[str]:

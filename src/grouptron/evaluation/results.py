@@ -50,6 +50,9 @@ class EvaluationResult:
     per_step: dict[str, tuple[float, ...]] = field(default_factory=dict)
     """The (H,) per-step means of the metrics scored per step (the region metrics: their
     mean over the steps is in ``metrics``)."""
+    held_out: bool = True
+    """False where the scored samples are not held out from the checkpoint: it trained or
+    validated on them (``evaluate`` scores such data only when asked, and says so)."""
 
     def to_dict(self) -> dict[str, object]:
         """The row as JSON values: optional fields left out where unset, every other metric
@@ -59,6 +62,8 @@ class EvaluationResult:
         for optional in ("mode", "nll", "checkpoint", "derivatives", "ade_ci", "fde_ci"):
             if row[optional] is None:
                 del row[optional]
+        if row["held_out"]:  # named where it is not: ``held_out: false``
+            del row["held_out"]
         extra, intervals = row.pop("metrics"), row.pop("metrics_ci")
         per_step = row.pop("per_step")
         for name, value in extra.items():
@@ -134,6 +139,7 @@ def mean_over_splits(results: Sequence[EvaluationResult]) -> EvaluationResult:
     return dataclasses.replace(
         first,
         split=MEAN_ROW,
+        held_out=all(r.held_out for r in results),
         samples=sum(r.samples for r in results),
         ade=float(np.mean([r.ade for r in results])),
         fde=float(np.mean([r.fde for r in results])),
@@ -175,7 +181,7 @@ def results_table(results: Sequence[EvaluationResult]) -> str:
     with_ci = any(r.fde_ci is not None for r in results)
     width = max([7, *(len(r.split) for r in results)])
     sub = max([9, *(len(r.subset or "") for r in results)])
-    model = max([30, *(len(r.model) + len(r.mode or "") + 3 for r in results)])
+    model = max([30, *(len(_name(r)) + (3 if r.mode is None else 0) for r in results)])
     header = (
         f"{'split':<{width}} {'subset':<{sub}} {'model':<{model}} {'samples':>8} {'ADE m':>7} "
         f"{'FDE m':>7}"
@@ -185,7 +191,7 @@ def results_table(results: Sequence[EvaluationResult]) -> str:
     header += f" {'FDE 95% interval':>18}" if with_ci else ""
     lines = [header, "-" * len(header)]
     for r in results:
-        name = r.model if r.mode is None else f"{r.model} ({r.mode})"
+        name = _name(r)
         line = (
             f"{r.split:<{width}} {r.subset or '-':<{sub}} {name:<{model}} {r.samples:>8} "
             f"{_fmt(r.ade):>7} {_fmt(r.fde):>7}"
@@ -199,6 +205,16 @@ def results_table(results: Sequence[EvaluationResult]) -> str:
             line += f" {interval:>18}"
         lines.append(line)
     return "\n".join(lines)
+
+
+NOT_HELD_OUT = "not held out"
+"""How a table marks a row scored on data the checkpoint trained or validated on."""
+
+
+def _name(row: EvaluationResult) -> str:
+    """A row's model in a table: with its mode, and marked where it is not held out."""
+    name = row.model if row.mode is None else f"{row.model} ({row.mode})"
+    return name if row.held_out else f"{name} [{NOT_HELD_OUT}]"
 
 
 def _metric_columns(results: Sequence[EvaluationResult]) -> list[tuple[str, str, int | None]]:

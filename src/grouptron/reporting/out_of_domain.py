@@ -21,10 +21,10 @@ from grouptron.data.formats.track_files import TrackSource
 from grouptron.data.prepare.samples import SampleSet, concatenate_samples
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores
-from grouptron.evaluation.recordings import recording_samples
+from grouptron.evaluation.recordings import recording_samples, training_files
 from grouptron.evaluation.score_cache import cached_score_samples
 from grouptron.evaluation.uncertainty import Interval, mean_interval
-from grouptron.model.checkpoint import load_trained_model, stored_checkpoints
+from grouptron.model.checkpoint import load_checkpoint, load_trained_model, stored_checkpoints
 from grouptron.model.factory import groups_for_model
 from grouptron.point_forecast import NAMED as POINT_FORECASTS
 from grouptron.point_forecast import is_point_forecast
@@ -188,6 +188,7 @@ def score_out_of_domain(
     doubled = sorted(label for label, n in Counter(labels).items() if n > 1)
     if doubled:  # rows are named by folder: two of one name would merge
         raise GrouptronError(f"out-of-domain checkpoints need distinct folder names: {doubled}")
+    _refuse_seen(recordings, checkpoints)
     names = recordings.names
     rows, pooled = _rows(CONSTANT_VELOCITY, None, recordings.baseline, BASELINE_DATA, None, names)
     for path in checkpoints:
@@ -205,6 +206,20 @@ def score_out_of_domain(
             pooled += per_bin
     rows.sort(key=lambda r: names.index(r.recording))  # stable: models stay in order
     return OutOfDomain(recordings, tuple(labels), tuple(rows), tuple(pooled), default_model)
+
+
+def _refuse_seen(recordings: OutOfDomainSet, checkpoints: Sequence[Path]) -> None:
+    """Refuse, before the long work, a checkpoint that trained or validated on one of the
+    recordings (byte for byte): its scores there would not be out of domain."""
+    files = [f for d in recordings.datasets for f in d.files(TEST_PART)]
+    for path in checkpoints:
+        seen = training_files(files, load_checkpoint(path).config)
+        if seen:
+            raise GrouptronError(
+                f"{path.parent.name} trained or validated on {Path(seen[0]).name}, so its scores "
+                "there are not held out: leave it out of the checkpoints or that recording out "
+                "of --out-of-domain"
+            )
 
 
 def _rows(

@@ -28,7 +28,7 @@ from grouptron.constants import (
     SPLITS,
 )
 from grouptron.data.datasets.custom import DatasetDescription, load_dataset_part
-from grouptron.data.datasets.locate import resolve_data_dir, split_files
+from grouptron.data.datasets.locate import resolve_data_dir
 from grouptron.data.datasets.subsets import density_masks, parse_univ_n
 from grouptron.data.formats.track_files import TrackSource
 from grouptron.data.prepare.samples import SampleSet
@@ -48,6 +48,12 @@ from grouptron.model.factory import groups_for_model, uses_groups
 from grouptron.model.predict import ABLATIONS, default_point_forecast
 from grouptron.point_forecast import PointForecast, is_evaluation_mode, is_point_forecast
 from grouptron.workflows.adapt import adapted_parts
+from grouptron.workflows.held_out import (
+    mark_not_held_out,
+    seen_dataset_files,
+    seen_splits,
+    seen_track_names,
+)
 
 log = logging.getLogger("grouptron")
 
@@ -105,6 +111,8 @@ class EvaluationOptions:
         calibration: a ``grouptron calibrate`` file of the checkpoint and point forecast whose
             radii size the regions (None: the one the checkpoint ships with, where it fits
             every point forecast scored, as ``predict`` draws them; False: the model's own).
+        include_seen: score data the checkpoint trained or validated on (another split's
+            test set, say) instead of refusing, each such row marked ``held_out=False``.
     """
 
     seed: int = 0
@@ -117,6 +125,7 @@ class EvaluationOptions:
     progress: bool = False
     regions: tuple[float, ...] = ()
     calibration: str | Path | bool | None = None
+    include_seen: bool = False
 
 
 @dataclass(frozen=True)
@@ -317,11 +326,11 @@ def _evaluate_benchmark(
 ) -> list[EvaluationResult]:
     """Every split's test set (and its UNIV-N subset), the mean over the five splits."""
     experiment = loaded.experiment
-    if experiment is not None and experiment.split == ALL_LOCATIONS:
+    if experiment is not None and experiment.split == ALL_LOCATIONS and not options.include_seen:
         raise GrouptronError(
             f"{loaded.name} was trained on every ETH/UCY location ({ALL_LOCATIONS}), so no "
             "benchmark test set is held out from it; score it on recordings of your own "
-            "(--tracks, --dataset)"
+            "(--tracks, --dataset), or pass --include-seen to score it marked not held out"
         )
     if experiment is not None and experiment.dataset and not source.splits:
         raise GrouptronError(
@@ -329,7 +338,8 @@ def _evaluate_benchmark(
             "benchmark split: name the splits to score it on (--split), or score recordings "
             "(--tracks, --dataset)"
         )
-    splits = source.splits or ((experiment.split,) if experiment else SPLITS)
+    own = (experiment.split,) if experiment and experiment.split in SPLITS else SPLITS
+    splits = source.splits or own
     unknown = [s for s in splits if s not in SPLITS]
     if unknown:
         raise GrouptronError(f"unknown split {unknown[0]!r}; choose from {', '.join(SPLITS)}")
@@ -337,11 +347,11 @@ def _evaluate_benchmark(
     if subset is not None and tuple(splits) != ("univ",):
         raise GrouptronError("--subset univ-N needs --split univ")
     data_dir = resolve_data_dir(source.data_dir)
+    seen = seen_splits(experiment, loaded.name, data_dir, splits, options.include_seen)
     grouped = experiment is not None and uses_groups(experiment)
     group_config = experiment.groups if experiment is not None and grouped else None
     rows: list[EvaluationResult] = []
     for split in splits:
-        _refuse_seen_test_files(loaded, data_dir, split)
         samples, groups = load_test_set(
             data_dir,
             split,
@@ -354,25 +364,11 @@ def _evaluate_benchmark(
         masks.update(density_masks(samples) if options.by_density else {})
         scored = _model_scores(loaded, samples, groups, modes, options, regions=regions)
         rows += _rows(split, scored, masks, loaded.data.derivatives)
-    rows = [r for r in rows if r.samples or r.subset is None]
+    rows = mark_not_held_out([r for r in rows if r.samples or r.subset is None], seen)
     if len(splits) == len(SPLITS) and not options.by_density:
         for mode in dict.fromkeys(r.mode for r in rows):
             rows.append(mean_over_splits([r for r in rows if r.mode == mode]))
     return rows
-
-
-def _refuse_seen_test_files(loaded: _Loaded, data_dir: Path, split: str) -> None:
-    """A checkpoint trained on a dataset that holds a split's test recordings has no
-    held-out score there."""
-    if loaded.experiment is None or not loaded.experiment.dataset:
-        return
-    seen = training_files(split_files(data_dir, split, "test"), loaded.experiment)
-    if seen:
-        raise GrouptronError(
-            f"{loaded.name} was trained on {split}'s test recordings ({Path(seen[0]).name}): no "
-            "benchmark score of it is held out; score it on recordings it never saw (--tracks, "
-            "--dataset)"
-        )
 
 
 def _evaluate_tracks(
@@ -383,7 +379,9 @@ def _evaluate_tracks(
     *,
     regions: RegionScoring | None,
 ) -> list[EvaluationResult]:
-    """Rows per file and pooled, with intervals; a file the checkpoint trained on is named."""
+    """Rows per file and pooled, with intervals; a file the checkpoint trained, validated or
+    adapted on is named in a warning, and its rows (and the pooled ones) not held out."""
+    seen: list[Path | str] = []
     if loaded.experiment is not None:
         if loaded.data.derivatives == "central":
             log.warning(
@@ -393,6 +391,8 @@ def _evaluate_tracks(
                 loaded.name,
             )
         adapted = adapted_parts(loaded.path, source.files) if loaded.path else []
+        seen += [path for path, _ in adapted]
+        seen += training_files(source.files, loaded.experiment)
         for adapted_file, seconds in adapted:
             log.warning(
                 "%s: its first %.0f s adapted %s: scores there are not held-out scores (score "
@@ -409,7 +409,7 @@ def _evaluate_tracks(
                 loaded.name,
                 loaded.experiment.split,
             )
-    return evaluate_recordings(
+    rows = evaluate_recordings(
         source.sources,
         model=loaded.model,
         experiment=loaded.experiment,
@@ -423,6 +423,7 @@ def _evaluate_tracks(
         baseline=loaded.model is not None,
         regions=regions,
     )
+    return mark_not_held_out(rows, seen_track_names(seen))
 
 
 def _evaluate_dataset(
@@ -434,6 +435,7 @@ def _evaluate_dataset(
     regions: RegionScoring | None,
 ) -> list[EvaluationResult]:
     """The test part of a dataset of one's own (and its density bins)."""
+    seen = seen_dataset_files(loaded.experiment, loaded.name, source, options.include_seen)
     part = load_dataset_part(source, "test", loaded.data, use_cache=options.use_cache)
     masks: dict[str | None, np.ndarray | None] = {None: None}
     masks.update(density_masks(part.samples) if options.by_density else {})
@@ -441,4 +443,5 @@ def _evaluate_dataset(
     if loaded.experiment is not None:
         groups = groups_for_model(part.samples, loaded.experiment)
     scored = _model_scores(loaded, part.samples, groups, modes, options, regions=regions)
-    return _rows(source.name, scored, masks, loaded.data.derivatives)
+    rows = _rows(source.name, scored, masks, loaded.data.derivatives)
+    return mark_not_held_out(rows, {source.name} if seen else ())

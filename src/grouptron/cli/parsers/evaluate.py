@@ -69,6 +69,13 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "checkpoint's own point forecast, the one predict writes)",
     )
     evaluate.add_argument("--seed", type=int, default=0, help="seed of the sampling modes")
+    evaluate.add_argument(
+        "--include-seen",
+        action="store_true",
+        help="score test sets the checkpoint trained or validated on (another split's: leave "
+        "one location out trains on it) instead of refusing, the checkpoint's rows there "
+        "marked 'not held out' (JSON: held_out false)",
+    )
     _add_region_options(evaluate)
     evaluate.add_argument(
         "--format", choices=("table", "json"), default="table", help="output format"
