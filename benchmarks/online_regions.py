@@ -10,9 +10,10 @@ with the checkpoint's own point forecast, as ``grouptron predict`` does, and rep
 order with online calibration (``inference.online``, what ``predict --online`` and a live
 session do): at each step the truths that arrived are scored first, then the forecasts made
 there get the radii in force. Prints per recording the long-run coverage (the share of truths
-inside the radius in force when their forecast was made) at steps 4, 8 and 12, the same for
-the static starting radii, and, with a calibration that has whole-path radii, the share of
-whole 4.8 s paths inside the ``--q`` whole-path regions. ``--halves`` instead calibrates each
+inside the radius in force when their forecast was made) at steps 4, 8 and 12 with the
+regions' mean area (m^2) beside it, the same for the static starting radii, and, with a
+calibration that has whole-path radii, the share of whole 4.8 s paths inside the ``--q``
+whole-path regions and their areas at those steps. ``--halves`` instead calibrates each
 file on its first half (``grouptron calibrate``'s split conformal) and replays its second half
 from there, static and online. Starting radii: ``shipped`` (the checkpoint's own calibration,
 the default where it ships one), a calibration file, or ``none`` (the Gaussian radii).
@@ -108,21 +109,34 @@ def score_file(
     assert forecast.distribution is not None
     scores = shape_distances(forecast.point, forecast.distribution, np.nan_to_num(truth))
     known = ~np.isnan(truth[..., 0])
+    # An ellipse of radius r under shape S has area pi r^2 sqrt(det S): (N, H) for areas.
+    unit_area = np.pi * np.sqrt(np.linalg.det(region_shapes(forecast.point, forecast.distribution)))
     name = Path(source.path).stem
     if args.halves:
-        return _halves(name, forecast, seen, step, scores, known, (model, config, scene), args)
+        made = (model, config, scene, unit_area)
+        return _halves(name, forecast, seen, step, scores, known, made, args)
     online = OnlineCalibration.start(H, start, args.learning_rate)
     state, radii = replayed(forecast, seen, step, online, args.q)
-    rows = [_row(name, "online", scores, radii, known)]
+    rows = [_row(name, "online", scores, radii, known, unit_area)]
     if start is not None:
         rows.append(
-            _row(name, "static", scores, np.broadcast_to(start.radius(args.q), radii.shape), known)
+            _row(
+                name,
+                "static",
+                scores,
+                np.broadcast_to(start.radius(args.q), radii.shape),
+                known,
+                unit_area,
+            )
         )
         if len(start.joint_radii):
             whole = known.all(axis=1)
-            inside = (scores <= start.radius(args.q, joint=True)).all(axis=1)
+            path_radius = start.radius(args.q, joint=True)
+            inside = (scores <= path_radius).all(axis=1)
             share = f"{inside[whole].mean():.1%} of {whole.sum()} paths"
-            rows.append(f"| {name} | whole path (static) | {share} | | |")
+            area = (unit_area * path_radius**2)[whole][:, [k - 1 for k in STEPS]].mean(axis=0)
+            sizes = " / ".join(f"{a:.2f}" for a in area)
+            rows.append(f"| {name} | whole path (static) | {share}, {sizes} m^2 | | |")
     del state
     return rows
 
@@ -138,7 +152,7 @@ def _halves(
     args: argparse.Namespace,
 ) -> list[str]:
     """Calibrate on the first half of the file's forecast frames, replay the second half."""
-    model, config, scene = made
+    model, config, scene, unit_area = made
     middle = np.median(forecast.frames)
     samples = scene_samples(scene, config.data, config.data.history_steps)
     frames = scene.first_frame + samples.step * scene.frames_per_step
@@ -159,17 +173,27 @@ def _halves(
     _, radii = replayed(second, seen, step, online, args.q)
     static = np.broadcast_to(calibration.radius(args.q), radii.shape)
     return [
-        _row(name, "second half, online", scores[later], radii, known[later]),
-        _row(name, "second half, static", scores[later], static, known[later]),
+        _row(name, "second half, online", scores[later], radii, known[later], unit_area[later]),
+        _row(name, "second half, static", scores[later], static, known[later], unit_area[later]),
     ]
 
 
-def _row(name: str, kind: str, scores: np.ndarray, radii: np.ndarray, known: np.ndarray) -> str:
-    """Coverage at STEPS: the share of arrived truths inside the radius in force."""
+def _row(
+    name: str,
+    kind: str,
+    scores: np.ndarray,
+    radii: np.ndarray,
+    known: np.ndarray,
+    unit_area: np.ndarray,
+) -> str:
+    """Coverage at STEPS (the share of arrived truths inside the radius in force) and the
+    regions' mean area (m^2)."""
     cells = []
     for k in STEPS:
         seen = known[:, k - 1]
-        cells.append(f"{(scores[seen, k - 1] <= radii[seen, k - 1]).mean():.1%}")
+        held = (scores[seen, k - 1] <= radii[seen, k - 1]).mean()
+        area = (unit_area[seen, k - 1] * radii[seen, k - 1] ** 2).mean()
+        cells.append(f"{held:.1%}, {area:.2f} m^2")
     return f"| {name} | {kind} | " + " | ".join(cells) + " |"
 
 

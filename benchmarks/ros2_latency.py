@@ -1,0 +1,130 @@
+"""Latency of the live ROS 2 node: from publishing a message of tracked people to receiving
+its forecast, beside the session update's own time in the same run.
+
+Usage:
+    python benchmarks/ros2_latency.py [--people 50] [--messages 200] [--rate 10] [--threads 2]
+
+The synthetic crowd of ``benchmarks/streaming.py`` is published as MarkerArray messages at
+``--rate`` Hz of wall-clock time (stamped 0.4 s apart, the crowd's own time) on an isolated
+domain of this machine; the node (``grouptron ros2``'s, the
+default model with its shipped calibration and 90% regions) runs in a process of its own, as
+on a robot. Prints the median and 90th percentile of the
+publish-to-forecast-received time and of the node's own update time (its diagnostics), and
+their ratio, after the first 20 messages.
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing
+import os
+import random
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from streaming import synthetic_frames  # benchmarks/ is on sys.path
+
+
+def run_node(seconds: float, threads: int) -> None:
+    """The node, in a process of its own as on a robot, for ``seconds``."""
+    torch.set_num_threads(threads)
+    import rclpy
+
+    from grouptron import Predictor
+    from grouptron.ros2.node import NodeOptions, make_node
+
+    rclpy.init()
+    node = make_node(Predictor.from_checkpoint(), NodeOptions())
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        rclpy.spin_once(node, timeout_sec=0.05)
+    node.destroy_node()
+    rclpy.try_shutdown()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--people", type=int, default=50)
+    parser.add_argument("--messages", type=int, default=200)
+    parser.add_argument("--rate", type=float, default=10.0)
+    parser.add_argument("--threads", type=int, default=2)
+    args = parser.parse_args()
+    os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(10, 99)))
+    os.environ["ROS_LOCALHOST_ONLY"] = "1"
+    seconds = args.messages / args.rate + 30.0
+    node = multiprocessing.get_context("spawn").Process(
+        target=run_node, args=(seconds, args.threads), daemon=True
+    )
+    node.start()
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray
+    from std_msgs.msg import Header
+    from trajectory_msgs.msg import MultiDOFJointTrajectory
+    from visualization_msgs.msg import MarkerArray
+
+    from grouptron.ros2.messages import Tracked, marker_array
+
+    rclpy.init()
+    probe = rclpy.create_node("latency_probe")
+    publisher = probe.create_publisher(MarkerArray, "/tracked_people", 10)
+    received: dict[tuple[int, int], float] = {}
+    update_ms: list[float] = []
+
+    def arrived(message: MultiDOFJointTrajectory) -> None:
+        received[(message.header.stamp.sec, message.header.stamp.nanosec)] = time.perf_counter()
+
+    def said(message: DiagnosticArray) -> None:
+        values = {kv.key: kv.value for kv in message.status[0].values}
+        update_ms.append(float(values["update time ms"]))
+
+    probe.create_subscription(MultiDOFJointTrajectory, "/grouptron/forecasts", arrived, 10)
+    probe.create_subscription(DiagnosticArray, "/diagnostics", said, 10)
+    frames = synthetic_frames(args.people, args.messages + 10)
+    start = 1_700_000_000.0
+    warm = 0
+    while not received and warm < 240:  # warm up (the model loads): until the node answers
+        t = start - 100.0 + 0.4 * warm
+        ids, xy = frames[warm % 10]
+        header = Header(frame_id="map")
+        header.stamp.sec, header.stamp.nanosec = int(t), round((t % 1) * 1e9) % 1_000_000_000
+        publisher.publish(marker_array(Tracked(t, "map", [str(int(i)) for i in ids], xy), header))
+        end = time.perf_counter() + 0.4
+        while time.perf_counter() < end:
+            rclpy.spin_once(probe, timeout_sec=0.01)
+        warm += 1
+    received.clear()
+    update_ms.clear()
+    sent: dict[tuple[int, int], float] = {}
+    for k, (ids, xy) in enumerate(frames[10:]):
+        t = start + 0.4 * k  # the crowd's own time: it moves 0.4 s per frame
+        header = Header(frame_id="map")
+        header.stamp.sec, header.stamp.nanosec = int(t), round((t % 1) * 1e9) % 1_000_000_000
+        people = Tracked(t, "map", [str(int(i)) for i in ids], np.asarray(xy))
+        message = marker_array(people, header)
+        sent[(header.stamp.sec, header.stamp.nanosec)] = time.perf_counter()
+        publisher.publish(message)
+        deadline = time.perf_counter() + 1.0 / args.rate
+        while time.perf_counter() < deadline:
+            rclpy.spin_once(probe, timeout_sec=0.001)
+    latency = [1000 * (received[s] - sent[s]) for s in list(sent)[20:] if s in received]
+    own = update_ms[20:]
+    lost = len(sent) - 20 - len(latency)
+    print(f"{args.people} people, {args.messages} messages at {args.rate:g} Hz, "
+          f"{args.threads} threads; {lost} forecasts not received")  # fmt: skip
+    for name, values in (("publish to forecast received", latency), ("update", own)):
+        print(f"{name:>30}: median {statistics.median(values):.1f} ms, "
+              f"p90 {float(np.percentile(values, 90)):.1f} ms")  # fmt: skip
+    print(f"{'ratio of medians':>30}: {statistics.median(latency) / statistics.median(own):.2f}")
+    probe.destroy_node()
+    rclpy.try_shutdown()
+    node.terminate()
+
+
+if __name__ == "__main__":
+    main()
