@@ -40,6 +40,8 @@ SKIPPED = {
     "grouptron adapt --tracks monday.csv tuesday.csv": "needs 20 minutes of a site's "
     "recordings; tests/workflows/test_adapt.py adapts on two minutes",
     "grouptron predict --checkpoint runs/lobby/best.safetensors": "reads the run adapted above",
+    "grouptron ros2": "joins a live ROS 2 graph until stopped; tests/ros2/test_node.py runs the "
+    "node on an isolated graph",
 }
 """Command prefixes not run here, each with why (their options still parse in test_docs)."""
 SHIPPED = {  # shipped names the docs use -> the tiny checkpoint that stands in for each

@@ -106,6 +106,7 @@ def test_every_python_block_runs(
     if f"{doc}:{index}" in PYTHON_SKIPPED:
         pytest.skip(PYTHON_SKIPPED[f"{doc}:{index}"])
     shutil.copy(next((synthetic_data_dir / "eth/test").glob("*.txt")), tmp_path / "my_tracks.txt")
+    seconds_csv(tmp_path / "my_tracks.csv")  # the README loop's tracker CSV
     monkeypatch.chdir(tmp_path)
     namespace: dict[str, object] = {}
     exec(compile(code, f"{doc}, Python block {index}", "exec"), namespace)
