@@ -1,8 +1,8 @@
 """grouptron: group-aware pedestrian trajectory forecasting.
 
 Layers, each importing only those below it (docs/architecture.md; ``lint-imports`` checks):
-``cli > workflows > reporting > viz > inference > training > evaluation > baselines > model >
-groups > data > presets > config > point_forecast > io, geometry, constants, devices >
+``cli > ros2 > workflows > reporting > viz > inference > training > evaluation > baselines >
+model > groups > data > presets > config > point_forecast > io, geometry, constants, devices >
 errors``.
 
 Shape letters used in docstrings and comments throughout (docs/vocabulary.md):
