@@ -32,8 +32,11 @@ float64 z"""
 START_S = 1_700_000_000.0  # a robot's clock: Unix time
 
 
-def write_people_bag(path: Path, rows: np.ndarray, frame_id: str = "map") -> None:
-    """One People message per frame of the (R, 4) ``frame, id, x, y`` rows (25 fps frames)."""
+def write_people_bag(
+    path: Path, rows: np.ndarray, frame_id: str = "map", prefix: str = ""
+) -> None:
+    """One People message per frame of the (R, 4) ``frame, id, x, y`` rows (25 fps frames),
+    each person named ``prefix`` and their id."""
     from mcap_ros2.writer import Writer
 
     with path.open("wb") as handle:
@@ -50,7 +53,7 @@ def write_people_bag(path: Path, rows: np.ndarray, frame_id: str = "map") -> Non
                 },
                 "people": [
                     {
-                        "name": f"{int(i)}",
+                        "name": f"{prefix}{int(i)}",
                         "position": {"x": float(x), "y": float(y), "z": 0.0},
                         "velocity": {"x": 0.0, "y": 0.0, "z": 0.0},
                         "reliability": 1.0,

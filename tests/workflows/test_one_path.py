@@ -121,3 +121,17 @@ def test_predict_a_live_session_and_evaluate_make_the_same_forecasts(
     (row,) = [r for r in rows if r.model == "grouptron" and r.split == "all files"]
     assert row.samples == len(errors)
     assert row.ade == pytest.approx(ade, abs=1e-3) and row.fde == pytest.approx(fde, abs=1e-3)
+
+
+def test_a_bags_names_are_kept_in_the_csv(
+    tiny_checkpoints: Path, recording: np.ndarray, tmp_path: Path
+) -> None:
+    bag, out = tmp_path / "named.mcap", tmp_path / "named.csv"
+    write_people_bag(bag, recording, prefix="walker-")
+    checkpoint = str(tiny_checkpoints / "grouptron-eth-backward" / "best.safetensors")
+    assert main(["predict", "--checkpoint", checkpoint, "--tracks", str(bag), "--topic",
+                 "/people", "--out", str(out), "--quiet"]) == 0  # fmt: skip
+    lines = out.read_text().splitlines()
+    assert lines[0].startswith("frame,id,step") and len(lines) > 100
+    names = {line.split(",")[1] for line in lines[1:]}
+    assert names <= {f"walker-{int(i)}" for i in recording[:, 1]} and len(names) > 3

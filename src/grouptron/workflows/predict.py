@@ -9,6 +9,7 @@ or Foxglove scene updates (``grouptron predict``).
 from __future__ import annotations
 
 import dataclasses
+import io
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,7 +34,7 @@ from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoi
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.online import OnlineCalibration, replay
 from grouptron.inference.tracks import forecast_scene
-from grouptron.io import refuse_folder, write_array_csv_atomically
+from grouptron.io import refuse_folder, write_text_atomically
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.predict import default_point_forecast
 from grouptron.model.regions import region_shapes
@@ -167,7 +168,8 @@ def predict_tracks(request: PredictRequest) -> Predicted:
     if out is not None and out.suffix == ".mcap":
         count = _write_mcap(out, forecast, table, bag, data.dt_s, request.regions)
         return dataclasses.replace(done, count=count, scene_updates=True)
-    count = _write_rows(request, forecast, table, sampled, data.horizon_steps)
+    names = None if bag is None or bag.numeric else bag.names  # a bag's own names, kept
+    count = _write_rows(request, forecast, table, sampled, data.horizon_steps, names)
     return dataclasses.replace(done, count=count)
 
 
@@ -206,21 +208,37 @@ def _out_path(out: str | Path | TextIO) -> Path | None:
 
 
 def _write_rows(
-    request: PredictRequest, forecast: Forecast, table: TrackTable, sampled: bool, horizon: int
+    request: PredictRequest,
+    forecast: Forecast,
+    table: TrackTable,
+    sampled: bool,
+    horizon: int,
+    names: tuple[str, ...] | None = None,
 ) -> int:
-    """Write the forecasts as TrajNet++ ``.ndjson`` or CSV rows; returns how many rows."""
+    """Write the forecasts as TrajNet++ ``.ndjson`` or CSV rows (with ``names``, a bag's own
+    names of the ids in the ``id`` column); returns how many rows."""
     out = _out_path(request.out)
     if out is not None and out.suffix == ".ndjson":
         _write_trajnet(out, forecast, table, sampled=sampled)
         return len(forecast) * horizon * (request.samples if sampled else 1)
     header, rows, formats = forecast.table(sampled, request.regions, table.times, request.joint)
+    text = io.StringIO()
+    text.write(",".join(header) + "\n")
+    np.savetxt(text, rows, fmt=list(formats), delimiter=",")
+    written = text.getvalue()
+    if names is not None:  # the id column (the second) by name: "frame,id,..." rows
+        lines = written.splitlines()
+        named = [
+            f"{first},{names[int(float(number))]},{rest}"
+            for first, number, rest in (line.split(",", 2) for line in lines[1:])
+        ]
+        written = "\n".join([lines[0], *named]) + "\n"
     if out is not None:
-        write_array_csv_atomically(out, header, rows, formats)
+        write_text_atomically(out, written)
     else:
         stream = request.out
         assert not isinstance(stream, str | Path)
-        stream.write(",".join(header) + "\n")
-        np.savetxt(stream, rows, fmt=list(formats), delimiter=",")
+        stream.write(written)
     return len(rows)
 
 
