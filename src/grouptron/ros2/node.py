@@ -30,7 +30,8 @@ from grouptron.ros2.messages import (
 
 @dataclass(frozen=True)
 class NodeOptions:
-    """The node's settings (ROS parameters of the same names; flags of ``grouptron ros2``).
+    """The node's settings: flags of ``grouptron ros2``, and ROS parameters of the same names
+    (``fixed_frames`` a list) that override them.
 
     Attributes:
         topic: the tracked people's topic.
@@ -62,8 +63,10 @@ def make_node(predictor: Predictor, options: NodeOptions, *, online: bool = Fals
 
         def __init__(self) -> None:
             super().__init__(options.name)
-            self.kind = options.type
-            self.fields = BagFields.parse(options.ros_fields) if options.ros_fields else None
+            chosen = self._chosen_options(options)
+            self.kind = chosen.type
+            self.fields = BagFields.parse(chosen.ros_fields) if chosen.ros_fields else None
+            self.options = chosen
             self.session = predictor.stream(online_calibration=online)
             self.dt_s = predictor.config.data.dt_s
             self.latest: Any = None
@@ -72,9 +75,9 @@ def make_node(predictor: Predictor, options: NodeOptions, *, online: bool = Fals
             self.last_people = 0
             self.warned: set[str] = set()
             queue = QoSProfile(depth=10)
-            incoming = message_class(options.type)
-            self.create_subscription(incoming, options.topic, self._received, queue)
-            out = options.namespace.rstrip("/")
+            incoming = message_class(chosen.type)
+            self.create_subscription(incoming, chosen.topic, self._received, queue)
+            out = chosen.namespace.rstrip("/")
             self.forecasts = self.create_publisher(
                 message_class("trajectory_msgs/msg/MultiDOFJointTrajectory"),
                 f"{out}/forecasts",
@@ -100,7 +103,8 @@ def make_node(predictor: Predictor, options: NodeOptions, *, online: bool = Fals
                 return
             try:
                 people = tracked(message, self.kind, self.fields)
-                check_fixed_frame(Path(options.topic), people.frame_id, options.fixed_frames)
+                fixed = self.options.fixed_frames
+                check_fixed_frame(Path(self.options.topic), people.frame_id, fixed)
                 started = time.perf_counter()
                 forecast = self.session.update(people.time_s, people.ids, people.xy)
             except GrouptronError as error:
@@ -135,7 +139,26 @@ def make_node(predictor: Predictor, options: NodeOptions, *, online: bool = Fals
             kind = text.split(":")[0]
             if kind not in self.warned:
                 self.warned.add(kind)
-                self.get_logger().warning(f"skipped a message of {options.topic}: {text}")
+                self.get_logger().warning(f"skipped a message of {self.options.topic}: {text}")
+
+        def _chosen_options(self, given: NodeOptions) -> NodeOptions:
+            """The options as ROS parameters (``--ros-args -p regions:=0.5``), the flags'
+            values their defaults."""
+            values = {}
+            for name in ("topic", "type", "ros_fields", "regions", "namespace"):
+                default = getattr(given, name)
+                default = "" if default is None else default
+                values[name] = self.declare_parameter(name, default).value
+            fixed = self.declare_parameter("fixed_frames", list(given.fixed_frames) or [""])
+            return NodeOptions(
+                topic=str(values["topic"]),
+                type=str(values["type"]),
+                ros_fields=str(values["ros_fields"]) or None,
+                fixed_frames=tuple(f for f in fixed.value if f),
+                regions=float(values["regions"]),
+                namespace=str(values["namespace"]),
+                name=given.name,
+            )
 
     return ForecastNode()
 
