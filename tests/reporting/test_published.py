@@ -7,6 +7,7 @@ import dataclasses
 
 import pytest
 
+from grouptron.constants import DEFAULT_CHECKPOINT
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.reporting import published
 from grouptron.reporting.stats import Report, SeedSpread
@@ -98,3 +99,4 @@ def test_a_model_with_several_seeds_shows_their_mean_spread_and_worst_under_its_
         in (table_i)
     )
     assert table_i.count("seeds 0, 1, 2") == 1  # a difference's spread is not a model's
+    assert f"The shipped default model, `{DEFAULT_CHECKPOINT}`, trained on every" in text

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from grouptron.constants import CONSTANT_VELOCITY
+from grouptron.constants import CONSTANT_VELOCITY, DEFAULT_CHECKPOINT
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.uncertainty import Interval, seed_spread
 from grouptron.model.factory import GROUP_MODELS
@@ -142,7 +142,8 @@ def _seed_line(
     seeds: Sequence[SeedSpread], model: str, derivatives: str, columns: Sequence[str]
 ) -> list[list[str]]:
     """The line under a model's row where it has several seeds: per column, FDE mean ± sd
-    over the seeds and, in brackets, the worst seed's FDE (the row is the lowest seed's)."""
+    over the seeds and, in brackets, the worst seed's FDE (the row is the run of the lowest seed
+    number)."""
     found = {s.column: s for s in seeds if (s.model, s.derivatives) == (model, derivatives)}
     spreads = [found[c] for c in columns if c in found]
     if not spreads:
@@ -370,11 +371,17 @@ def report_markdown(report: Report, schemes: Sequence[str], command: str) -> str
         "Cells are FDE/ADE in metres on the test sets (leave one location out), as in the",
         "Grouptron paper. *published* rows are copied from the papers (central derivatives),",
         "each in the table of the forecast it scores, its source under that table. *ours* rows",
-        "are measured, each from one training run: the lowest seed found; where a model has",
-        "more seeds, the line under its row gives the FDE mean ± sd over them and, in",
-        "brackets, the worst seed's. Δ is the difference in percent (negative: lower error).",
+        "are measured, each from one training run: the lowest seed number found (seed 0",
+        "where there is one, as for every shipped checkpoint); where a model has more seeds,",
+        "the line under its row gives the FDE mean ± sd over them and, in brackets, the worst",
+        "seed's. Δ is the difference in percent (negative: lower error).",
         "Derivatives: `central` ones are the papers' inputs (the velocity at the last observed",
         "step uses the next, unobserved position); `backward` ones are causal.",
+        "",
+        f"The shipped default model, `{DEFAULT_CHECKPOINT}`, trained on every ETH/UCY",
+        "recording (the test sets included) and on crowds from elsewhere, so no benchmark table",
+        "has a row of it; it is scored on recordings from elsewhere (the out-of-domain section",
+        'where the report has one, and benchmarks/RESULTS.md, "A deployment model").',
         "",
         *_paper_tables(rows, schemes, report.seeds),
         "",
