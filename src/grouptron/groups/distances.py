@@ -9,6 +9,7 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
+from scipy.spatial import cKDTree
 from scipy.spatial.distance import cdist
 
 from grouptron import constants
@@ -136,3 +137,71 @@ def group_distances(
     velocity = mean_velocities(traj, mask, dt_s)  # (..., N, 2)
     apart = np.linalg.norm(velocity[..., :, None, :] - velocity[..., None, :, :], axis=-1)
     return np.maximum(distances, velocity_weight_s * apart)
+
+
+def near_pairs(
+    traj: np.ndarray, mask: np.ndarray, pos_now: np.ndarray, near_m: float, within_m: float
+) -> np.ndarray:
+    """(P, 2) pairs i < j of the N trajectories within ``near_m`` of each other now ((N, 2)
+    ``pos_now``), and every pair that :func:`pairwise_distances` can put within ``within_m``,
+    found with one k-d tree query instead of all N^2 pairs.
+
+    Why the second set is inside one query: the distance from i to j is at least i's distance
+    now to the nearest point of j, which is at least the distance between them now less how
+    far j's window reaches from j now (R_j). So a pair farther apart now than ``within_m``
+    plus the largest reach R of anyone is never within ``within_m``.
+    """
+    offsets = np.where(mask[..., None], traj - pos_now[:, None, :], 0.0)
+    reach = float(np.sqrt((offsets**2).sum(-1)).max(initial=0.0))
+    radius = max(near_m, within_m + reach) * 1.0001 + 1e-9  # the tree screens with a margin
+    pairs = cKDTree(pos_now).query_pairs(radius, output_type="ndarray")
+    if not len(pairs):
+        return np.zeros((0, 2), dtype=np.int64)
+    ordered: np.ndarray = np.unique(np.sort(pairs, axis=1), axis=0)
+    return ordered.astype(np.int64)
+
+
+def pair_hausdorff(traj: np.ndarray, mask: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """(P,) :func:`pairwise_distances` (``hausdorff``) of the (P, 2) ``pairs`` only, computed
+    as its one-set path computes them: squared point distances with unobserved points moved
+    out of reach, the nearest over b and the farthest over observed a, the larger direction,
+    then the square root."""
+    reach = 4.0 * float(np.abs(traj[mask]).max(initial=0.0)) + 1.0  # beyond every real pair
+    points = np.where(mask[..., None], traj, reach)  # (N, T, 2)
+    a, b = points[pairs[:, 0]], points[pairs[:, 1]]  # (P, T, 2)
+    dx = a[:, :, None, 0] - b[:, None, :, 0]  # (P, Ta, Tb)
+    dy = a[:, :, None, 1] - b[:, None, :, 1]
+    squared = dx * dx
+    squared += dy * dy
+    to_j = np.where(mask[pairs[:, 0]], squared.min(axis=2), -np.inf)  # (P, Ta)
+    to_i = np.where(mask[pairs[:, 1]], squared.min(axis=1), -np.inf)  # (P, Tb)
+    distance: np.ndarray = np.sqrt(np.maximum(to_j.max(axis=1), to_i.max(axis=1)))
+    return distance
+
+
+def sparse_group_distances(
+    traj: np.ndarray,
+    mask: np.ndarray,
+    pos_now: np.ndarray,
+    *,
+    near_m: float,
+    within_m: float,
+    velocity_weight_s: float,
+    dt_s: float,
+) -> np.ndarray:
+    """(N, N) :func:`group_distances` (``hausdorff``) for the pairs :func:`near_pairs` finds
+    and infinity for the rest: exact wherever a clustering at ``within_m`` or a neighbourhood
+    of ``near_m`` looks (the tree's radius may take in more pairs; they are exact too),
+    without the N^2 T^2 work of all pairs (a station's 300 people)."""
+    N = len(mask)
+    pairs = near_pairs(traj, mask, pos_now, near_m, within_m)
+    distance = pair_hausdorff(traj, mask, pairs)
+    if velocity_weight_s > 0 and len(pairs):
+        velocity = mean_velocities(traj, mask, dt_s)  # (N, 2)
+        apart = np.linalg.norm(velocity[pairs[:, 0]] - velocity[pairs[:, 1]], axis=-1)
+        distance = np.maximum(distance, velocity_weight_s * apart)
+    out = np.full((N, N), np.inf)
+    out[pairs[:, 0], pairs[:, 1]] = distance
+    out[pairs[:, 1], pairs[:, 0]] = distance
+    np.fill_diagonal(out, 0.0)
+    return out

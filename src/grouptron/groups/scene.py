@@ -6,13 +6,15 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
 from grouptron.config import GroupConfig
 from grouptron.constants import HISTORY_STEPS, PERCEPTION_RADIUS_M
 from grouptron.data.prepare.samples import dense_grid
 from grouptron.data.prepare.scene import Scene
-from grouptron.groups.clustering import agglomerative_groups
-from grouptron.groups.distances import group_distances
+from grouptron.groups.clustering import agglomerative_groups, canonical_labels
+from grouptron.groups.distances import group_distances, sparse_group_distances
 from grouptron.groups.labels import (
     PairCounts,
     dice_of_partitions,
@@ -59,12 +61,65 @@ def groups_per_step(
 
 
 def groups_at_step(
-    scene: Scene, config: GroupConfig, step: int, history_steps: int = HISTORY_STEPS
+    scene: Scene,
+    config: GroupConfig,
+    step: int,
+    history_steps: int = HISTORY_STEPS,
+    near_m: float = 2 * PERCEPTION_RADIUS_M,
 ) -> StepGroups | None:
-    """The scene-wide groups of one step (None when nobody is present)."""
+    """The scene-wide groups of one step (None when nobody is present). Under a distance
+    threshold with single linkage and no size cap (the detection rule and the default
+    model's), the groups are the connected pieces of the pairs within the threshold, and only
+    pairs that a k-d tree finds near are measured: the groups equal the all-pairs
+    clustering's (a test checks), ``distances`` hold every pair within ``near_m`` now (what
+    each person's own grouping reads) and infinity for the others."""
     pad = history_steps - 1
     pos, present = position_grid(scene, pad)
+    if _connected_pieces_suffice(config):
+        return _cluster_step_near(pos, present, step, pad, config, scene.dt_s, near_m)
     return _cluster_step(pos, present, step, pad, config=config, dt_s=scene.dt_s)
+
+
+def _connected_pieces_suffice(config: GroupConfig) -> bool:
+    """Whether the rule's groups are the connected pieces of the pairs within its threshold:
+    single linkage, a threshold, no size cap, the Hausdorff distance."""
+    return (
+        config.linkage == "single"
+        and config.max_distance_m is not None
+        and config.max_group_size is None
+        and config.distance == "hausdorff"
+    )
+
+
+def _cluster_step_near(
+    pos: np.ndarray,
+    present: np.ndarray,
+    step: int,
+    pad: int,
+    config: GroupConfig,
+    dt_s: float,
+    near_m: float,
+) -> StepGroups | None:
+    """:func:`_cluster_step` for a rule :func:`_connected_pieces_suffice` for, without the
+    all-pairs work."""
+    tracks = np.flatnonzero(present[:, step + pad])
+    if len(tracks) == 0:
+        return None
+    assert config.max_distance_m is not None
+    window = slice(step, step + pad + 1)
+    distances = sparse_group_distances(
+        pos[tracks, window],
+        present[tracks, window],
+        pos[tracks, step + pad],
+        near_m=near_m,
+        within_m=config.max_distance_m,
+        velocity_weight_s=config.velocity_weight_s,
+        dt_s=dt_s,
+    )
+    linked = csr_matrix(np.isfinite(distances) & (distances <= config.max_distance_m))
+    _, pieces = connected_components(linked, directed=False)
+    labels = canonical_labels(pieces)
+    return StepGroups(step, tracks, labels, distances, pos[tracks, step + pad])
 
 
 def _cluster_step(

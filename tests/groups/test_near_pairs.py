@@ -1,0 +1,64 @@
+"""Groups at a step from near pairs only: the same groups and the same distances wherever a
+person's own grouping looks, as the all-pairs clustering."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from grouptron.config import DataConfig, GroupConfig
+from grouptron.data.formats.reader import table_from_values
+from grouptron.data.prepare.scene import build_scene
+from grouptron.groups import scene as groups_scene
+from grouptron.groups.distances import near_pairs, pairwise_distances
+
+RULE = GroupConfig(linkage="single", max_distance_m=1.5, velocity_weight_s=2.0)
+
+
+def _crowd(people: int = 150, steps: int = 14, seed: int = 3) -> np.ndarray:
+    """(R, 4) frame, id, x, y of a dense crowd: pairs walking side by side (a person and the
+    next start 0.6 m apart with one velocity), a fifth standing, each present for a span of
+    its own, about one person per 2 m^2."""
+    rng = np.random.default_rng(seed)
+    side = np.sqrt(2.0 * people)
+    rows = []
+    for pair in range(people // 2):
+        start = rng.uniform(0, side, 2)
+        velocity = rng.normal(0, 1.0, 2) * (rng.uniform() > 0.2)
+        first, last = sorted(rng.integers(0, steps, 2))
+        for member in range(2):
+            for step in range(first, last + 1):
+                xy = start + [0.6 * member, 0.0] + velocity * 0.4 * step + rng.normal(0, 0.05, 2)
+                rows.append([step * 10, 2 * pair + member, *xy])
+    return np.asarray(rows)
+
+
+def test_near_groups_equal_all_pairs_groups_at_every_step() -> None:
+    values = _crowd()
+    table = table_from_values(Path("crowd"), values, np.arange(len(values)), 10)
+    scene = build_scene(table, DataConfig(derivatives="backward"), name="crowd")
+    pos, present = groups_scene.position_grid(scene, 7)
+    compared = 0
+    for step in range(scene.num_steps):
+        old = groups_scene._cluster_step(pos, present, step, 7, config=RULE, dt_s=0.4)
+        new = groups_scene.groups_at_step(scene, RULE, step)
+        if old is None:
+            assert new is None
+            continue
+        assert new is not None and np.array_equal(old.labels, new.labels)
+        near = np.linalg.norm(old.pos_now_m[:, None] - old.pos_now_m[None], axis=-1) <= 6.0
+        assert np.array_equal(old.distances[near], new.distances[near])
+        compared += len(old.tracks) > 30 and len(np.unique(old.labels)) < len(old.labels)
+    assert compared >= 5  # crowded steps with real groups
+
+
+def test_no_pair_left_out_could_be_within_the_threshold() -> None:
+    rng = np.random.default_rng(0)
+    traj = rng.uniform(0, 8, (60, 1, 2)) + np.cumsum(rng.normal(0, 0.5, (60, 8, 2)), axis=1)
+    mask = rng.uniform(size=(60, 8)) > 0.2
+    mask[:, -1] = True
+    pairs = {tuple(p) for p in near_pairs(traj, mask, traj[:, -1], 0.0, 1.5)}
+    full = pairwise_distances(traj, mask)
+    close = np.argwhere(np.triu(full <= 1.5, k=1))
+    assert len(close) and all(tuple(p) in pairs for p in close)
