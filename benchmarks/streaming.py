@@ -6,14 +6,16 @@ Usage:
                                    [--forecast ml|ml-argmax|mean|ml-top10|ml-topK]
                                    [--mixture] [--min-points 2] [--max-missed-steps 2]
                                    [--regions Q] [--calibration FILE|none] [--profile]
+                                   [--replay FILE]
 
 A synthetic scene of N pedestrians walking in pairs and alone through a square sized for about
 one person per 4 m^2 is streamed frame by frame; the first 9 frames (before anyone has 8 steps)
 are not timed. By default the default model with its own point forecast (what
 ``Predictor.from_checkpoint()`` gives), and beside it, fed the same frames in turn, the same
 checkpoint's argmax latent: the ratio of the two medians is the figure that holds across
-machines. With ``--regions Q``, the same default predictor also runs with its Q-regions drawn
-at every update (from its shipped or ``--calibration`` radii) and with online calibration
+machines. ``--replay FILE`` also times the real crowd around the most crowded frame of an
+ETH/UCY-layout file (the densest Grand Central file has 279 people). With ``--regions Q``,
+the same default predictor also runs with its Q-regions drawn at every update (from its shipped or ``--calibration`` radii) and with online calibration
 (``stream(online_calibration=True)``: each update also scores the forecasts whose truths
 arrived and moves the radii), each beside the forecast alone in the same run. Prints the
 median and 90th percentile of the update time per N
@@ -30,6 +32,7 @@ import cProfile
 import pstats
 import statistics
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -118,8 +121,23 @@ Variant = tuple[Predictor, bool, float | None]
 with every update (None: none)."""
 
 
+def recorded_frames(path: Path, frames: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(ids, (N, 2) positions) of the ``frames`` consecutive frames of an ETH/UCY-layout file
+    (``frame id x y``, 10 frames per 0.4 s step) around its most crowded one, renumbered
+    10 apart from 0."""
+    rows = np.loadtxt(path)
+    steps, counts = np.unique(rows[:, 0], return_counts=True)
+    busiest = int(np.argmax(counts))
+    first = max(0, min(busiest - frames // 2, len(steps) - frames))
+    chosen = steps[first : first + frames]
+    return [(rows[rows[:, 0] == f, 1], rows[rows[:, 0] == f, 2:4]) for f in chosen]
+
+
 def timed_updates(
-    variants: list[Variant], people: int, frames: int
+    variants: list[Variant],
+    people: int,
+    frames: int,
+    recorded: list[tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> tuple[list[list[float]], list[int]]:
     """Per variant, the update times (ms, its regions included) after the first 9 frames and
     its last forecast count; the variants take each frame in turn, so a drift of the machine
@@ -127,7 +145,7 @@ def timed_updates(
     sessions = [p.stream(online_calibration=online) for p, online, _ in variants]
     times: list[list[float]] = [[] for _ in variants]
     counts = [0] * len(variants)
-    for k, (ids, xy) in enumerate(synthetic_frames(people, frames)):
+    for k, (ids, xy) in enumerate(recorded or synthetic_frames(people, frames)):
         for i, session in enumerate(sessions):
             started = time.perf_counter()
             forecast = session.update(10 * k, ids, xy)
@@ -182,6 +200,12 @@ def main() -> None:
         "--regions", type=float, help="also draw each update's Q-regions (first predictor only)"
     )
     parser.add_argument("--profile", action="store_true", help="then profile the default's parts")
+    parser.add_argument(
+        "--replay",
+        metavar="FILE",
+        help="also time the frames around the most crowded one of this frame,id,x,y file "
+        "(e.g. the densest Grand Central file, gc_043.txt: up to 279 people)",
+    )
     args = parser.parse_args()
     predictor = load_predictor(args)
     variants: list[Variant] = [(predictor, False, None)]
@@ -211,6 +235,16 @@ def main() -> None:
         medians = [statistics.median(t) for t in times]
         p90s = [float(np.percentile(t, 90)) for t in times]
         line = f"{people:>7} {counts[0]:>10}"
+        line += "".join(f" {f'{m:.1f} / {p:.1f}':>22}" for m, p in zip(medians, p90s, strict=True))
+        if names[-1] == "argmax":
+            line += f" {medians[0] / medians[-1]:>6.2f}"
+        print(line)
+    if args.replay:
+        recorded = recorded_frames(Path(args.replay), args.frames)
+        times, counts = timed_updates(variants, 0, args.frames, recorded)
+        medians = [statistics.median(t) for t in times]
+        p90s = [float(np.percentile(t, 90)) for t in times]
+        line = f"{Path(args.replay).name:>7} {counts[0]:>10}"
         line += "".join(f" {f'{m:.1f} / {p:.1f}':>22}" for m, p in zip(medians, p90s, strict=True))
         if names[-1] == "argmax":
             line += f" {medians[0] / medians[-1]:>6.2f}"
