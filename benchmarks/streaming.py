@@ -15,9 +15,10 @@ are not timed. By default the default model with its own point forecast (what
 checkpoint's argmax latent: the ratio of the two medians is the figure that holds across
 machines. ``--replay FILE`` also times the real crowd around the most crowded frame of an
 ETH/UCY-layout file (the densest Grand Central file has 279 people). With ``--regions Q``,
-the same default predictor also runs with its Q-regions drawn at every update (from its shipped or ``--calibration`` radii) and with online calibration
-(``stream(online_calibration=True)``: each update also scores the forecasts whose truths
-arrived and moves the radii), each beside the forecast alone in the same run. Prints the
+the same default predictor also runs with its Q-regions drawn at every update (from its
+shipped or ``--calibration`` radii) and with online calibration (``stream(
+online_calibration=True)``: each update also scores the forecasts whose truths arrived and
+moves the radii), each beside the forecast alone in the same run. Prints the
 median and 90th percentile of the update time per N
 (``--most-likely``, the older name of ``--forecast``, and ``--latent-values K``, of
 ``--forecast ml-topK``, still work). ``--profile``
