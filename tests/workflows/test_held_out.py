@@ -3,6 +3,7 @@ refused in one line, or scored only when asked and then marked not held out ever
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 from pathlib import Path
@@ -15,7 +16,7 @@ from grouptron.data.datasets.download import file_sha256
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.recordings import benchmark_seen
 from grouptron.evaluation.results import results_table
-from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.checkpoint import load_checkpoint, load_trained_model, save_checkpoint
 from grouptron.reporting.report import ReportCheckpoint, ReportSettings, score_checkpoint
 from grouptron.workflows.adapt import ADAPTATION
 from grouptron.workflows.evaluate import Benchmark, EvaluationOptions, Tracks, evaluate
@@ -125,3 +126,19 @@ def test_the_report_scores_each_checkpoint_on_its_own_split_only(
         score_checkpoint(
             ReportCheckpoint("trajectron++", "hotel", "central", path), five_splits, settings
         )
+
+
+def test_a_dataset_model_whose_description_is_not_here_is_not_taken_as_held_out(
+    tiny_checkpoints: Path, five_splits: Path, tmp_path: Path
+) -> None:
+    stored = load_checkpoint(tiny_checkpoints / "trajectron++-eth-central" / "best.safetensors")
+    elsewhere = dataclasses.replace(
+        stored.config, split="site", dataset=str(tmp_path / "gone.toml")
+    )
+    path = tmp_path / "site-model" / "best.safetensors"
+    save_checkpoint(path, dataclasses.replace(stored, config=elsewhere))
+    with pytest.raises(GrouptronError, match="cannot be read: what it saw is unknown"):
+        evaluate(Benchmark(splits=("eth",), data_dir=five_splits), str(path), ("ml",))
+    options = EvaluationOptions(include_seen=True)
+    rows = evaluate(Benchmark(splits=("eth",), data_dir=five_splits), str(path), ("ml",), options)
+    assert [r.held_out for r in rows] == [False, True]  # the model's row, constant velocity's

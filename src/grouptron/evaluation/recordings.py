@@ -12,7 +12,7 @@ import torch
 
 from grouptron.config import DataConfig, ExperimentConfig
 from grouptron.constants import ALL_LOCATIONS, CONSTANT_VELOCITY, SPLITS
-from grouptron.data.datasets.custom import read_dataset
+from grouptron.data.datasets.custom import DatasetDescription, read_dataset
 from grouptron.data.datasets.download import file_sha256, shipped_checksums
 from grouptron.data.datasets.locate import split_files
 from grouptron.data.datasets.subsets import density_masks, time_step_ids
@@ -82,12 +82,17 @@ def benchmark_seen(experiment: ExperimentConfig, data_dir: Path, split: str) -> 
     out, so a checkpoint of one split trained and validated on every other split's test
     location (hotel's test file holds the very tracks of eth's hotel train and val files); an
     all-locations checkpoint on all of them; a checkpoint of a dataset of one's own on those
-    its train and val parts hold, and any checkpoint on a file that is, byte for byte, ETH/UCY
+    its train and val parts hold (all of them where its description cannot be read here: what
+    it trained on is unknown), and any checkpoint on a file that is, byte for byte, ETH/UCY
     data it trained on (:func:`training_files`)."""
     if experiment.split == ALL_LOCATIONS:
         return "it trained on every ETH/UCY location"
     if experiment.split in SPLITS and experiment.split != split:
         return f"its {experiment.split} split trains and validates on {split}'s test location"
+    if experiment.dataset and _description(experiment.dataset) is None:
+        return (
+            f"its dataset description {experiment.dataset} cannot be read: what it saw is unknown"
+        )
     seen = training_files(split_files(data_dir, split, "test"), experiment)
     if seen:
         return f"it trained or validated on {Path(seen[0]).name}"
@@ -97,18 +102,26 @@ def benchmark_seen(experiment: ExperimentConfig, data_dir: Path, split: str) -> 
 def _dataset_files(files: Sequence[Path], description: str) -> list[str]:
     """The given files that are (byte for byte) in a dataset's train or val part (a shipped
     checkpoint names its description relative to the repository, wherever one runs from)."""
-    path = Path(description)
-    in_repository = REPOSITORY / path
-    if not path.is_absolute() and not path.exists() and in_repository.exists():
-        path = in_repository
-    try:
-        dataset = read_dataset(path)
-    except GrouptronError:  # trained elsewhere: its description is not on this machine
+    dataset = _description(description)
+    if dataset is None:  # trained elsewhere: its description is not on this machine
         return []
     sizes = {Path(path).stat().st_size for path in files}  # only files of a size given are read
     trained = [f for part in ("train", "val") for f in dataset.parts.get(part, ())]
     seen = {file_sha256(f) for f in trained if f.stat().st_size in sizes}
     return [str(path) for path in files if file_sha256(Path(path)) in seen]
+
+
+def _description(description: str) -> DatasetDescription | None:
+    """A run's dataset description (a shipped checkpoint names it relative to the repository,
+    wherever one runs from), or None where it cannot be read on this machine."""
+    path = Path(description)
+    in_repository = REPOSITORY / path
+    if not path.is_absolute() and not path.exists() and in_repository.exists():
+        path = in_repository
+    try:
+        return read_dataset(path)
+    except GrouptronError:
+        return None
 
 
 def _in_training(all_data_name: str, split: str) -> bool:
