@@ -74,4 +74,4 @@ def test_readme_training_and_evaluation_example_runs(
     printed = capsys.readouterr().out
     assert "done: 2 epochs" in printed and (tmp_path / "runs/eth-try/best.safetensors").is_file()
     assert "grouptron ml FDE" in printed and "grouptron best-of-20 FDE" in printed
-    assert "constant-velocity None FDE" in printed
+    assert "constant-velocity - FDE" in printed and "None" not in printed
