@@ -55,7 +55,8 @@ bridged when it is resampled): ``--max-gap``'s and ``TrackSource.max_gap_s``'s d
 
 EVALUATION_MODES: Final = ("ml", "ml-argmax", "mean", "ml-top10", "best-of-20", "nll")
 """What ``evaluate`` scores: each named point forecast (``grouptron.point_forecast.NAMED``;
-``ml-topK`` when named), the best of 20 samples, the KDE NLL."""
+``ml-topK`` when named), the best of 20 samples (``best-of-K`` for any K when named), the KDE
+NLL."""
 
 
 MAX_REGION_Q: Final = 0.99

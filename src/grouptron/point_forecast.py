@@ -22,6 +22,7 @@ OLDER_NAMES: Final = {"mixture-mode": "ml", "argmax-latent": "ml-argmax"}
 """Names some forecasts had before the vocabulary was unified: accepted with a warning."""
 
 _TOP = re.compile(r"ml-top([1-9][0-9]*)")
+_BEST_OF = re.compile(r"best-of-([1-9][0-9]*)")
 
 
 @dataclass(frozen=True)
@@ -97,10 +98,23 @@ def is_point_forecast(name: str) -> bool:
     return name in NAMED or name == "mean" or _TOP.fullmatch(name) is not None
 
 
+def best_of_samples(name: str) -> int | None:
+    """K of an evaluation mode ``best-of-K`` (the best of K sampled futures), else None."""
+    match = _BEST_OF.fullmatch(name) if isinstance(name, str) else None
+    return int(match.group(1)) if match is not None else None
+
+
+def is_sampled_mode(name: str) -> bool:
+    """Whether an evaluation mode draws futures (``best-of-K``, ``nll``): a model's only,
+    seeded, and never made by constant velocity."""
+    return name == "nll" or best_of_samples(name) is not None
+
+
 def is_evaluation_mode(name: str) -> bool:
-    """Whether ``evaluate`` scores ``name``: one of ``EVALUATION_MODES`` or ``ml-topK`` (K >= 2).
-    A score is reported under the mode's name, so a forecast is named by its one name only
-    (``ml-top1`` is ``ml-argmax``, and refused here as it always was)."""
-    if name in EVALUATION_MODES:
+    """Whether ``evaluate`` scores ``name``: one of ``EVALUATION_MODES``, ``ml-topK`` (K >= 2)
+    or ``best-of-K`` (K >= 1). A score is reported under the mode's name, so a forecast is
+    named by its one name only (``ml-top1`` is ``ml-argmax``, and refused here as it always
+    was; ``best-of-05`` is refused, ``best-of-5`` is its name)."""
+    if name in EVALUATION_MODES or best_of_samples(name) is not None:
         return True
     return is_point_forecast(name) and PointForecast.parse(name).name == name

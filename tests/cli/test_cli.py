@@ -152,15 +152,18 @@ def test_evaluate_on_a_tiny_split(tmp_path: Path, capsys: pytest.CaptureFixture[
     rows = [(s * 10, p, 0.4 * s, float(p)) for s in range(25) for p in range(2)]
     write_tracks(tmp_path / "eth/test/a.txt", rows)
     (row,) = json_rows([*CV_ETH, "--data-dir", str(tmp_path)], capsys)
-    assert row == {
+    expected = {
         "split": "eth",
         "model": "constant-velocity",
         "subset": None,
         "samples": 12,
         "ade": pytest.approx(0.0, abs=1e-6),
         "fde": pytest.approx(0.0, abs=1e-6),
+        "displacement_per_step": pytest.approx([0.0] * 12, abs=1e-6),
         "derivatives": "central",
     }
+    assert {k: row.get(k) for k in expected} == expected
+    assert {"ade_ci", "fde_ci", "displacement_per_step_ci"} <= set(row)  # every mean's interval
 
 
 @pytest.mark.realdata
@@ -202,7 +205,8 @@ def test_console_script_prints_the_constant_velocity_table(eth_ucy_dir: Path) ->
         "zara2",
         "mean",
     ]
-    ade_by_split = {line.split()[0]: float(line.split()[-2]) for line in lines[2:]}
+    column = lines[0].split().index("ADE")  # a row's words line up until the heading's unit
+    ade_by_split = {line.split()[0]: float(line.split()[column]) for line in lines[2:]}
     # Constant velocity is a weak but sane baseline: metres, not kilometres, and not zero.
     assert all(0.1 < v < 2.0 for v in ade_by_split.values())
 

@@ -159,5 +159,8 @@ def test_a_forecast_that_does_not_exist_is_refused_with_the_choices(command: str
     # ml of the one most probable latent value is the argmax latent, by its one name.
     assert build_parser().parse_args([*base, "ml-top1"]).forecast == PointForecast("ml", 1)
     assert eval_modes("ml-top3,ml") == ("ml-top3", "ml")
-    with pytest.raises(GrouptronError, match="ml-topK or all"):
+    with pytest.raises(GrouptronError, match="ml-topK, best-of-K or all"):
         eval_modes("ml-top1")
+    assert eval_modes("best-of-5,best-of-20") == ("best-of-5", "best-of-20")
+    with pytest.raises(GrouptronError, match="best-of-K"):
+        eval_modes("best-of-05")

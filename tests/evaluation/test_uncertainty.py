@@ -5,8 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from grouptron.evaluation.evaluate import SampleScores
+from grouptron.evaluation.results import EvaluationResult, mean_over_splits, score_rows
 from grouptron.evaluation.uncertainty import (
     bootstrap_means,
+    column_intervals,
     mean_interval,
     seed_spread,
     split_average_interval,
@@ -58,3 +61,43 @@ def test_split_average_is_the_mean_of_split_means() -> None:
 def test_seed_spread() -> None:
     assert seed_spread([1.0, 2.0, 3.0]) == pytest.approx((2.0, 1.0))
     assert np.isnan(seed_spread([1.0])[1])
+
+
+def test_intervals_per_column_are_those_of_each_column_alone() -> None:
+    """Per step (a column each) as for one mean, and for the average over splits as the
+    report's AVG: the same resamples."""
+    rng = np.random.default_rng(1)
+    splits = [(rng.normal(size=(40, 3)), rng.integers(0, 9, 40)) for _ in range(2)]
+    values, steps = splits[0]
+    for column, found in enumerate(column_intervals([(values, steps)])):
+        alone = mean_interval(values[:, column], steps)
+        assert (found.mean, found.low, found.high) == pytest.approx(
+            (alone.mean, alone.low, alone.high)
+        )
+    averaged = column_intervals(splits)[2]
+    expected = split_average_interval([(v[:, 2], t) for v, t in splits])
+    assert (averaged.low, averaged.high) == pytest.approx((expected.low, expected.high))
+
+
+def test_every_mean_of_a_row_and_of_the_mean_over_splits_has_its_interval() -> None:
+    rng = np.random.default_rng(2)
+    scored = []
+    for count in (30, 50):
+        values = {name: rng.uniform(0, 2, count) for name in ("ade", "fde", "miss-rate-2m")}
+        per_step = {"displacement": rng.uniform(0, 2, (count, 12))}
+        scored.append((SampleScores("best-of-5", values, per_step), rng.integers(0, 6, count)))
+    template = EvaluationResult("eth", "grouptron", None, 0, 0.0, 0.0)
+    rows = [score_rows(template, s, {None: None}, steps=t)[0] for s, t in scored]
+    mean = mean_over_splits(rows, scored)
+    for row in (*rows, mean):
+        assert row.ade_ci is not None and row.ade_ci[0] <= row.ade <= row.ade_ci[1]
+        assert row.fde_ci is not None and row.fde_ci[0] <= row.fde <= row.fde_ci[1]
+        low, high = row.metrics_ci["miss-rate-2m"]
+        assert low <= row.metrics["miss-rate-2m"] <= high
+        assert len(row.per_step_ci["displacement"]) == 12
+        as_json = row.to_dict()
+        assert len(as_json["displacement_per_step_ci"]) == 12  # type: ignore[arg-type]
+        assert "miss-rate-2m_ci" in as_json
+    expected = split_average_interval([(s.fde, t) for s, t in scored])
+    assert mean.fde_ci == pytest.approx((expected.low, expected.high))
+    assert mean_over_splits(rows).fde_ci is None  # without the scores: no interval

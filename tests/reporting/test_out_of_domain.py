@@ -171,7 +171,7 @@ def test_the_report_command_refuses_out_of_domain_with_a_dataset_and_bad_descrip
 ) -> None:
     assert main(["report", "--dataset", str(corridor), "--out-of-domain", str(corridor)]) == 2
     assert (
-        "--out-of-domain, --models and --seeds go with the benchmark report"
+        "--out-of-domain, --models, --seeds and --split go with the benchmark report"
         in capsys.readouterr().err
     )
     no_point = ["report", "--out-of-domain", str(corridor), "--mode", "best-of-20"]

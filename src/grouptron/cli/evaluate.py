@@ -12,8 +12,10 @@ from grouptron.cli.common import own_layout, show_progress, track_file
 from grouptron.cli.options import eval_modes, parse_splits
 from grouptron.data.datasets.custom import read_dataset
 from grouptron.errors import GrouptronError
+from grouptron.evaluation.metrics import scoring
 from grouptron.evaluation.results import results_json, results_table
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT
+from grouptron.point_forecast import is_sampled_mode
 from grouptron.workflows.evaluate import (
     Benchmark,
     EvaluationOptions,
@@ -58,7 +60,7 @@ def _modes(args: argparse.Namespace) -> tuple[str, ...] | None:
     if args.mode != "all":
         return modes
     if args.model is not None:
-        return tuple(m for m in modes if m not in ("best-of-20", "nll"))
+        return tuple(m for m in modes if not is_sampled_mode(m))
     return tuple(m for m in modes if m != "nll") if args.tracks else modes
 
 
@@ -81,7 +83,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         regions=args.regions,
         calibration=False if args.calibration == "none" else args.calibration,
         include_seen=args.include_seen,
+        metrics=args.metrics,
     )
-    rows = evaluate(_source(args), checkpoint, _modes(args), options)
-    print(results_json(rows) if args.format == "json" else results_table(rows))
+    with scoring(args.metrics):  # registered while the table prints too: their labels
+        rows = evaluate(_source(args), checkpoint, _modes(args), options)
+        print(results_json(rows) if args.format == "json" else results_table(rows))
     return 0

@@ -166,6 +166,26 @@ def parse_splits(value: str) -> list[str]:
     return [value]
 
 
+def metric_names(value: str) -> tuple[str, ...]:
+    """Comma-separated metrics, each once, in the order given (resolved when the command runs:
+    ``grouptron.evaluation.metrics.resolve_metric``)."""
+    names = tuple(dict.fromkeys(v.strip() for v in value.split(",") if v.strip()))
+    if not names:
+        raise argparse.ArgumentTypeError(f"expected comma-separated metric names, got {value!r}")
+    return names
+
+
+METRICS_HELP = (
+    "also score these metrics (comma-separated), beside ADE, FDE and the displacement error "
+    "per step: miss-rate-Xm (the share of forecasts ending more than X m off; best-of-K: of "
+    "samples whose K forecasts all do), module:name (a function (..., H, 2) forecasts, "
+    "(..., H, 2) truths -> (...) scores, lower is better, or a Metric, of a module in the "
+    "current folder or on PYTHONPATH), or the name of an installed package's "
+    "grouptron.metrics entry point"
+)
+"""The help of ``--metrics`` (``evaluate`` and ``report``)."""
+
+
 def int_list(value: str) -> list[int]:
     """Comma-separated positive integers, e.g. ``"1,5,10"`` -> ``[1, 5, 10]``."""
     try:
@@ -261,7 +281,7 @@ def eval_modes(value: str) -> tuple[str, ...]:
     if unknown or not modes:
         raise GrouptronError(
             f"unknown mode {', '.join(unknown) or value!r}; choose from "
-            f"{', '.join(EVALUATION_MODES)}, ml-topK or all"
+            f"{', '.join(EVALUATION_MODES)}, ml-topK, best-of-K or all"
         )
     return tuple(dict.fromkeys(modes))  # a mode named twice is scored once
 

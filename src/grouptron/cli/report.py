@@ -9,10 +9,12 @@ from pathlib import Path
 import torch
 
 from grouptron.cli.common import show_progress
-from grouptron.cli.options import REPORT_CHECKPOINTS, eval_modes
+from grouptron.cli.options import REPORT_CHECKPOINTS, eval_modes, parse_splits
+from grouptron.constants import SPLITS
 from grouptron.data.datasets.custom import read_dataset
 from grouptron.data.datasets.locate import score_cache_dir
 from grouptron.errors import GrouptronError
+from grouptron.evaluation.metrics import scoring
 from grouptron.evaluation.results import results_json
 from grouptron.geometry import DERIVATIVE_SCHEMES
 from grouptron.io import (
@@ -39,6 +41,10 @@ def _report_command(args: argparse.Namespace, modes: tuple[str, ...]) -> str:
         parts.append(f"--seeds {args.seeds}")
     if args.seed:
         parts.append(f"--seed {args.seed}")
+    if args.split:
+        parts.append(f"--split {args.split}")
+    if args.metrics:
+        parts.append(f"--metrics {','.join(args.metrics)}")
     if args.diagnostics:
         parts.append("--diagnostics")
     if args.out_of_domain:
@@ -101,6 +107,13 @@ def cmd_report_dataset(args: argparse.Namespace) -> int:
     return _emit(args, text)
 
 
+def _splits(value: str | None) -> tuple[str, ...]:
+    """``--split``: comma-separated splits (or ``all``), each once; None: all five."""
+    if value is None:
+        return SPLITS
+    return tuple(dict.fromkeys(s for part in value.split(",") for s in parse_splits(part.strip())))
+
+
 def _report_request(args: argparse.Namespace) -> ReportRequest:
     """The benchmark report's options as a request (``--models``, ``--seeds`` and ``--mode``
     checked)."""
@@ -125,6 +138,8 @@ def _report_request(args: argparse.Namespace) -> ReportRequest:
         args.data_dir,
         progress=show_progress(args),
         announce=not args.quiet,
+        splits=_splits(args.split),
+        metrics=args.metrics,
     )
 
 
@@ -133,15 +148,18 @@ def cmd_report(args: argparse.Namespace) -> int:
     if args.out:
         refuse_folder(Path(args.out))  # before the work, not after it
     if args.dataset:
-        if args.out_of_domain or args.models or args.seeds:
+        if args.out_of_domain or args.models or args.seeds or args.split:
             raise GrouptronError(
-                "--out-of-domain, --models and --seeds go with the benchmark report, not --dataset"
+                "--out-of-domain, --models, --seeds and --split go with the benchmark report, "
+                "not --dataset"
             )
-        return cmd_report_dataset(args)
+        with scoring(args.metrics):
+            return cmd_report_dataset(args)
     request = _report_request(args)
     torch.set_num_threads(args.threads)
-    report = benchmark_report(request)
-    if args.format == "json":
-        return _emit(args, report.to_json() + "\n")
-    command = _report_command(args, request.settings.modes)
-    return _emit(args, report_markdown(report, request.schemes, command))
+    with scoring(args.metrics):  # registered while the tables are written too: their labels
+        report = benchmark_report(request)
+        if args.format == "json":
+            return _emit(args, report.to_json() + "\n")
+        command = _report_command(args, request.settings.modes)
+        return _emit(args, report_markdown(report, request.schemes, command))

@@ -1,5 +1,6 @@
-"""Evaluate a trained model on a sample set: ML, ML-argmax, best-of-20 and KDE NLL, and the
-prediction regions of point forecasts (coverage and area per step)."""
+"""Evaluate a trained model on a sample set: ML, ML-argmax, best-of-K and KDE NLL, the
+displacement error of every forecast step, and the prediction regions of point forecasts
+(coverage and area per step)."""
 
 from __future__ import annotations
 
@@ -27,10 +28,16 @@ from grouptron.model.predict import (
     mixture_mean_positions,
     predict_samples,
 )
-from grouptron.point_forecast import PointForecast, is_evaluation_mode, is_point_forecast
+from grouptron.point_forecast import (
+    PointForecast,
+    best_of_samples,
+    is_evaluation_mode,
+    is_point_forecast,
+)
 
 MODES = constants.EVALUATION_MODES
 BEST_OF = 20
+"""K of the named best-of mode (``best-of-K`` scores any K)."""
 NLL_SAMPLES = 2000
 
 
@@ -41,7 +48,8 @@ class ModeScores:
     Attributes:
         means: mean of each metric by name (the registered ones; ``nll`` for the NLL mode).
         nll_undefined: samples whose KDE could not be built (all draws identical at some step).
-        step_means: per metric scored per step (the region metrics), its (H,) means.
+        step_means: per metric scored per step (the displacement error, the region metrics),
+            its (H,) means.
     """
 
     mode: str
@@ -70,10 +78,11 @@ class ModeScores:
 class SampleScores:
     """Per-sample scores of one mode: metric name -> (S,) array (NaN where not scored).
 
-    Point forecasts and best-of-20 carry every registered metric
-    (:data:`grouptron.evaluation.metrics.METRICS`); the ``nll`` mode carries ``nll`` alone.
-    Point forecasts scored with regions carry the region metrics too: ``per_step`` holds their
-    (S, H) scores and ``values`` each sample's mean over the H steps.
+    Point forecasts and best-of-K carry every registered metric
+    (:data:`grouptron.evaluation.metrics.METRICS`) and, in ``per_step``, the (S, H)
+    displacement error of every step (``metrics.DISPLACEMENT``); the ``nll`` mode carries
+    ``nll`` alone. Point forecasts scored with regions carry the region metrics too:
+    ``per_step`` holds their (S, H) scores and ``values`` each sample's mean over the H steps.
     """
 
     mode: str
@@ -135,7 +144,7 @@ def _step_means(values: np.ndarray) -> tuple[float, ...]:
     return tuple(float(v) for v in values.mean(axis=0))
 
 
-# One loop over modes and batches, so that point forecasts, best-of-20 and the NLL read the
+# One loop over modes and batches, so that point forecasts, best-of-K and the NLL read the
 # very same batches (their per-sample scores are paired later).
 @torch.inference_mode()
 def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
@@ -152,8 +161,10 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
     ablate: Ablation = (),
     regions: RegionScoring | None = None,
 ) -> list[SampleScores]:
-    """Per-sample ADE/FDE (metres) of each requested mode, and the KDE NLL for ``"nll"``;
-    with ``regions``, every point forecast's region metrics (coverage, area) per step too.
+    """Per-sample ADE/FDE (metres) and every registered metric of each requested mode
+    (``best-of-K``: the best of K sampled futures), the displacement error of every step, and
+    the KDE NLL for ``"nll"``; with ``regions``, every point forecast's region metrics
+    (coverage, area) per step too.
 
     Every sample is predicted independently of its batch, so means over a subset of these
     scores equal an evaluation of that subset (UNIV-N is scored this way). Each sampling mode
@@ -199,13 +210,19 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
                 made_from = _distribution(decoded, regions)
                 _store(values, index, count, _point_scores(point, made_from, truth, regions))
                 continue
-            k = BEST_OF if mode == "best-of-20" else NLL_SAMPLES
+            best_of = best_of_samples(mode)
             draws = predict_samples(
-                model, batch, horizon, dt, num_samples=k, generator=generator, ablate=ablate
+                model,
+                batch,
+                horizon,
+                dt,
+                num_samples=best_of or NLL_SAMPLES,
+                generator=generator,
+                ablate=ablate,
             )
             draws_np = draws.double().cpu().numpy()  # (B, K, H, 2)
-            if mode == "best-of-20":
-                _store(values, index, count, metrics.best_of_scores(draws_np, truth))
+            if best_of is not None:
+                _store(values, index, count, _best_of_scores(draws_np, truth))
             else:
                 _store(values, index, count, {metrics.NLL: metrics.kde_nll(draws_np, truth)})
         results[mode] = _completed(mode, values, count)
@@ -223,11 +240,21 @@ def _point_scores(
     truth: np.ndarray,
     regions: RegionScoring | None,
 ) -> dict[str, np.ndarray]:
-    """Every registered metric of a batch's (B, H, 2) point forecast, name -> (B,); with
-    ``regions``, every region metric of the ``distribution`` it was made from, -> (B, H)."""
+    """Every registered metric of a batch's (B, H, 2) point forecast, name -> (B,), and its
+    displacement error per step, -> (B, H); with ``regions``, every region metric of the
+    ``distribution`` it was made from, -> (B, H)."""
     scores = metrics.point_scores(point, truth)
+    scores[metrics.DISPLACEMENT] = metrics.displacement_errors(point, truth)
     if regions is not None and distribution is not None:
         scores.update(regions.scores(point, distribution, truth))
+    return scores
+
+
+def _best_of_scores(draws: np.ndarray, truth: np.ndarray) -> dict[str, np.ndarray]:
+    """Every registered metric's minimum over a batch's (B, K, H, 2) draws, -> (B,), and each
+    step's lowest displacement error, -> (B, H)."""
+    scores = metrics.best_of_scores(draws, truth)
+    scores[metrics.DISPLACEMENT] = metrics.displacement_errors(draws, truth[:, None]).min(axis=1)
     return scores
 
 
@@ -242,10 +269,15 @@ def _store(
 
 def _completed(mode: str, values: dict[str, np.ndarray], count: int) -> SampleScores:
     """The scores of one mode: (S, H) ones kept per step, with their per-sample means beside
-    the (S,) ones; an empty sample set's still name the registered metrics."""
+    the (S,) ones (the displacement error's are the ADE, or not best-of-K's: none); an empty
+    sample set's still name the registered metrics."""
     found = values or {name: np.full(count, np.nan) for name in metrics.METRICS}
     per_step = {name: v for name, v in found.items() if v.ndim == 2}
-    means = {name: v.mean(axis=1) if v.ndim == 2 else v for name, v in found.items()}
+    means = {
+        name: v.mean(axis=1) if v.ndim == 2 else v
+        for name, v in found.items()
+        if name != metrics.DISPLACEMENT
+    }
     return SampleScores(mode, means, per_step)
 
 
@@ -319,7 +351,8 @@ def evaluate_model(  # noqa: PLR0913 - score_samples's options, all keyword-only
 
 
 def constant_velocity_scores(samples: SampleSet, horizon_steps: int) -> SampleScores:
-    """Per-sample ADE/FDE (metres) of constant velocity, the one baseline every table shows."""
+    """Per-sample ADE/FDE (metres), every registered metric and the displacement error of
+    every step of constant velocity, the one baseline every table shows."""
     pred = constant_velocity(samples.hist_rel_m.astype(np.float64), horizon_steps)
     truth = samples.fut_rel_m.astype(np.float64)
-    return SampleScores("ml", metrics.point_scores(pred, truth))
+    return _completed("ml", _point_scores(pred, None, truth, None), len(samples))

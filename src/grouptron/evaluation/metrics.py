@@ -5,8 +5,18 @@ Shapes: ``B`` samples, ``K`` predictions per sample, ``H`` horizon steps.
 
 A metric is one function from forecasts and truths to a per-sample score and one
 :func:`register_metric` line; every point forecast, best-of-K, ``grouptron evaluate`` (table
-and JSON) and the dataset report then carry it. Every metric is lower-is-better per sample, so
+and JSON) and the reports then carry it. Every metric is lower-is-better per sample, so
 that best-of-K is its minimum over the K forecasts.
+
+A metric from outside the package needs no wrapper script: ``--metrics`` of ``evaluate`` and
+``report`` (``EvaluationOptions.metrics``, ``ReportRequest.metrics`` in Python) names it, and
+:func:`resolve_metric` finds it by name: a registered one, ``miss-rate-Xm`` (the share of
+forecasts ending more than X m off, any X), ``module:name`` (a function or a ``Metric`` of an
+importable module) or the name of an installed package's entry point in the
+``grouptron.metrics`` group; :func:`scoring` registers it for one evaluation.
+
+The displacement error of every forecast step (:data:`DISPLACEMENT`) is kept per step beside
+the metrics.
 
 A region metric scores a point forecast's prediction regions (``model.regions.Regions``)
 against the truths, per sample and step, for each probability ``q`` asked
@@ -17,11 +27,18 @@ a region is better when it is smaller at the same coverage.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import importlib
+import os
+import re
+import sys
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
+from importlib.metadata import entry_points
 
 import numpy as np
 
+from grouptron.errors import GrouptronError
 from grouptron.model.regions import Regions
 
 KDE_LOG_DENSITY_FLOOR = -20.0
@@ -172,6 +189,121 @@ one forecast, kept under this name beside the registered metrics."""
 register_metric(Metric("ade", "ADE m", ade))
 register_metric(Metric("fde", "FDE m", fde))
 
+DISPLACEMENT = "displacement"
+"""The displacement error (m) at every forecast step (``displacement_errors``), kept per step
+beside the metrics: a point forecast's mean over the steps is its ADE and its last step its
+FDE; best-of-K's is each step's minimum over the K forecasts (its last step is minFDE)."""
+
+ENTRY_POINTS = "grouptron.metrics"
+"""The entry-point group through which an installed package offers metrics by name (each
+entry point a function or a ``Metric``)."""
+
+_MISS_RATE = re.compile(r"miss-rate-([0-9]+(?:\.[0-9]+)?)m")
+
+
+@dataclass(frozen=True)
+class MissBeyond:
+    """1 where a forecast ends more than ``threshold_m`` from the truth, else 0:
+    (..., H, 2), (..., H, 2) -> (...). Its mean is the miss rate; its minimum over K forecasts
+    is 1 only where the lowest final error exceeds the threshold (best-of-K, as papers score
+    it)."""
+
+    threshold_m: float
+
+    def __call__(self, pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
+        """(..., H, 2), (..., H, 2) -> (...) 1 where missed, else 0."""
+        missed: np.ndarray = (fde(pred, truth) > self.threshold_m).astype(np.float64)
+        return missed
+
+
+def miss_rate(threshold_m: float) -> Metric:
+    """The metric ``miss-rate-Xm``: the share of forecasts whose final error exceeds
+    ``threshold_m`` (X) metres."""
+    if not threshold_m > 0.0:
+        raise GrouptronError(f"a miss rate's threshold is a distance above 0 m, not {threshold_m}")
+    return Metric(f"miss-rate-{threshold_m:g}m", f"MR {threshold_m:g}m", MissBeyond(threshold_m))
+
+
+def resolve_metric(spec: str | Metric) -> Metric:
+    """The metric ``spec`` names: a ``Metric`` as it is; a registered name; ``miss-rate-Xm``
+    (X in metres); the name of an installed entry point of :data:`ENTRY_POINTS`; or
+    ``module:name``, the function or ``Metric`` ``name`` of a module importable from the
+    current folder or ``sys.path`` (a function is the metric ``name``, labelled so). Anything
+    else is refused in one line."""
+    if isinstance(spec, Metric):
+        return spec
+    if spec in METRICS:
+        return METRICS[spec]
+    match = _MISS_RATE.fullmatch(spec)
+    if match is not None:
+        return miss_rate(float(match.group(1)))
+    offered = [point for point in entry_points(group=ENTRY_POINTS) if point.name == spec]
+    if offered:
+        return _as_metric(offered[0].load(), spec)
+    module, colon, name = spec.partition(":")
+    if not (colon and module and name):
+        raise GrouptronError(
+            f"unknown metric {spec!r}; choose from {', '.join(METRICS)}, miss-rate-Xm (X in "
+            f"metres), module:name (a function or Metric of a module) or an installed "
+            f"{ENTRY_POINTS} entry point"
+        )
+    try:
+        imported = _import(module)
+    except ImportError as error:
+        raise GrouptronError(f"metric {spec}: cannot import {module} ({error})") from None
+    if not hasattr(imported, name):
+        raise GrouptronError(f"metric {spec}: module {module} has no {name}")
+    return _as_metric(getattr(imported, name), name)
+
+
+def _import(module: str) -> object:
+    """The module named ``module``, the current folder searched first (as ``python -m``
+    does), so that a metric file beside one's data needs no installing."""
+    here = os.getcwd()
+    added = here not in sys.path
+    if added:
+        sys.path.insert(0, here)
+    try:
+        return importlib.import_module(module)
+    finally:
+        if added:
+            sys.path.remove(here)
+
+
+def _as_metric(found: object, name: str) -> Metric:
+    """A ``Metric`` as it is, a function as the metric ``name``."""
+    if isinstance(found, Metric):
+        return found
+    if callable(found):
+        return Metric(name, name, found)
+    raise GrouptronError(f"metric {name}: {found!r} is neither a function nor a Metric")
+
+
+@contextmanager
+def scoring(extra: Sequence[str | Metric] = ()) -> Iterator[tuple[Metric, ...]]:
+    """Inside the block every evaluation carries the registered metrics and ``extra`` (each
+    resolved by :func:`resolve_metric`): those not registered are registered for the block
+    only, so one evaluation's metrics never leak into the next. A name registered for a
+    different metric is refused."""
+    if isinstance(extra, str):
+        raise GrouptronError(f"metrics is a sequence of metric names, not {extra!r}")
+    chosen = tuple(resolve_metric(spec) for spec in extra)
+    added: list[str] = []
+    try:
+        for metric in chosen:
+            present = METRICS.get(metric.name)
+            if present is None:
+                register_metric(metric)
+                added.append(metric.name)
+            elif present != metric:
+                raise GrouptronError(
+                    f"a different metric named {metric.name!r} is registered already"
+                )
+        yield chosen
+    finally:
+        for name in added:
+            METRICS.pop(name, None)
+
 
 def point_scores(pred: np.ndarray, truth: np.ndarray) -> dict[str, np.ndarray]:
     """Every registered metric of one forecast per sample: (B, H, 2), (B, H, 2) -> name: (B,)."""
@@ -257,6 +389,8 @@ def metric_label(name: str) -> str:
     percentage), else its name."""
     if name in METRICS:
         return METRICS[name].label
+    if name == DISPLACEMENT:
+        return "DE m"
     for metric in REGION_METRICS.values():
         prefix = f"{metric.name}-q"
         if name.startswith(prefix):

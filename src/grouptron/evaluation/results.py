@@ -12,7 +12,7 @@ import numpy as np
 
 from grouptron.evaluation import metrics
 from grouptron.evaluation.evaluate import SampleScores
-from grouptron.evaluation.uncertainty import mean_interval
+from grouptron.evaluation.uncertainty import column_intervals
 
 MEAN_ROW = "mean"
 NAMED = ("ade", "fde", metrics.NLL)
@@ -24,7 +24,7 @@ other registered metric is in ``EvaluationResult.metrics``."""
 class EvaluationResult:
     """Scores of one model on one split (or subset), averaged over its test samples.
 
-    ``mode`` names the prediction (``ml``, ``ml-argmax``, ``best-of-20``, ``nll``) for models
+    ``mode`` names the prediction (``ml``, ``ml-argmax``, ``best-of-K``, ``nll``) for models
     with several; ``nll`` is the KDE NLL in nats (``nll`` mode only); values that a mode does not
     define are NaN here and ``null`` in JSON.
     """
@@ -48,31 +48,42 @@ class EvaluationResult:
     metrics_ci: dict[str, tuple[float, float]] = field(default_factory=dict)
     """Their 95% intervals, where computed."""
     per_step: dict[str, tuple[float, ...]] = field(default_factory=dict)
-    """The (H,) per-step means of the metrics scored per step (the region metrics: their
-    mean over the steps is in ``metrics``)."""
+    """The (H,) per-step means of the metrics scored per step: the displacement error
+    (``displacement``) and the region metrics (their mean over the steps is in ``metrics``)."""
+    nll_ci: tuple[float, float] | None = None
+    """95% interval of the mean NLL (of the samples where it is defined), where computed."""
+    per_step_ci: dict[str, tuple[tuple[float, float], ...]] = field(default_factory=dict)
+    """The 95% interval of each per-step mean, where computed."""
     held_out: bool = True
     """False where the scored samples are not held out from the checkpoint: it trained or
     validated on them (``evaluate`` scores such data only when asked, and says so)."""
 
     def to_dict(self) -> dict[str, object]:
         """The row as JSON values: optional fields left out where unset, every other metric
-        beside ADE and FDE (``miss_2m``, with ``miss_2m_ci``; a region metric's steps as
-        ``coverage-q90_per_step``), NaN as None."""
+        beside ADE and FDE (``miss-rate-2m``, with ``miss-rate-2m_ci``), every metric kept per
+        step as its list of step means (``displacement_per_step``, ``coverage-q90_per_step``,
+        with ``displacement_per_step_ci``), NaN as None."""
         row = dataclasses.asdict(self)
-        for optional in ("mode", "nll", "checkpoint", "derivatives", "ade_ci", "fde_ci"):
+        for optional in OPTIONAL:
             if row[optional] is None:
                 del row[optional]
         if row["held_out"]:  # named where it is not: ``held_out: false``
             del row["held_out"]
         extra, intervals = row.pop("metrics"), row.pop("metrics_ci")
-        per_step = row.pop("per_step")
+        per_step, step_intervals = row.pop("per_step"), row.pop("per_step_ci")
         for name, value in extra.items():
             row[name] = value
             if name in intervals:
                 row[f"{name}_ci"] = intervals[name]
-            if name in per_step:
-                row[f"{name}{PER_STEP}"] = [_json_number(v) for v in per_step[name]]
+        for name, values in per_step.items():
+            row[f"{name}{PER_STEP}"] = [_json_number(v) for v in values]
+            if name in step_intervals:
+                row[f"{name}{PER_STEP}_ci"] = [list(ci) for ci in step_intervals[name]]
         return {k: _json_number(v) if isinstance(v, float) else v for k, v in row.items()}
+
+
+OPTIONAL = ("mode", "nll", "checkpoint", "derivatives", "ade_ci", "fde_ci", "nll_ci")
+"""Fields a row's JSON leaves out where unset."""
 
 
 PER_STEP = "_per_step"
@@ -96,20 +107,20 @@ def score_rows(
 ) -> list[EvaluationResult]:
     """One row per subset (its name in ``subset``; a None mask is every sample) with the mean
     of every metric ``scores`` hold. ``steps`` (S,): time-step ids, to add 95% intervals
-    (time steps resampled). ``within`` (S,): the samples ``scores`` cover where they cover
-    only some (the NLL subsample); the masks are narrowed to it. ``named_mode`` False leaves
-    ``mode`` unset (constant velocity's one forecast). The one place scores become rows."""
+    (time steps resampled) to every mean, per step too. ``within`` (S,): the samples
+    ``scores`` cover where they cover only some (the NLL subsample); the masks are narrowed to
+    it. ``named_mode`` False leaves ``mode`` unset (constant velocity's one forecast). The one
+    place scores become rows."""
     rows = []
     for subset, keep in masks.items():
         mask = keep if keep is None or within is None else keep[within]
         kept = scores if mask is None else scores.subset(mask)
         summary = kept.summary()
         intervals: dict[str, tuple[float, float]] = {}
+        step_intervals: dict[str, tuple[tuple[float, float], ...]] = {}
         if steps is not None and len(kept):
             kept_steps = steps if mask is None else steps[mask]
-            for name, values in kept.values.items():
-                found = mean_interval(values, kept_steps)
-                intervals[name] = (found.low, found.high)
+            intervals, step_intervals = _intervals([(kept, kept_steps)])
         rows.append(
             dataclasses.replace(
                 template,
@@ -121,21 +132,51 @@ def score_rows(
                 nll=summary.nll if scores.mode == metrics.NLL else None,
                 ade_ci=intervals.get("ade"),
                 fde_ci=intervals.get("fde"),
+                nll_ci=intervals.get(metrics.NLL),
                 metrics={k: v for k, v in summary.means.items() if k not in NAMED},
                 metrics_ci={k: v for k, v in intervals.items() if k not in NAMED},
                 per_step=summary.step_means,
+                per_step_ci=step_intervals,
             )
         )
     return rows
 
 
-def mean_over_splits(results: Sequence[EvaluationResult]) -> EvaluationResult:
+def _intervals(
+    per_split: Sequence[tuple[SampleScores, np.ndarray]],
+) -> tuple[dict[str, tuple[float, float]], dict[str, tuple[tuple[float, float], ...]]]:
+    """95% intervals of every mean and every per-step mean of the scores of one split, or of
+    the unweighted mean over several (each split's time steps resampled), from (scores, (S,)
+    time-step ids) pairs; the NLL's over the samples where it is defined."""
+    first = per_split[0][0]
+    means: dict[str, tuple[float, float]] = {}
+    for name in first.values:
+        pairs = [(s.values[name], t) for s, t in per_split]
+        if name == metrics.NLL:  # its mean leaves out the samples without a KDE
+            pairs = [(v[~np.isnan(v)], t[~np.isnan(v)]) for v, t in pairs]
+        if all(len(v) for v, _ in pairs):
+            (found,) = column_intervals([(v[:, None], t) for v, t in pairs])
+            means[name] = (found.low, found.high)
+    stepped: dict[str, tuple[tuple[float, float], ...]] = {}
+    for name in first.per_step:
+        found_steps = column_intervals([(s.per_step[name], t) for s, t in per_split])
+        stepped[name] = tuple((i.low, i.high) for i in found_steps)
+    return means, stepped
+
+
+def mean_over_splits(
+    results: Sequence[EvaluationResult],
+    scored: Sequence[tuple[SampleScores, np.ndarray]] | None = None,
+) -> EvaluationResult:
     """The unweighted mean of split scores (the papers' "AVG" column), of every metric all
-    splits hold (per step too)."""
+    splits hold (per step too); with the splits' ``scored`` (scores, (S,) time-step ids), in
+    the order of ``results``, the 95% interval of every mean (each split resampled on its own
+    time steps, as the report's AVG)."""
     first = results[0]
     nll = [r.nll for r in results if r.nll is not None]
     shared = [n for n in first.metrics if all(n in r.metrics for r in results)]
     stepped = [n for n in first.per_step if all(n in r.per_step for r in results)]
+    intervals, step_intervals = _intervals(scored) if scored else ({}, {})
     return dataclasses.replace(
         first,
         split=MEAN_ROW,
@@ -145,14 +186,16 @@ def mean_over_splits(results: Sequence[EvaluationResult]) -> EvaluationResult:
         fde=float(np.mean([r.fde for r in results])),
         nll=float(np.mean(nll)) if len(nll) == len(results) else None,
         checkpoint=None,
-        ade_ci=None,
-        fde_ci=None,
+        ade_ci=intervals.get("ade"),
+        fde_ci=intervals.get("fde"),
+        nll_ci=intervals.get(metrics.NLL),
         metrics={n: float(np.mean([r.metrics[n] for r in results])) for n in shared},
-        metrics_ci={},
+        metrics_ci={n: v for n, v in intervals.items() if n in shared},
         per_step={
             n: tuple(float(v) for v in np.mean([r.per_step[n] for r in results], axis=0))
             for n in stepped
         },
+        per_step_ci={n: v for n, v in step_intervals.items() if n in stepped},
     )
 
 
@@ -174,8 +217,9 @@ def _fmt(value: float | None) -> str:
 
 def results_table(results: Sequence[EvaluationResult]) -> str:
     """A fixed-width text table: split (or file), subset, model, samples, ADE, FDE (metres),
-    NLL, every other registered metric (a region metric at steps 4, 8 and 12 and its mean over
-    the steps), and the 95% interval of FDE where one was computed."""
+    NLL, the displacement error at steps 4, 8 and 12 (``DE m @4``), every other registered
+    metric (a region metric at steps 4, 8 and 12 and its mean over the steps), and the 95%
+    interval of FDE where one was computed (JSON holds every step and every interval)."""
     with_nll = any(r.nll is not None for r in results)
     columns = _metric_columns(results)
     with_ci = any(r.fde_ci is not None for r in results)
@@ -219,13 +263,17 @@ def _name(row: EvaluationResult) -> str:
 
 def _metric_columns(results: Sequence[EvaluationResult]) -> list[tuple[str, str, int | None]]:
     """(heading, metric name, step or None for the mean) of every column after ADE and FDE:
-    each metric's mean, a metric scored per step at :data:`TABLE_STEPS` first."""
+    each metric's mean, a metric scored per step at :data:`TABLE_STEPS` first; one kept per
+    step only (the displacement error) at those steps alone, before the others."""
     columns: list[tuple[str, str, int | None]] = []
-    for name in dict.fromkeys(n for r in results for n in r.metrics):
+    averaged = [n for r in results for n in r.metrics]
+    stepped = [n for r in results for n in r.per_step if n not in averaged]
+    for name in dict.fromkeys([*stepped, *averaged]):
         label = metrics.metric_label(name)
         horizon = max((len(r.per_step[name]) for r in results if name in r.per_step), default=0)
         columns += [(f"{label} @{s}", name, s) for s in TABLE_STEPS if s <= horizon]
-        columns.append((label, name, None))
+        if name in averaged:
+            columns.append((label, name, None))
     return columns
 
 

@@ -103,15 +103,14 @@ def _read(
     def parse(stored: dict[str, np.ndarray]) -> SampleScores:
         arrays = {name: np.asarray(stored[name], dtype=np.float64) for name in _names(mode)}
         per_step = {
-            name: np.asarray(stored[name], dtype=np.float64)
-            for name in _region_names(mode, regions)
+            name: np.asarray(stored[name], dtype=np.float64) for name in _step_names(mode, regions)
         }
         if any(a.shape != (count,) for a in arrays.values()):
             raise ValueError(f"not {count} samples")
         if any(a.shape != shape for a in per_step.values()):
             raise ValueError(f"not {shape[0]} samples of {shape[1]} steps")
-        arrays.update({name: a.mean(axis=1) for name, a in per_step.items()})
-        return SampleScores(mode, arrays, per_step)
+        means = {n: a.mean(axis=1) for n, a in per_step.items() if n != metrics.DISPLACEMENT}
+        return SampleScores(mode, arrays | means, per_step)
 
     return read_cache_npz(path, parse)  # a metric missing from the file: scored again
 
@@ -121,14 +120,17 @@ def _names(mode: str) -> tuple[str, ...]:
     return (metrics.NLL,) if mode == metrics.NLL else tuple(metrics.METRICS)
 
 
-def _region_names(mode: str, regions: RegionScoring | None) -> tuple[str, ...]:
-    """The region metrics a mode's stored scores must hold per step (point forecasts only)."""
-    return regions.names if regions is not None and is_point_forecast(mode) else ()
+def _step_names(mode: str, regions: RegionScoring | None) -> tuple[str, ...]:
+    """What a mode's stored scores must hold per step: the displacement error (every mode
+    but the NLL) and the region metrics (point forecasts only)."""
+    errors = () if mode == metrics.NLL else (metrics.DISPLACEMENT,)
+    scored = regions is not None and is_point_forecast(mode)
+    return errors + (regions.names if regions is not None and scored else ())
 
 
 def _write(path: Path, scores: SampleScores, regions: RegionScoring | None) -> None:
     arrays = {name: scores.get(name) for name in _names(scores.mode)}
-    arrays.update({name: scores.per_step[name] for name in _region_names(scores.mode, regions)})
+    arrays.update({name: scores.per_step[name] for name in _step_names(scores.mode, regions)})
     keep_cache_npz(path, arrays)
 
 

@@ -99,6 +99,34 @@ def split_average_interval(
     return interval(float(np.mean(means)), replicate)
 
 
+def column_intervals(
+    per_split: Sequence[tuple[np.ndarray, np.ndarray]], replicates: int = REPLICATES, seed: int = 0
+) -> list[Interval]:
+    """Each column's mean of (S, D) values (a metric per forecast step) with its interval, the
+    same resamples for every column: one split's cluster bootstrap (as :func:`mean_interval`),
+    or the average of several splits' (as :func:`split_average_interval`).
+
+    Args:
+        per_split: one (values (S_i, D), clusters (S_i,)) pair per split.
+    """
+    means, replicate = [], []
+    for i, (values, clusters) in enumerate(per_split):
+        if len(values) == 0:
+            raise ValueError("no values to bootstrap")
+        _, cluster = np.unique(clusters, return_inverse=True)
+        cluster = cluster.reshape(-1)
+        num_clusters = int(cluster.max()) + 1
+        sums = np.zeros((num_clusters, values.shape[1]))
+        np.add.at(sums, cluster, values)  # (C, D)
+        sizes = np.bincount(cluster, minlength=num_clusters).astype(np.float64)  # (C,)
+        rng = np.random.default_rng(seed + i)
+        draws = rng.multinomial(num_clusters, np.full(num_clusters, 1.0 / num_clusters), replicates)
+        replicate.append((draws @ sums) / (draws @ sizes)[:, None])  # (R, D)
+        means.append(values.mean(axis=0))
+    mean, replicates_mean = np.mean(means, axis=0), np.mean(replicate, axis=0)  # (D,), (R, D)
+    return [interval(float(m), replicates_mean[:, d]) for d, m in enumerate(mean)]
+
+
 def seed_spread(values: Sequence[float]) -> tuple[float, float]:
     """Mean and sample standard deviation (ddof 1) over seed runs; sd is NaN for one run."""
     array = np.asarray(values, dtype=np.float64)

@@ -73,7 +73,8 @@ class ReportSettings:
         unknown = [m for m in self.modes if not is_evaluation_mode(m)]
         if unknown or not self.modes:
             raise GrouptronError(
-                f"unknown report modes {unknown}; choose from {', '.join(MODES)} or ml-topK"
+                f"unknown report modes {unknown}; choose from {', '.join(MODES)}, ml-topK or "
+                "best-of-K"
             )
         if self.diagnostics and "ml" not in self.modes:
             raise GrouptronError("the density and ablation tables need the ml mode")
@@ -86,11 +87,12 @@ def find_checkpoints(
     schemes: Sequence[DerivativeScheme],
     models: Sequence[str] = MODEL_NAMES,
     seeds: Sequence[int] | None = None,
+    splits: Sequence[str] = SPLITS,
 ) -> list[ReportCheckpoint]:
     """Every ``*/best.safetensors`` under ``root`` whose stored configuration is one of
-    ``models`` on an ETH/UCY split under one of ``schemes`` (and trained with one of ``seeds``;
-    None: any), in table order (derivatives, model, split, seed). Folder names do not matter;
-    several seeds of one model and split are kept.
+    ``models`` on one of the ETH/UCY ``splits`` under one of ``schemes`` (and trained with one
+    of ``seeds``; None: any), in table order (derivatives, model, split, seed). Folder names
+    do not matter; several seeds of one model and split are kept.
 
     Missing (model, split, derivatives) cells are logged (they stay empty); none at all is an
     error.
@@ -103,7 +105,7 @@ def find_checkpoints(
             log.info("%s: %s with switches of its own, left out", path, config.model_name)
         if (
             derivatives in schemes
-            and config.split in SPLITS
+            and config.split in splits
             and label in models
             and (seeds is None or config.train.seed in seeds)
         ):
@@ -114,8 +116,8 @@ def find_checkpoints(
         seeded = "" if seeds is None else f" trained with seed {' or '.join(map(str, seeds))}"
         raise GrouptronError(
             f"no checkpoints in {root} for the {'/'.join(schemes)} derivatives: expected "
-            f"folders with a {BEST_WEIGHTS_FILE} of {' or '.join(models)} on an ETH/UCY split"
-            f"{seeded}"
+            f"folders with a {BEST_WEIGHTS_FILE} of {' or '.join(models)} on "
+            f"{' or '.join(splits) if tuple(splits) != SPLITS else 'an ETH/UCY split'}{seeded}"
         )
     order = {name: i for i, name in enumerate((*schemes, *MODEL_NAMES, *SPLITS))}
     found.sort(key=lambda c: (order[c.derivatives], order[c.model], order[c.split], c.seed))
@@ -123,7 +125,7 @@ def find_checkpoints(
     # The paper's two models are expected on every split; a variant only where it was trained.
     expected = [m for m in models if m in PAPER_MODELS or any(c.model == m for c in found)]
     missing = [
-        f"{m}-{s}-{p}" for p in schemes for m in expected for s in SPLITS if (m, s, p) not in have
+        f"{m}-{s}-{p}" for p in schemes for m in expected for s in splits if (m, s, p) not in have
     ]
     if missing:
         log.warning(
@@ -255,13 +257,16 @@ def evaluate_checkpoint(
 
 
 def score_constant_velocity(
-    data_dir: Path, derivatives: DerivativeScheme, use_cache: bool = True
+    data_dir: Path,
+    derivatives: DerivativeScheme,
+    use_cache: bool = True,
+    splits: Sequence[str] = SPLITS,
 ) -> list[ScoredRun]:
-    """Constant velocity on every split and UNIV-N (its inputs are raw positions, so both
-    schemes give the same numbers)."""
+    """Constant velocity on every split (or those of ``splits``) and UNIV-N (its inputs are
+    raw positions, so both schemes give the same numbers)."""
     config = DataConfig(derivatives=derivatives)
     runs = []
-    for split in SPLITS:
+    for split in splits:
         samples, _ = load_test_set(data_dir, split, config, use_cache=use_cache)
         scores = constant_velocity_scores(samples, config.horizon_steps)
         masks = subset_masks(split, samples)
@@ -281,9 +286,10 @@ def run_report(
     *,
     progress: bool = False,
     announce: bool = False,
+    splits: Sequence[str] = SPLITS,
 ) -> Report:
-    """Rows for every checkpoint and constant velocity, the AVG rows, intervals, paired
-    differences and the seed spread.
+    """Rows for every checkpoint and constant velocity (on ``splits``), the AVG rows (where
+    all five are scored), intervals, paired differences and the seed spread.
 
     The lowest seed of each (model, split, derivatives) gives the table rows in every mode; the
     other seeds are scored in the ``ml`` mode for the seed spread. ``announce`` names each
@@ -291,7 +297,7 @@ def run_report(
     standard output can carry JSON.
     """
     runs: list[ScoredRun] = []
-    baseline = score_constant_velocity(data_dir, schemes[0], settings.use_cache)
+    baseline = score_constant_velocity(data_dir, schemes[0], settings.use_cache, splits)
     for derivatives in schemes:  # the same numbers under both schemes: scored once
         runs += [
             dataclasses.replace(

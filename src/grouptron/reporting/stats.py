@@ -26,7 +26,7 @@ from grouptron.evaluation.uncertainty import (
     split_average_interval,
 )
 from grouptron.model.factory import GROUP_MODELS
-from grouptron.point_forecast import is_point_forecast
+from grouptron.point_forecast import best_of_samples, is_point_forecast
 from grouptron.presets import MODELS
 from grouptron.reporting.diagnostics import (
     AblationRow,
@@ -154,7 +154,7 @@ def primary_runs(runs: Sequence[ScoredRun]) -> dict[tuple[str, str, str], Scored
 def _values(run: ScoredRun, mode: str, column: str, metric: str) -> Values | None:
     """Per-sample ``metric`` of ``run`` on a split or subset column (None if not scored)."""
     scores = run.scores.get(mode)
-    if scores is None or not (is_point_forecast(mode) or mode == "best-of-20"):  # no NLL
+    if scores is None or not (is_point_forecast(mode) or best_of_samples(mode)):  # no NLL
         return None
     mask = run.masks.get(None if column == run.entry.split else column, "absent")
     if isinstance(mask, str):

@@ -13,7 +13,7 @@ from grouptron.constants import CONSTANT_VELOCITY, DEFAULT_CHECKPOINT
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.evaluation.uncertainty import Interval, seed_spread
 from grouptron.model.factory import GROUP_MODELS
-from grouptron.point_forecast import PointForecast, is_point_forecast
+from grouptron.point_forecast import PointForecast, best_of_samples, is_point_forecast
 from grouptron.reporting.cells import (
     DISPLAY,
     OURS_MODELS,
@@ -29,6 +29,7 @@ from grouptron.reporting.cells import (
     published_pair,
 )
 from grouptron.reporting.diagnostics import diagnostics_markdown
+from grouptron.reporting.metric_tables import metric_tables
 from grouptron.reporting.out_of_domain import out_of_domain_markdown
 from grouptron.reporting.published import (
     BEST_OF_20,
@@ -346,10 +347,13 @@ def _other_modes(
         "nll": "KDE NLL in nats (Scott's bandwidth; 2000 futures per sample; "
         "in brackets: samples scored)",
     }
-    for mode in modes:  # ml-topK for other K, in the order asked
+    for mode in modes:  # ml-topK and best-of-K for other K, in the order asked
         top = PointForecast.parse(mode).top if mode and is_point_forecast(mode) else None
         if mode and top and top > 1 and mode not in titles:
             titles[mode] = f"Most likely of the {top} most probable latent values"
+        best_of = best_of_samples(mode) if mode else None
+        if mode and best_of and mode not in titles:
+            titles[mode] = f"Best of {best_of} samples (minFDE/minADE)"
     out = []
     for mode, title in titles.items():
         if mode in modes:
@@ -387,6 +391,7 @@ def report_markdown(report: Report, schemes: Sequence[str], command: str) -> str
         "",
         *_certainty_sections(report, rows, schemes),
         *_other_modes(rows, modes, schemes),
+        *metric_tables(rows, modes, schemes),
         *diagnostics_markdown(report.density, report.ablations, DISPLAY),
         *out_of_domain_markdown(report.out_of_domain),
     ]

@@ -5,6 +5,8 @@ same samples (or constant velocity alone), with its point forecast's prediction 
 
     from grouptron.workflows.evaluate import Benchmark, evaluate
     rows = evaluate(Benchmark(splits=("univ",)), "grouptron-univ-backward", ("ml", "best-of-20"))
+    papers = EvaluationOptions(metrics=("miss-rate-2m",))  # beside ADE and FDE, for this call
+    rows = evaluate(Benchmark(), "grouptron-eth-central", ("best-of-5", "best-of-20"), papers)
     rows = evaluate(Tracks(("site.txt",)), options=EvaluationOptions(regions=(0.5, 0.9)))
 """
 
@@ -24,30 +26,30 @@ from grouptron.constants import (
     ALL_LOCATIONS,
     CONSTANT_VELOCITY,
     EVALUATION_MODES,
-    MAX_REGION_Q,
     SPLITS,
 )
 from grouptron.data.datasets.custom import DatasetDescription, load_dataset_part
 from grouptron.data.datasets.locate import resolve_data_dir
-from grouptron.data.datasets.subsets import density_masks, parse_univ_n
+from grouptron.data.datasets.subsets import density_masks, parse_univ_n, time_step_ids
 from grouptron.data.formats.track_files import TrackSource
 from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
+from grouptron.evaluation.metrics import Metric, scoring
 from grouptron.evaluation.recordings import evaluate_recordings, training_files
 from grouptron.evaluation.region_scores import RegionScoring
 from grouptron.evaluation.results import EvaluationResult, mean_over_splits, score_rows
 from grouptron.evaluation.test_sets import load_test_set
 from grouptron.geometry import DerivativeScheme
 from grouptron.groups.assign import SampleGroups
-from grouptron.inference.calibration import calibration_for
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model, uses_groups
 from grouptron.model.predict import ABLATIONS, default_point_forecast
-from grouptron.point_forecast import PointForecast, is_evaluation_mode, is_point_forecast
+from grouptron.point_forecast import is_evaluation_mode, is_sampled_mode
 from grouptron.workflows.adapt import adapted_parts
+from grouptron.workflows.evaluate_regions import refuse_meaningless_regions, region_scoring
 from grouptron.workflows.held_out import (
     mark_not_held_out,
     seen_dataset_files,
@@ -97,7 +99,7 @@ class EvaluationOptions:
     """How to evaluate.
 
     Attributes:
-        seed: of the sampled modes (best-of-20, NLL).
+        seed: of the sampled modes (best-of-K, NLL).
         by_density: add rows per density bin (neighbours within 3 m at t).
         ablate: inputs taken away from the model (``ABLATIONS``).
         derivatives: of constant velocity's samples (None: ``DataConfig``'s); a checkpoint
@@ -113,6 +115,8 @@ class EvaluationOptions:
             every point forecast scored, as ``predict`` draws them; False: the model's own).
         include_seen: score data the checkpoint trained or validated on (another split's
             test set, say) instead of refusing, each such row marked ``held_out=False``.
+        metrics: scored beside the registered ones (``miss-rate-2m``, ``module:name``, a
+            ``Metric``: ``evaluation.metrics.resolve_metric``), for this evaluation only.
     """
 
     seed: int = 0
@@ -126,6 +130,7 @@ class EvaluationOptions:
     regions: tuple[float, ...] = ()
     calibration: str | Path | bool | None = None
     include_seen: bool = False
+    metrics: tuple[str | Metric, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -146,22 +151,25 @@ def evaluate(
     options: EvaluationOptions = EvaluationOptions(),
 ) -> list[EvaluationResult]:
     """Rows of scores of ``checkpoint`` (a shipped name or a file; None: constant velocity
-    alone) on ``source``, constant velocity's rows beside them on the same samples. ``modes``:
-    evaluation modes (default: the checkpoint's own point forecast, what ``predict`` writes).
-    Every request is checked before anything is read, so Python callers get the command
-    line's one-line errors.
+    alone) on ``source``, constant velocity's rows beside them on the same samples, each mean
+    with its 95% interval (time steps resampled). ``modes``: evaluation modes (default: the
+    checkpoint's own point forecast, what ``predict`` writes). Every request is checked
+    before anything is read, so Python callers get the command line's one-line errors.
     """
     _refuse_meaningless(source, checkpoint, modes, options)
-    _refuse_meaningless_regions(checkpoint, modes, options)
-    loaded = _load(checkpoint, options)
-    chosen = tuple(modes) if modes else _default_modes(loaded.experiment)
-    _check_ablations(options.ablate, loaded)
-    regions = _region_scoring(loaded, chosen, options)
-    if isinstance(source, Tracks):
-        return _evaluate_tracks(source, loaded, chosen, options, regions=regions)
-    if isinstance(source, DatasetDescription):
-        return _evaluate_dataset(source, loaded, chosen, options, regions=regions)
-    return _evaluate_benchmark(source, loaded, chosen, options, regions=regions)
+    refuse_meaningless_regions(checkpoint, modes, options.regions, options.calibration)
+    with scoring(options.metrics):  # the metrics asked, for this evaluation only
+        loaded = _load(checkpoint, options)
+        chosen = tuple(modes) if modes else _default_modes(loaded.experiment)
+        _check_ablations(options.ablate, loaded)
+        regions = region_scoring(
+            loaded.experiment, loaded.path, chosen, options.regions, options.calibration
+        )
+        if isinstance(source, Tracks):
+            return _evaluate_tracks(source, loaded, chosen, options, regions=regions)
+        if isinstance(source, DatasetDescription):
+            return _evaluate_dataset(source, loaded, chosen, options, regions=regions)
+        return _evaluate_benchmark(source, loaded, chosen, options, regions=regions)
 
 
 def _refuse_meaningless(
@@ -178,9 +186,9 @@ def _refuse_meaningless(
     if unknown:
         raise GrouptronError(
             f"unknown mode {', '.join(map(str, unknown))}; choose from "
-            f"{', '.join(EVALUATION_MODES)} or ml-topK"
+            f"{', '.join(EVALUATION_MODES)}, ml-topK or best-of-K"
         )
-    sampled = [m for m in modes or () if m in ("best-of-20", "nll")]
+    sampled = [m for m in modes or () if is_sampled_mode(m)]
     if checkpoint is None and sampled:
         raise GrouptronError(
             f"constant velocity makes one forecast: --mode {','.join(sampled)} needs a --checkpoint"
@@ -189,51 +197,6 @@ def _refuse_meaningless(
         raise GrouptronError("--ablate takes inputs away from a checkpoint's model")
     if isinstance(source, Tracks) and "nll" in (modes or ()):
         raise GrouptronError("--mode nll is scored on benchmark test sets, not on --tracks")
-
-
-def _refuse_meaningless_regions(
-    checkpoint: str | Path | None, modes: Sequence[str] | None, options: EvaluationOptions
-) -> None:
-    """Refuse regions without a distribution (constant velocity, sampled modes alone), of
-    probabilities outside (0, 0.99], and a calibration without regions."""
-    qs = options.regions
-    if isinstance(qs, str | int | float):
-        raise GrouptronError(f"regions is a sequence of probabilities such as (0.9,), not {qs!r}")
-    if any(not 0.0 < q <= MAX_REGION_Q for q in qs):
-        raise GrouptronError(f"--regions probabilities must be in (0, {MAX_REGION_Q}]: {qs}")
-    if options.calibration not in (None, False) and not qs:
-        raise GrouptronError("--calibration sizes prediction regions: give --regions too")
-    if qs and checkpoint is None:
-        raise GrouptronError(
-            "constant velocity has no distribution to draw regions from: --regions needs a "
-            "--checkpoint"
-        )
-    if qs and modes and not any(is_point_forecast(m) for m in modes):
-        raise GrouptronError(f"--regions are a point forecast's; --mode {','.join(modes)} has none")
-
-
-def _region_scoring(
-    loaded: _Loaded, modes: tuple[str, ...], options: EvaluationOptions
-) -> RegionScoring | None:
-    """The regions to score, as ``predict`` draws them: sized by the calibration file (which
-    must belong to this checkpoint and every point forecast scored; checked before reading
-    data), else by the one the checkpoint ships with where it fits every point forecast
-    scored, else (and with ``calibration=False``) the model's own."""
-    if not options.regions or loaded.experiment is None:
-        return None
-    qs = tuple(options.regions)
-    if options.calibration is False:
-        return RegionScoring(qs)
-    checkpoint = str(loaded.path or "")
-    found = [
-        calibration_for(options.calibration, loaded.experiment, PointForecast.parse(m), checkpoint)
-        for m in modes
-        if is_point_forecast(m)
-    ]
-    if not found or any(c is None for c in found):  # no shipped one for some forecast
-        return RegionScoring(qs)
-    radii = {q: c.radius(q) for c in found[:1] if c is not None for q in qs}
-    return RegionScoring(qs, radii)
 
 
 def _load(checkpoint: str | Path | None, options: EvaluationOptions) -> _Loaded:
@@ -307,12 +270,15 @@ def _rows(
     scored: list[tuple[str, str | None, SampleScores]],
     masks: dict[str | None, np.ndarray | None],
     derivatives: str,
+    steps: np.ndarray,
 ) -> list[EvaluationResult]:
+    """Rows per model, mode and subset, with 95% intervals over the (S,) time ``steps``."""
     rows = []
     for name, checkpoint, scores in scored:
         template = EvaluationResult(split, name, None, 0, 0.0, 0.0)
         template = dataclasses.replace(template, checkpoint=checkpoint, derivatives=derivatives)
-        rows += score_rows(template, scores, masks, named_mode=checkpoint is not None)
+        named = checkpoint is not None
+        rows += score_rows(template, scores, masks, steps=steps, named_mode=named)
     return rows
 
 
@@ -351,6 +317,7 @@ def _evaluate_benchmark(
     grouped = experiment is not None and uses_groups(experiment)
     group_config = experiment.groups if experiment is not None and grouped else None
     rows: list[EvaluationResult] = []
+    kept: dict[tuple[str, str | None], list[tuple[SampleScores, np.ndarray]]] = {}
     for split in splits:
         samples, groups = load_test_set(
             data_dir,
@@ -363,11 +330,16 @@ def _evaluate_benchmark(
         masks: dict[str | None, np.ndarray | None] = {source.subset: None}
         masks.update(density_masks(samples) if options.by_density else {})
         scored = _model_scores(loaded, samples, groups, modes, options, regions=regions)
-        rows += _rows(split, scored, masks, loaded.data.derivatives)
+        rows += _rows(split, scored, masks, loaded.data.derivatives, time_step_ids(samples))
+        for name, checkpoint, scores in scored:  # (model, row mode): its scores per split
+            key = (name, scores.mode if checkpoint else None)
+            kept.setdefault(key, []).append((scores, time_step_ids(samples)))
     rows = mark_not_held_out([r for r in rows if r.samples or r.subset is None], seen)
-    if len(splits) == len(SPLITS) and not options.by_density:
-        for mode in dict.fromkeys(r.mode for r in rows):
-            rows.append(mean_over_splits([r for r in rows if r.mode == mode]))
+    if len(splits) == len(SPLITS) and not options.by_density:  # the mean, with intervals
+        rows += [
+            mean_over_splits([r for r in rows if (r.model, r.mode) == key], per_split)
+            for key, per_split in kept.items()
+        ]
     return rows
 
 
@@ -443,5 +415,6 @@ def _evaluate_dataset(
     if loaded.experiment is not None:
         groups = groups_for_model(part.samples, loaded.experiment)
     scored = _model_scores(loaded, part.samples, groups, modes, options, regions=regions)
-    rows = _rows(source.name, scored, masks, loaded.data.derivatives)
+    steps = time_step_ids(part.samples)
+    rows = _rows(source.name, scored, masks, loaded.data.derivatives, steps)
     return mark_not_held_out(rows, {source.name} if seen else ())

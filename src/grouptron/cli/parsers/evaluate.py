@@ -5,11 +5,13 @@ from __future__ import annotations
 import argparse
 
 from grouptron.cli.options import (
+    METRICS_HELP,
     Formatter,
     add_data_options,
     add_device_option,
     add_recording_options,
     add_threads_option,
+    metric_names,
     region_probabilities,
 )
 from grouptron.constants import CONSTANT_VELOCITY, EVALUATION_MODES, SPLITS
@@ -19,6 +21,9 @@ EXAMPLES = (
     "  grouptron evaluate --tracks corridor.txt --columns id,frame,x,y,z --fps 16 --units cm\n"
     "  grouptron evaluate --model constant-velocity --split all\n"
     "  grouptron evaluate --checkpoint grouptron-eth-central --mode ml\n"
+    "  grouptron evaluate --checkpoint grouptron-eth-central --mode best-of-5,best-of-20 "
+    "--metrics miss-rate-2m\n"
+    "  grouptron evaluate --checkpoint CKPT --metrics my_metrics:curvature --format json\n"
     "  grouptron evaluate --checkpoint CKPT --split univ --subset univ-45 --mode all "
     "--format json\n"
     "  grouptron evaluate --model constant-velocity --tracks corridor.txt "
@@ -39,7 +44,10 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "'ml-argmax' (the most probable latent value's mean), 'mean' (the p(z|x)-weighted "
         "mean of every latent value's trajectory), 'ml-top10' ('ml' of the 10 most probable "
         "latent values only), 'best-of-20' (min ADE and min "
-        "FDE over 20 samples, taken independently) and 'nll' (KDE NLL of 2000 samples). "
+        "FDE over 20 samples, taken independently; best-of-K for any K) and 'nll' (KDE NLL "
+        "of 2000 samples). Every mean comes with its 95% bootstrap interval over time steps "
+        "(in JSON; the table shows FDE's), and the displacement error of every forecast step "
+        "(the table: steps 4, 8 and 12; JSON: all 12). "
         "With --split all the unweighted mean over the five splits is added.",
         formatter_class=Formatter,
         epilog=EXAMPLES,
@@ -62,13 +70,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         help="univ-N: only univ test samples at time steps with >= N predicted agents (the "
         "paper's Table II); univ-N-present: at time steps with >= N pedestrians present",
     )
-    evaluate.add_argument(
-        "--mode",
-        help=f"comma-separated of {', '.join(EVALUATION_MODES)}, ml-topK (ml of the K most "
-        "probable latent values), or all (default: the "
-        "checkpoint's own point forecast, the one predict writes)",
-    )
-    evaluate.add_argument("--seed", type=int, default=0, help="seed of the sampling modes")
+    _add_scoring_options(evaluate)
     evaluate.add_argument(
         "--include-seen",
         action="store_true",
@@ -87,6 +89,20 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     add_recording_options(evaluate)
     add_data_options(evaluate)
     evaluate.set_defaults(handler="grouptron.cli.evaluate:cmd_evaluate")
+
+
+def _add_scoring_options(evaluate: argparse.ArgumentParser) -> None:
+    """What is scored: the modes, the metrics beside ADE and FDE, the seed of the draws."""
+    evaluate.add_argument(
+        "--mode",
+        help=f"comma-separated of {', '.join(EVALUATION_MODES)}, ml-topK (ml of the K most "
+        "probable latent values), best-of-K (the best of K samples, seeded per mode), or all "
+        "(default: the checkpoint's own point forecast, the one predict writes)",
+    )
+    evaluate.add_argument(
+        "--metrics", type=metric_names, default=(), metavar="NAME[,NAME...]", help=METRICS_HELP
+    )
+    evaluate.add_argument("--seed", type=int, default=0, help="seed of the sampling modes")
 
 
 def _add_other_data_options(evaluate: argparse.ArgumentParser) -> None:

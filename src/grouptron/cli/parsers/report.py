@@ -5,13 +5,20 @@ from __future__ import annotations
 import argparse
 
 from grouptron.cli.options import (
+    METRICS_HELP,
     REPORT_CHECKPOINTS,
     Formatter,
     add_data_options,
     add_threads_option,
+    metric_names,
     non_negative_int,
 )
-from grouptron.constants import DEFAULT_CHECKPOINT, EVALUATION_MODES, REPORT_NLL_MAX_SAMPLES
+from grouptron.constants import (
+    DEFAULT_CHECKPOINT,
+    EVALUATION_MODES,
+    REPORT_NLL_MAX_SAMPLES,
+    SPLITS,
+)
 from grouptron.geometry import DERIVATIVE_SCHEMES
 from grouptron.presets import MODEL_NAMES
 
@@ -33,6 +40,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "  grouptron report --mode ml --models trajectron++,grouptron --seeds 0   # make demo\n"
         "  grouptron report --mode ml                      # Tables I and II only\n"
         "  grouptron report --out RESULTS.md\n"
+        "  grouptron report --split univ --mode ml,best-of-5,best-of-20 --metrics miss-rate-2m\n"
         "  grouptron report --derivatives central --format json --out results.json",
     )
     report.add_argument(
@@ -51,12 +59,25 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         choices=(*DERIVATIVE_SCHEMES, "both"),
         default="both",
         help="the derivative scheme of the checkpoints to report: central (the papers'), "
-        "backward (causal) or both (--derivatives is an older name of this option)",
+        "backward (causal) or both (--protocol is an older name of this option)",
     )
     report.add_argument(
         "--mode",
         default="ml,best-of-20,nll",
-        help=f"comma-separated of {', '.join(EVALUATION_MODES)}, ml-topK, or all",
+        help=f"comma-separated of {', '.join(EVALUATION_MODES)}, ml-topK, best-of-K, or all",
+    )
+    report.add_argument(
+        "--split",
+        help=f"regenerate the tables for these test sets only (comma-separated of "
+        f"{', '.join(SPLITS)}): their checkpoints and constant velocity on them; the AVG "
+        "column needs all five (default: all five)",
+    )
+    report.add_argument(
+        "--metrics",
+        type=metric_names,
+        default=(),
+        metavar="NAME[,NAME...]",
+        help=METRICS_HELP + "; a table each, and in JSON",
     )
     report.add_argument(
         "--nll-max-samples",
