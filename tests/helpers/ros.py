@@ -32,9 +32,7 @@ float64 z"""
 START_S = 1_700_000_000.0  # a robot's clock: Unix time
 
 
-def write_people_bag(
-    path: Path, rows: np.ndarray, frame_id: str = "map", prefix: str = ""
-) -> None:
+def write_people_bag(path: Path, rows: np.ndarray, frame_id: str = "map", prefix: str = "") -> None:
     """One People message per frame of the (R, 4) ``frame, id, x, y`` rows (25 fps frames),
     each person named ``prefix`` and their id."""
     from mcap_ros2.writer import Writer
