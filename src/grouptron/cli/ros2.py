@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+from typing import Any
 
 from grouptron.errors import GrouptronError
 
@@ -20,35 +21,54 @@ def cmd_ros2(args: argparse.Namespace) -> int:
         raise GrouptronError(f"grouptron ros2 needs rclpy: {EXTRA}") from None
     import torch
 
-    from grouptron.inference.predictor import Predictor
-    from grouptron.ros2.node import NodeOptions, make_node
-    from grouptron.ros2.replay import replay_bag
-
     torch.set_num_threads(args.threads)
     rclpy.init()
     try:
         if args.replay:
-            node = rclpy.create_node("grouptron_replay")
-            count = replay_bag(node, Path(args.replay), args.topic, args.out_topic)
-            print(f"published {count} messages of {args.topic} on {args.out_topic}")
-            return 0
-        predictor = Predictor.from_checkpoint(
-            args.checkpoint, forecast=args.forecast, calibration=args.calibration
-        )
-        options = NodeOptions(
-            topic=args.topic,
-            type=args.type,
-            ros_fields=args.ros_fields,
-            fixed_frames=tuple(args.fixed_frame or ()),
-            regions=args.regions or 0.0,
-        )
-        node = make_node(predictor, options, online=args.online)
-        print(f"forecasting {args.topic} ({args.type}) on /grouptron/forecasts", flush=True)
-        deadline = time.monotonic() + args.seconds if args.seconds else None
-        while rclpy.ok() and (deadline is None or time.monotonic() < deadline):
-            rclpy.spin_once(node, timeout_sec=0.05)
+            return _replay(args)
+        _spin(_node(args), args.seconds)
         return 0
     except KeyboardInterrupt:
         return 0
     finally:
         rclpy.try_shutdown()
+
+
+def _replay(args: argparse.Namespace) -> int:
+    """Publish the bag's people on the graph at their recorded rate."""
+    import rclpy
+
+    from grouptron.ros2.replay import replay_bag
+
+    node = rclpy.create_node("grouptron_replay")
+    count = replay_bag(node, Path(args.replay), args.topic, args.out_topic)
+    print(f"published {count} messages of {args.topic} on {args.out_topic}")
+    return 0
+
+
+def _node(args: argparse.Namespace) -> Any:
+    """The forecasting node the options describe."""
+    from grouptron.inference.predictor import Predictor
+    from grouptron.ros2.node import NodeOptions, make_node
+
+    predictor = Predictor.from_checkpoint(
+        args.checkpoint, forecast=args.forecast, calibration=args.calibration
+    )
+    options = NodeOptions(
+        topic=args.topic,
+        type=args.type,
+        ros_fields=args.ros_fields,
+        fixed_frames=tuple(args.fixed_frame or ()),
+        regions=args.regions or 0.0,
+    )
+    print(f"forecasting {args.topic} ({args.type}) on /grouptron/forecasts", flush=True)
+    return make_node(predictor, options, online=args.online)
+
+
+def _spin(node: Any, seconds: float | None) -> None:
+    """Spin ``node`` until ROS shuts down or ``seconds`` have passed."""
+    import rclpy
+
+    deadline = time.monotonic() + seconds if seconds else None
+    while rclpy.ok() and (deadline is None or time.monotonic() < deadline):
+        rclpy.spin_once(node, timeout_sec=0.05)

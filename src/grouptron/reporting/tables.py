@@ -76,6 +76,8 @@ def _versus_lines(
     return lines
 
 
+# Table I as the paper lays it out, row group after row group (published, ours, the seed
+# lines, the baseline, the differences): one sequence read top to bottom, like the table.
 def _ml_table(
     rows: dict[Key, EvaluationResult],
     columns: Sequence[str],

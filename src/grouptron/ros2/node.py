@@ -52,6 +52,8 @@ class NodeOptions:
     name: str = "grouptron"
 
 
+# One function holding the node's class: rclpy is imported only when a node is made (the
+# package imports without it), and the class closes over the predictor and options.
 def make_node(predictor: Predictor, options: NodeOptions, *, online: bool = False) -> Any:
     """The node (rclpy must be initialised); ``predictor`` forecasts, its session adapts its
     radii with ``online``."""
