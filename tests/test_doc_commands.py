@@ -57,7 +57,9 @@ def write_layout(
 ) -> Path:
     """Six people walking for 12 s in ``columns`` (``id``, ``x``, ``y``, ``frame`` or ``t``,
     anything else a zero), sampled at ``fps``."""
-    rng = np.random.default_rng(len(columns) + int(fps))
+    # Seeded by the file's name too: two files of one layout are two recordings, not copies
+    # (a copy of a training file is refused as not held out).
+    rng = np.random.default_rng(len(columns) + int(fps) + sum(map(ord, path.name)))
     lines = []
     for person in range(1, 7):
         start, velocity = rng.uniform(-4, 4, 2), rng.normal(0, 0.6, 2) + 0.6

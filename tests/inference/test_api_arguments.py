@@ -54,7 +54,7 @@ def test_frames_t_samples_and_seeds_must_be_integers(predictor: Predictor) -> No
         (lambda: predictor.predict(rows, num_samples=2.5), "num_samples must be an integer"),
         (lambda: predictor.predict(rows, num_samples=10**12), "from 0 to 10000"),
         (lambda: predictor.predict(rows, num_samples=2, seed=None), "seed must be an integer"),
-        (lambda: predictor.stream().update(0.5, [1], [[0.0, 0.0]]), "frame must be an integer"),
+        (lambda: predictor.stream().update("0", [1], [[0.0, 0.0]]), "frame must be an integer"),
         (lambda: predictor.predict(rows, t=1000), "t=1000 is outside the tracks' frames 0-90"),
         (lambda: predictor.predict(rows, t=-10), "t=-10 is outside the tracks' frames 0-90"),
     ]
