@@ -110,8 +110,8 @@ def main() -> None:
         sent[(header.stamp.sec, header.stamp.nanosec)] = time.perf_counter()
         publisher.publish(message)
         deadline = time.perf_counter() + 1.0 / args.rate
-        while time.perf_counter() < deadline:
-            rclpy.spin_once(probe, timeout_sec=0.001)
+        while (left := deadline - time.perf_counter()) > 0:  # block until a message or then
+            rclpy.spin_once(probe, timeout_sec=left)
     latency = [1000 * (received[s] - sent[s]) for s in list(sent)[20:] if s in received]
     own = update_ms[20:]
     lost = len(sent) - 20 - len(latency)

@@ -98,22 +98,20 @@ def trajectory_message(forecast: Forecast, header: Any, dt_s: float) -> Any:
     ``points[k - 1]`` step k (``time_from_start`` k x ``dt_s``), ``transforms[i]`` person i's
     position."""
     from builtin_interfaces.msg import Duration
-    from geometry_msgs.msg import Transform
+    from geometry_msgs.msg import Quaternion, Transform, Vector3
     from trajectory_msgs.msg import MultiDOFJointTrajectory, MultiDOFJointTrajectoryPoint
 
-    out = MultiDOFJointTrajectory(header=header, joint_names=[str(i) for i in forecast.ids])
-    for k in range(forecast.point.shape[1]):
+    still = Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
+    points = []
+    for k, step in enumerate(forecast.point.transpose(1, 0, 2).tolist()):  # (H, N, 2) floats
         seconds = (k + 1) * dt_s
-        point = MultiDOFJointTrajectoryPoint(
-            time_from_start=Duration(sec=int(seconds), nanosec=round((seconds % 1) * 1e9))
-        )
-        for x, y in forecast.point[:, k]:
-            transform = Transform()
-            transform.translation.x, transform.translation.y = float(x), float(y)
-            transform.rotation.w = 1.0
-            point.transforms.append(transform)
-        out.points.append(point)
-    return out
+        duration = Duration(sec=int(seconds), nanosec=round((seconds % 1) * 1e9))
+        transforms = [
+            Transform(translation=Vector3(x=x, y=y, z=0.0), rotation=still) for x, y in step
+        ]
+        points.append(MultiDOFJointTrajectoryPoint(transforms=transforms, time_from_start=duration))
+    names = [str(i) for i in forecast.ids]
+    return MultiDOFJointTrajectory(header=header, joint_names=names, points=points)
 
 
 def marker_message(

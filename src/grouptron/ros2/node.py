@@ -91,13 +91,16 @@ def make_node(predictor: Predictor, options: NodeOptions, *, online: bool = Fals
             self.diagnostics = self.create_publisher(
                 message_class("diagnostic_msgs/msg/DiagnosticArray"), "/diagnostics", queue
             )
-            self.create_timer(0.001, self._process)
+            # Processing waits on a guard condition the subscription triggers: the executor
+            # takes every message waiting first, so the newest is the one forecast.
+            self.ready = self.create_guard_condition(self._process)
 
         def _received(self, message: Any) -> None:
             self.counts["received"] += 1
             if self.latest is not None:  # the newest input wins
                 self.counts["dropped"] += 1
             self.latest = message
+            self.ready.trigger()
 
         def _process(self) -> None:
             message, self.latest = self.latest, None
