@@ -159,6 +159,16 @@ def timed_updates(
     return times, counts
 
 
+def timing_line(label: str, times: list[list[float]], forecasts: int, yardstick: bool) -> str:
+    """A row of the table: median / p90 ms of every variant, and the ratio of the first's
+    median to the yardstick's (the last variant) where there is one."""
+    medians = [statistics.median(t) for t in times]
+    p90s = [float(np.percentile(t, 90)) for t in times]
+    line = f"{label:>7} {forecasts:>10}"
+    line += "".join(f" {f'{m:.1f} / {p:.1f}':>22}" for m, p in zip(medians, p90s, strict=True))
+    return line + (f" {medians[0] / medians[-1]:>6.2f}" if yardstick else "")
+
+
 PROFILED = (
     ("encoders", "encode_prior"),
     ("decoder", "decode"),
@@ -231,25 +241,14 @@ def main() -> None:
     if names[-1] == "argmax":
         header += f" {'ratio':>6}"
     print(header)
+    yardstick = names[-1] == "argmax"
     for people in (int(n) for n in args.people.split(",")):
         times, counts = timed_updates(variants, people, args.frames)
-        medians = [statistics.median(t) for t in times]
-        p90s = [float(np.percentile(t, 90)) for t in times]
-        line = f"{people:>7} {counts[0]:>10}"
-        line += "".join(f" {f'{m:.1f} / {p:.1f}':>22}" for m, p in zip(medians, p90s, strict=True))
-        if names[-1] == "argmax":
-            line += f" {medians[0] / medians[-1]:>6.2f}"
-        print(line)
+        print(timing_line(str(people), times, counts[0], yardstick))
     if args.replay:
         recorded = recorded_frames(Path(args.replay), args.frames)
         times, counts = timed_updates(variants, 0, args.frames, recorded)
-        medians = [statistics.median(t) for t in times]
-        p90s = [float(np.percentile(t, 90)) for t in times]
-        line = f"{Path(args.replay).name:>7} {counts[0]:>10}"
-        line += "".join(f" {f'{m:.1f} / {p:.1f}':>22}" for m, p in zip(medians, p90s, strict=True))
-        if names[-1] == "argmax":
-            line += f" {medians[0] / medians[-1]:>6.2f}"
-        print(line)
+        print(timing_line(Path(args.replay).name, times, counts[0], yardstick))
     if args.profile:
         for people in (int(n) for n in args.people.split(",")):
             spent = profile_update(predictor, people, args.frames)

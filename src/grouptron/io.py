@@ -3,12 +3,14 @@ back the array caches written that way (which a crash or an old version may have
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import json
 import logging
 import os
 import tempfile
 import zipfile
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import TextIO, TypeVar
 
@@ -109,6 +111,28 @@ def read_cache_npz(path: Path, parse: Callable[[dict[str, np.ndarray]], Parsed])
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
         log.warning("ignoring the unreadable cache file %s (%s); rebuilding it", path, error)
         return None
+
+
+def read_json_document(path: str | Path, format_name: str) -> dict[str, object]:
+    """A JSON file of ours whose ``format`` is ``format_name`` (ValueError otherwise)."""
+    document = json.loads(Path(path).read_text())
+    if not isinstance(document, dict) or document.get("format") != format_name:
+        found = document.get("format") if isinstance(document, dict) else None
+        raise ValueError(f"format {found!r}")
+    return document
+
+
+@contextlib.contextmanager
+def document_errors(path: str | Path, read_as: str, kind: str, hint: str = "") -> Iterator[None]:
+    """Reading a document of ours, its errors as one line: ``cannot read the {read_as}`` for a
+    file that cannot be read, ``not a grouptron {kind} (...){hint}`` for one that does not
+    parse as one."""
+    try:
+        yield
+    except OSError as error:
+        raise GrouptronError(f"{path}: cannot read the {read_as} ({error.strerror})") from None
+    except (ValueError, KeyError, TypeError, AttributeError) as error:
+        raise GrouptronError(f"{path}: not a grouptron {kind} ({error}){hint}") from None
 
 
 def refuse_folder(path: Path, *, inputs: tuple[str | Path, ...] = ()) -> None:

@@ -75,9 +75,7 @@ def groups_at_step(
     each person's own grouping reads) and infinity for the others."""
     pad = history_steps - 1
     pos, present = position_grid(scene, pad)
-    if _connected_pieces_suffice(config):
-        return _cluster_step_near(pos, present, step, pad, config, scene.dt_s, near_m)
-    return _cluster_step(pos, present, step, pad, config=config, dt_s=scene.dt_s)
+    return _cluster_step(pos, present, step, pad, config=config, dt_s=scene.dt_s, near_m=near_m)
 
 
 def _connected_pieces_suffice(config: GroupConfig) -> bool:
@@ -91,37 +89,6 @@ def _connected_pieces_suffice(config: GroupConfig) -> bool:
     )
 
 
-def _cluster_step_near(
-    pos: np.ndarray,
-    present: np.ndarray,
-    step: int,
-    pad: int,
-    config: GroupConfig,
-    dt_s: float,
-    near_m: float,
-) -> StepGroups | None:
-    """:func:`_cluster_step` for a rule :func:`_connected_pieces_suffice` for, without the
-    all-pairs work."""
-    tracks = np.flatnonzero(present[:, step + pad])
-    if len(tracks) == 0:
-        return None
-    assert config.max_distance_m is not None
-    window = slice(step, step + pad + 1)
-    distances = sparse_group_distances(
-        pos[tracks, window],
-        present[tracks, window],
-        pos[tracks, step + pad],
-        near_m=near_m,
-        within_m=config.max_distance_m,
-        velocity_weight_s=config.velocity_weight_s,
-        dt_s=dt_s,
-    )
-    linked = csr_matrix(np.isfinite(distances) & (distances <= config.max_distance_m))
-    _, pieces = connected_components(linked, directed=False)
-    labels = canonical_labels(pieces)
-    return StepGroups(step, tracks, labels, distances, pos[tracks, step + pad])
-
-
 def _cluster_step(
     pos: np.ndarray,
     present: np.ndarray,
@@ -130,14 +97,32 @@ def _cluster_step(
     *,
     config: GroupConfig,
     dt_s: float,
+    near_m: float | None = None,
 ) -> StepGroups | None:
+    """The groups of the people present at ``step``; with ``near_m``, where the rule's groups
+    are its threshold's connected pieces, from near pairs only (``groups_at_step``)."""
     tracks = np.flatnonzero(present[:, step + pad])
     if len(tracks) == 0:
         return None
     window = slice(step, step + pad + 1)
+    traj, mask, now = pos[tracks, window], present[tracks, window], pos[tracks, step + pad]
+    if near_m is not None and _connected_pieces_suffice(config):
+        assert config.max_distance_m is not None
+        distances = sparse_group_distances(
+            traj,
+            mask,
+            now,
+            near_m=near_m,
+            within_m=config.max_distance_m,
+            velocity_weight_s=config.velocity_weight_s,
+            dt_s=dt_s,
+        )
+        linked = csr_matrix(np.isfinite(distances) & (distances <= config.max_distance_m))
+        labels = canonical_labels(connected_components(linked, directed=False)[1])
+        return StepGroups(step, tracks, labels, distances, now)
     distances = group_distances(
-        pos[tracks, window],
-        present[tracks, window],
+        traj,
+        mask,
         kind=config.distance,
         quantile=config.quantile,
         velocity_weight_s=config.velocity_weight_s,
@@ -149,7 +134,7 @@ def _cluster_step(
         max_distance=config.max_distance_m,
         max_size=config.max_group_size,
     )
-    return StepGroups(step, tracks, labels, distances, pos[tracks, step + pad])
+    return StepGroups(step, tracks, labels, distances, now)
 
 
 def score_against_labels(

@@ -17,6 +17,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -25,7 +26,7 @@ from grouptron.constants import DT_S
 from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.inference.engine import EngineOptions, forecast_samples
-from grouptron.io import write_text_atomically
+from grouptron.io import document_errors, read_json_document, write_text_atomically
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model
 from grouptron.model.regions import conformal_radii, prediction_regions, shape_distances
@@ -242,10 +243,9 @@ def save_calibration(calibration: RegionCalibration, path: Path) -> None:
 
 def load_calibration(path: str | Path) -> RegionCalibration:
     """Read a calibration file written by :func:`save_calibration` (one line if it is not one)."""
-    try:
-        document = json.loads(Path(path).read_text())
-        if document.get("format") != FORMAT:
-            raise ValueError(f"format {document.get('format')!r}")
+    hint = "; make one with grouptron calibrate"
+    with document_errors(path, "calibration file", "calibration file", hint):
+        document: dict[str, Any] = read_json_document(path, FORMAT)
         radii = np.array(
             [[np.inf if r is None else r for r in row] for row in document["radius_per_step"]],
             dtype=np.float64,
@@ -269,14 +269,6 @@ def load_calibration(path: str | Path) -> RegionCalibration:
             density=_float_or_nan(document.get("density_median_neighbours_3m")),
             speed_mps=_float_or_nan(document.get("speed_median_mps")),
         )
-    except OSError as error:
-        raise GrouptronError(
-            f"{path}: cannot read the calibration file ({error.strerror})"
-        ) from None
-    except (ValueError, KeyError, TypeError, AttributeError) as error:
-        raise GrouptronError(
-            f"{path}: not a grouptron calibration file ({error}); make one with grouptron calibrate"
-        ) from None
 
 
 def _finite_or_inf(values: list[float | None]) -> np.ndarray:

@@ -28,12 +28,13 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from grouptron.errors import GrouptronError
 from grouptron.inference.calibration import QS, RegionCalibration
-from grouptron.io import write_text_atomically
+from grouptron.io import document_errors, read_json_document, write_text_atomically
 
 FORMAT = "grouptron-online-calibration/1"
 LEARNING_RATE = 0.3
@@ -214,10 +215,8 @@ class OnlineCalibration:
     @classmethod
     def load(cls, path: str | Path) -> OnlineCalibration:
         """Read a state written by :meth:`save` (one line if it is not one)."""
-        try:
-            document = json.loads(Path(path).read_text())
-            if document.get("format") != FORMAT:
-                raise ValueError(f"format {document.get('format')!r}")
+        with document_errors(path, "online state", "online calibration state"):
+            document: dict[str, Any] = read_json_document(path, FORMAT)
             radii = np.asarray(document["radius_per_step"], dtype=np.float64)
             state = cls(
                 qs=np.asarray(document["q"], dtype=np.float64),
@@ -236,14 +235,6 @@ class OnlineCalibration:
             ):
                 raise ValueError("radius_per_step and missed_per_step need one row per q")
             return state
-        except OSError as error:
-            raise GrouptronError(
-                f"{path}: cannot read the online state ({error.strerror})"
-            ) from None
-        except (ValueError, KeyError, TypeError, AttributeError) as error:
-            raise GrouptronError(
-                f"{path}: not a grouptron online calibration state ({error})"
-            ) from None
 
 
 @dataclass(frozen=True, eq=False)
