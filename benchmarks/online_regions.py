@@ -33,7 +33,12 @@ from grouptron.data.datasets.custom import read_dataset
 from grouptron.data.formats.track_files import TrackSource, read_track_file
 from grouptron.data.prepare.samples import scene_samples
 from grouptron.data.prepare.scene import build_scene
-from grouptron.inference.calibration import RegionCalibration, calibrate, load_calibration
+from grouptron.inference.calibration import (
+    RegionCalibration,
+    calibrate,
+    load_calibration,
+    shipped_calibration,
+)
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.online import LEARNING_RATE, OnlineCalibration, replay
@@ -46,12 +51,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from out_of_domain import DEVELOPMENT_SET
 
 STEPS = (4, 8, 12)
-
-
-def shipped_calibration(checkpoint: Path) -> Path | None:
-    """The calibration file shipped beside a checkpoint, if any."""
-    path = checkpoint.parent / "calibration.json"
-    return path if path.is_file() else None
 
 
 def recordings(descriptions: str) -> list[TrackSource]:

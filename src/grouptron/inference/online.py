@@ -35,6 +35,7 @@ import numpy as np
 from grouptron.errors import GrouptronError
 from grouptron.inference.calibration import QS, RegionCalibration
 from grouptron.io import document_errors, read_json_document, write_text_atomically
+from grouptron.model.regions import distances_under
 
 FORMAT = "grouptron-online-calibration/1"
 LEARNING_RATE = 0.3
@@ -157,9 +158,9 @@ class OnlineCalibration:
             at = np.clip(np.searchsorted(seen_ids, forecast_ids), 0, len(seen_ids) - 1)
             found = seen_ids[at] == forecast_ids
             if found.any():
-                offset = seen_xy[at[found]] - point[found, k - 1]  # (n, 2)
-                solved = np.linalg.solve(shapes[found, k - 1], offset[..., None])[..., 0]
-                scores = np.sqrt(np.maximum((offset * solved).sum(-1), 0.0))
+                scores = distances_under(
+                    point[found, k - 1], shapes[found, k - 1], seen_xy[at[found]]
+                )
                 self._update(k - 1, scores, drawn[:, k - 1])
 
     def observe_between(
@@ -173,17 +174,26 @@ class OnlineCalibration:
         seconds, ``step`` seconds per forecast step) against the positions that
         ``positions_at(ids, times)`` gives there ((Q, 2) positions, (Q,) whether known), and
         move the radii: for a tracker's own rate, where truths fall between its messages."""
-        for made, forecast_ids, point, shapes, drawn in self._pending:
-            for k in range(1, self.horizon + 1):
-                target = made + k * step
-                if not since < target <= now:
-                    continue
-                xy, found = positions_at(forecast_ids, np.full(len(forecast_ids), target))
-                if found.any():
-                    offset = xy[found] - point[found, k - 1]
-                    solved = np.linalg.solve(shapes[found, k - 1], offset[..., None])[..., 0]
-                    scores = np.sqrt(np.maximum((offset * solved).sum(-1), 0.0))
-                    self._update(k - 1, scores, drawn[:, k - 1])
+        due = [  # (forecast, step) pairs whose truth time has come
+            (entry, k)
+            for entry in self._pending
+            for k in range(1, self.horizon + 1)
+            if since < entry[0] + k * step <= now
+        ]
+        if not due:
+            return
+        # Every truth in one query: the observations are sorted once, not once per forecast.
+        ids = np.concatenate([entry[1] for entry, _ in due])
+        times = np.concatenate([np.full(len(entry[1]), entry[0] + k * step) for entry, k in due])
+        xy, found = positions_at(ids, times)
+        start = 0
+        for (_, _, point, shapes, drawn), k in due:
+            rows = slice(start, start + len(point))
+            start += len(point)
+            seen = found[rows]
+            if seen.any():
+                scores = distances_under(point[seen, k - 1], shapes[seen, k - 1], xy[rows][seen])
+                self._update(k - 1, scores, drawn[:, k - 1])
 
     def _update(self, h: int, scores: np.ndarray, drawn: np.ndarray | None = None) -> None:
         """Move step ``h``'s radii by the (n,) scores, each against the (Q,) radii its region

@@ -178,8 +178,14 @@ def shape_distances(centre: np.ndarray, mixture: Mixture, points: np.ndarray) ->
     """(N, H) each (N, H, 2) point's Mahalanobis distance from the point forecast under its
     region's shape (the score a calibration ranks): a point is inside the region of radius r
     when this is at most r."""
+    return distances_under(centre, region_shapes(centre, mixture), points)
+
+
+def distances_under(centre: np.ndarray, shapes: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(...) each (..., 2) point's Mahalanobis distance from its (..., 2) centre under its
+    (..., 2, 2) region shape."""
     offset = points - centre
-    solved = np.linalg.solve(region_shapes(centre, mixture), offset[..., None])[..., 0]
+    solved = np.linalg.solve(shapes, offset[..., None])[..., 0]
     distance: np.ndarray = np.sqrt(np.maximum((offset * solved).sum(-1), 0.0))
     return distance
 
