@@ -81,7 +81,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         use_cache=not getattr(args, "no_cache", False),
         progress=show_progress(args),
         regions=args.regions,
-        calibration=False if args.calibration == "none" else args.calibration,
+        calibration=args.calibration,
         include_seen=args.include_seen,
         metrics=args.metrics,
     )

@@ -112,6 +112,9 @@ class Predictor:
         **older: Any,
     ) -> None:
         refuse_future_neighbours(config.data, source)
+        unknown = sorted(set(older) - {"most_likely", "latent_values"})
+        if unknown:
+            raise GrouptronError(f"Predictor takes no {', '.join(unknown)}")
         self.forecast = _chosen_forecast(forecast, config, **older)
         self.device = available_device(device)
         self.model = model.eval().to(self.device)

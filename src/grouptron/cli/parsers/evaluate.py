@@ -11,6 +11,7 @@ from grouptron.cli.options import (
     add_device_option,
     add_recording_options,
     add_threads_option,
+    calibration_option,
     metric_names,
     region_probabilities,
 )
@@ -150,6 +151,7 @@ def _add_region_options(evaluate: argparse.ArgumentParser) -> None:
     evaluate.add_argument(
         "--calibration",
         metavar="FILE",
+        type=calibration_option,
         help="size the --regions with a grouptron calibrate file of this checkpoint and point "
         "forecast; without it the checkpoint's shipped one where it has one for the forecasts "
         "scored, as predict draws them; 'none': the model's own regions, uncalibrated",
