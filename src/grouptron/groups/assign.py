@@ -50,6 +50,15 @@ class SampleGroups:
         edges, _ = edge_rows(samples.nbr_offsets, index)
         return SampleGroups(self.ego_group[index], self.nbr_group[edges], self.num_groups[index])
 
+    @classmethod
+    def concatenate(cls, parts: list[SampleGroups]) -> SampleGroups:
+        """The groups of ``concatenate_samples`` of the parts' samples, aligned with it."""
+        return cls(
+            np.concatenate([p.ego_group for p in parts]),
+            np.concatenate([p.nbr_group for p in parts]),
+            np.concatenate([p.num_groups for p in parts]),
+        )
+
 
 def node_trajectories(
     samples: SampleSet, index: np.ndarray, num_nodes: int, position_scale_m: float

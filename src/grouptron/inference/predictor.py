@@ -13,6 +13,7 @@ once the agent is seen again, instead of restarting its track.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import logging
 import warnings
@@ -44,6 +45,7 @@ from grouptron.inference.inputs import (
     integer_argument,
     refuse_future_neighbours,
 )
+from grouptron.inference.learning import LearningOptions, SiteLearner
 from grouptron.inference.online import OnlineCalibration
 from grouptron.inference.stream import StreamSession
 from grouptron.model.checkpoint import load_trained_model
@@ -89,6 +91,9 @@ class Predictor:
         online_calibration: live sessions (``stream``) adapt the radii as truths arrive,
             starting from ``calibration`` (``inference.online``; True, or a saved state's file
             to resume one).
+        learn: live sessions (``stream``) learn their site: each fine-tunes its own copy of
+            the weights in rounds on the people it saw walk, guarded (``inference.learning``;
+            True: the default ``LearningOptions``, or one's own).
 
     Attributes:
         group_rule: the rule behind ``Forecast.group``: the model's own for one that reads
@@ -109,6 +114,7 @@ class Predictor:
         max_missed_steps: int = 2,
         calibration: str | Path | RegionCalibration | bool | None = None,
         online_calibration: bool | str | Path | OnlineCalibration = False,
+        learn: bool | LearningOptions = False,
         **older: Any,
     ) -> None:
         refuse_future_neighbours(config.data, source)
@@ -130,6 +136,7 @@ class Predictor:
         self.max_missed_steps = integer_argument(max_missed_steps, "max_missed_steps", 0)
         self.calibration = calibration_for(calibration, config, self.forecast, source)
         self.online_calibration = online_calibration
+        self.learn = _learning_options(learn)
         self._warned_central = False
 
     @classmethod
@@ -238,14 +245,26 @@ class Predictor:
         return np.concatenate([repaired, values[~past]])
 
     def stream(
-        self, online_calibration: bool | str | Path | OnlineCalibration | None = None
+        self,
+        online_calibration: bool | str | Path | OnlineCalibration | None = None,
+        learn: bool | LearningOptions | None = None,
     ) -> StreamSession:
-        """A session that is fed one frame at a time and keeps the history it needs; with
-        ``online_calibration`` (default: the predictor's) its regions' radii adapt to every
-        forecast whose truth arrives (True: starting from ``calibration``, else the Gaussian
-        radii; a saved state's file, or an ``OnlineCalibration``, resumes it)."""
+        """A session that is fed one frame at a time and keeps the history it needs.
+
+        With ``online_calibration`` (default: the predictor's) its regions' radii adapt to
+        every forecast whose truth arrives (True: starting from ``calibration``, else the
+        Gaussian radii; a saved state's file, or an ``OnlineCalibration``, resumes it). With
+        ``learn`` (default: the predictor's; True or ``LearningOptions``) it learns its site
+        on its own copy of the weights (``session.learning``, ``session.save_site``).
+        """
         chosen = self.online_calibration if online_calibration is None else online_calibration
-        return StreamSession(self, self._online_state(chosen))
+        options = self.learn if learn is None else _learning_options(learn)
+        if options is None:
+            return StreamSession(self, self._online_state(chosen))
+        own = copy.copy(self)  # the session's weights change; this predictor's do not
+        gap_s = (self.max_missed_steps + 1) * self.config.data.dt_s
+        learner = SiteLearner(self.model, self.config, self.forecast, options, gap_s)
+        return StreamSession(own, self._online_state(chosen), learner)
 
     def _online_state(
         self, chosen: bool | str | Path | OnlineCalibration
@@ -381,6 +400,15 @@ class Predictor:
                 "data.",
                 stacklevel=3,
             )
+
+
+def _learning_options(learn: bool | LearningOptions) -> LearningOptions | None:
+    """The options of ``learn`` (None: no learning)."""
+    if isinstance(learn, LearningOptions):
+        return learn
+    if isinstance(learn, bool):
+        return LearningOptions() if learn else None
+    raise GrouptronError(f"learn must be True, False or LearningOptions, not {learn!r}")
 
 
 def _chosen_forecast(

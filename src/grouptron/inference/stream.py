@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
@@ -12,8 +13,10 @@ from grouptron.data.formats.glitches import MAX_JUMP_SPEED_MPS
 from grouptron.errors import GrouptronError
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.inputs import as_track_array, frame_argument, frame_arrays
+from grouptron.inference.learning import LearningStatus, SiteLearner
 from grouptron.inference.live import IdBook, LiveTracks
 from grouptron.inference.online import OnlineCalibration
+from grouptron.inference.site_model import save_site
 from grouptron.model.regions import region_shapes
 
 
@@ -23,6 +26,24 @@ class WindowForecaster(Protocol):
 
     check_speed: bool
     config: Any
+    model: Any
+
+    @property
+    def learning(self) -> LearningStatus | None:
+        """What online learning has done so far (rounds, accepted, rolled back, the last
+        paired FDE difference); None without learning."""
+        return None if self.learner is None else self.learner.status
+
+    def save_site(self, path: str | Path) -> Path:
+        """Keep the weights in use and their card in the folder ``path`` (``best.safetensors``,
+        ``site.json``; ``Predictor.from_checkpoint(path)`` loads it); returns the weights'
+        file. A round still running is waited for."""
+        if self.learner is None:
+            raise GrouptronError("save_site needs a session that learns (stream(learn=True))")
+        self.learner.wait()
+        source = getattr(self.predictor, "source", "")
+        config = self.predictor.config
+        return save_site(path, self.learner.model, config, self.learner.status, source)
 
     @property
     def window_frames(self) -> int:
@@ -67,17 +88,40 @@ class StreamSession:
     """
 
     def __init__(
-        self, predictor: WindowForecaster, online: OnlineCalibration | None = None
+        self,
+        predictor: WindowForecaster,
+        online: OnlineCalibration | None = None,
+        learner: SiteLearner | None = None,
     ) -> None:
         self.predictor = predictor
         self.online = online
         """With online calibration, its state: per q and step the radii in force, adapted to
         every forecast whose truth arrived (``online.save(path)`` keeps it; ``None``: off)."""
+        self.learner = learner
+        """With online learning, the session's learner (its own copy of the weights, which
+        forecasts use; ``inference.learning``); ``None``: off."""
         self._rows = np.zeros((0, 4))
         self._last_frame: int | None = None
         self._judged = False  # units and frame grid judged plausible once (they do not change)
         self._book: IdBook | None = None  # where ids are not all numbers, or times in seconds
         self._live: LiveTracks | None = None  # a tracker's own rate: times in seconds
+
+    @property
+    def learning(self) -> LearningStatus | None:
+        """What online learning has done so far (rounds, accepted, rolled back, the last
+        paired FDE difference); None without learning."""
+        return None if self.learner is None else self.learner.status
+
+    def save_site(self, path: str | Path) -> Path:
+        """Keep the weights in use and their card in the folder ``path`` (``best.safetensors``,
+        ``site.json``; ``Predictor.from_checkpoint(path)`` loads it); returns the weights'
+        file. A round still running is waited for."""
+        if self.learner is None:
+            raise GrouptronError("save_site needs a session that learns (stream(learn=True))")
+        self.learner.wait()
+        source = getattr(self.predictor, "source", "")
+        config = self.predictor.config
+        return save_site(path, self.learner.model, config, self.learner.status, source)
 
     @property
     def window_frames(self) -> int:
@@ -127,6 +171,7 @@ class StreamSession:
         rows = np.concatenate([kept, new])
         rows = rows[rows[:, 0] >= frame - self.window_frames]
         judged = self._judged or self.predictor.check_plausible(rows, min_pairs=STREAM_MIN_PAIRS)
+        self._use_learnt_weights()
         forecast = self.predictor.forecast_window(rows, frame, num_samples, seed)
         if not judged and len(forecast):
             # No forecast leaves unjudged: one or two people never fill the window with
@@ -134,6 +179,10 @@ class StreamSession:
             judged = self.predictor.check_plausible(rows)
         # Kept only once the update is accepted: a refused one leaves the session as it was.
         self._rows, self._last_frame, self._judged = rows, frame, judged
+        if self.learner is not None:
+            # As a file's replay counts it (steps * dt_s), so that both learn from the same times.
+            t_s = frame / self.predictor.frames_per_step * self.predictor.config.data.dt_s
+            self.learner.observe(t_s, ids_arr.astype(np.int64), xy_arr)
         return self._calibrated_online(forecast, frame, ids_arr, xy_arr)
 
     def _update_named_frame(
@@ -177,10 +226,13 @@ class StreamSession:
         rows = self._live.grid_rows(t_s, codes, steps, data.dt_s, step)
         now = (steps - 1) * step
         judged = self._judged or predictor.check_plausible(rows, min_pairs=STREAM_MIN_PAIRS)
+        self._use_learnt_weights()
         forecast = predictor.forecast_window(rows, now, num_samples, seed)
         if not judged and len(forecast):
             judged = predictor.check_plausible(rows)
         self._judged = judged
+        if self.learner is not None:
+            self.learner.observe(t_s, codes, xy_arr)
         forecast = dataclasses.replace(forecast, frame=None, time_s=t_s)
         if self.online is not None:
             live = self._live
@@ -191,6 +243,12 @@ class StreamSession:
                 shapes = region_shapes(forecast.point, forecast.distribution)
                 self.online.remember(t_s, forecast.ids, forecast.point, shapes, data.dt_s)
         return _named(forecast, self._book)
+
+    def _use_learnt_weights(self) -> None:
+        """Forecast with the weights the learner has in use now (a round may have replaced
+        them since the last update)."""
+        if self.learner is not None:
+            self.predictor.model = self.learner.model
 
     def _calibrated_online(
         self, forecast: Forecast, frame: int, ids: np.ndarray, xy: np.ndarray

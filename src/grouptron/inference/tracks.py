@@ -13,8 +13,9 @@ from grouptron.config import ExperimentConfig
 from grouptron.data.prepare.samples import SampleSet, scene_samples
 from grouptron.data.prepare.scene import Scene
 from grouptron.errors import GrouptronError
-from grouptron.inference.engine import EngineOptions, forecast_samples
+from grouptron.inference.engine import EngineOptions
 from grouptron.inference.forecast import Forecast
+from grouptron.inference.learn_replay import Replay, forecast_by_version
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model
 from grouptron.point_forecast import PointForecast
@@ -50,6 +51,7 @@ def forecast_scene(  # noqa: PLR0913 - the forecast options, all keyword-only
     min_points: int | None = None,
     device: torch.device | str = "cpu",
     keep_distribution: bool = False,
+    replay: Replay | None = None,
 ) -> Forecast:
     """Forecast every (pedestrian, step) of ``scene`` with ``min_points`` observed positions in
     a row up to it (default ``history_steps``: the samples the evaluator scores; 2 at least).
@@ -59,7 +61,8 @@ def forecast_scene(  # noqa: PLR0913 - the forecast options, all keyword-only
     the neighbours first. The forecasts carry no mixture of all latent values and no
     scene-wide groups (``Predictor`` gives those); ``keep_distribution`` keeps the Gaussians
     the point forecast was made from, for ``Forecast.regions`` (about 1 KB per forecast and
-    latent value).
+    latent value). With a ``replay`` of online learning, each forecast is made with the
+    weights the replay had in use at its step.
     """
     forecast = PointForecast.parse(forecast)
     samples = _samples_to_forecast(scene, config, min_points)
@@ -71,9 +74,8 @@ def forecast_scene(  # noqa: PLR0913 - the forecast options, all keyword-only
         device=device,
         progress=progress,
     )
-    made = forecast_samples(
-        model.to(device), config, samples, forecast, groups_for_model(samples, config), options
-    )
+    groups = groups_for_model(samples, config)
+    made = forecast_by_version(replay, model.to(device), config, samples, forecast, groups, options)
     origin_world = samples.pos_now_scene_m.astype(np.float64) + scene.centre_world_m  # (S, 2)
     frames = scene.first_frame + samples.step.astype(np.int64) * scene.frames_per_step
     return Forecast(

@@ -98,7 +98,7 @@ def train_epoch(  # noqa: PLR0913 - the pass's options, all keyword-only
             finished = False
             break
         index = order[start : start + size]
-        terms = _train_step(
+        terms = train_step(
             state, config, samples, index, groups=groups, cluster=cluster, network=network
         )
         if terms is None:
@@ -131,7 +131,7 @@ def epoch_order(
     return rng.choice(num_samples, size=length, replace=True, p=weights / weights.sum())
 
 
-def _train_step(
+def train_step(
     state: TrainState,
     config: ExperimentConfig,
     samples: SampleSet,

@@ -18,12 +18,13 @@ from typing import TextIO
 import numpy as np
 import torch
 
+from grouptron.config import ExperimentConfig
 from grouptron.data.formats.ndjson import write_forecast_ndjson
 from grouptron.data.formats.reader import TrackTable
 from grouptron.data.formats.ros_bag import BagTracks
 from grouptron.data.formats.track_files import TrackFile, read_track_file
 from grouptron.data.prepare.neighbours import scene_conditions
-from grouptron.data.prepare.scene import build_scene
+from grouptron.data.prepare.scene import Scene, build_scene
 from grouptron.errors import GrouptronError
 from grouptron.inference.calibration import (
     RegionCalibration,
@@ -32,10 +33,14 @@ from grouptron.inference.calibration import (
 )
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint, warn_look_ahead
 from grouptron.inference.forecast import Forecast
+from grouptron.inference.learn_replay import Replay, replay_learning
+from grouptron.inference.learning import LearningOptions, LearningStatus
 from grouptron.inference.online import OnlineCalibration, replay
+from grouptron.inference.site_model import save_site
 from grouptron.inference.tracks import forecast_scene
 from grouptron.io import refuse_folder, write_text_atomically
 from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.predict import default_point_forecast
 from grouptron.model.regions import region_shapes
 from grouptron.point_forecast import PointForecast
@@ -73,6 +78,11 @@ class PredictRequest:
             probability Q (needs a calibration).
         min_points: forecast pedestrians with at least this many observed steps in a row, 2
             to 8 (None: 8, the samples the evaluator scores).
+        learn: replay the file in time order learning its site as a live session would
+            (``inference.learning``; True or ``LearningOptions``): each forecast is made with
+            the weights in use at its time, trained only on tracks completed by then.
+        save_site: with ``learn``, the folder where the weights in use at the end and their
+            card are kept (``Predictor.from_checkpoint`` loads it).
         device: where the network runs.
         progress: a progress bar.
     """
@@ -89,10 +99,14 @@ class PredictRequest:
     online_state: str | Path | None = None
     joint: bool = False
     min_points: int | None = None
+    learn: bool | LearningOptions = False
+    save_site: str | Path | None = None
     device: str | torch.device = "cpu"
     progress: bool = False
 
     def __post_init__(self) -> None:
+        if self.save_site is not None and not self.learn:
+            raise GrouptronError("--save-site keeps what --learn learnt: add --learn")
         if (self.online or self.online_state) and not self.regions:
             raise GrouptronError("--online adapts the radii of --regions: name their q")
         if self.joint and (self.online or not self.regions):
@@ -111,7 +125,7 @@ class PredictRequest:
 class Predicted:
     """What was written: ``count`` rows (CSV, ``.ndjson``), or with ``scene_updates`` scene
     updates (``.mcap``), of the forecasts of ``model_name`` (its ``derivatives``), named
-    ``kind`` (the point forecast's name, or ``samples``)."""
+    ``kind`` (the point forecast's name, or ``samples``); with learning, what it did."""
 
     forecast: Forecast
     count: int
@@ -119,6 +133,7 @@ class Predicted:
     derivatives: str
     kind: str
     scene_updates: bool
+    learning: LearningStatus | None = None
 
 
 def predict_tracks(request: PredictRequest) -> Predicted:
@@ -146,6 +161,7 @@ def predict_tracks(request: PredictRequest) -> Predicted:
         differs = condition_mismatch(calibrated, *scene_conditions(scene, data.perception_radius_m))
         if differs:
             log.warning("%s: %s", calibrated.source or request.calibration, differs)
+    learnt = _learnt(request, model, experiment, point, scene, str(path))
     forecast = forecast_scene(
         model,
         experiment,
@@ -157,6 +173,7 @@ def predict_tracks(request: PredictRequest) -> Predicted:
         min_points=request.min_points,
         device=request.device,
         keep_distribution=bool(request.regions),
+        replay=learnt,
     )
     if request.online:
         start = _online_start(request, data.horizon_steps, calibrated)
@@ -164,13 +181,37 @@ def predict_tracks(request: PredictRequest) -> Predicted:
     else:
         forecast = dataclasses.replace(forecast, calibration=calibrated)
     kind = SAMPLES if sampled else point.name
-    done = Predicted(forecast, 0, experiment.model_name, data.derivatives, kind, False)
+    status = None if learnt is None else learnt.status
+    done = Predicted(forecast, 0, experiment.model_name, data.derivatives, kind, False, status)
     if out is not None and out.suffix == ".mcap":
         count = _write_mcap(out, forecast, table, bag, data.dt_s, request.regions)
         return dataclasses.replace(done, count=count, scene_updates=True)
     names = None if bag is None or bag.numeric else bag.names  # a bag's own names, kept
     count = _write_rows(request, forecast, table, sampled, data.horizon_steps, names)
     return dataclasses.replace(done, count=count)
+
+
+def _learnt(
+    request: PredictRequest,
+    model: TrajectronCVAE,
+    experiment: ExperimentConfig,
+    point: PointForecast,
+    scene: Scene,
+    source: str,
+) -> Replay | None:
+    """The replay of online learning along the file (None without ``learn``); the weights in
+    use at its end kept in ``request.save_site``."""
+    if not request.learn:
+        return None
+    options = request.learn if isinstance(request.learn, LearningOptions) else LearningOptions()
+    gap_s = experiment.data.dt_s * 3  # a live session's two missed steps filled
+    learnt = replay_learning(
+        model, experiment, point, scene, options, max_gap_s=gap_s, progress=request.progress
+    )
+    if request.save_site is not None:
+        learner = learnt.learner
+        save_site(request.save_site, learner.model, experiment, learner.status, source)
+    return learnt
 
 
 def _online_start(

@@ -1,0 +1,51 @@
+"""What a session learnt of its site, kept as a checkpoint folder: ``best.safetensors`` (the
+weights in use, loadable by ``Predictor.from_checkpoint`` like any checkpoint) and
+``site.json``, its card: the checkpoint it started from, how much of the site it saw, and
+what the rounds gained on samples they did not train on."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from grouptron.config import ExperimentConfig
+from grouptron.inference.calibration import weights_digest
+from grouptron.inference.learning import LearningStatus
+from grouptron.io import write_text_atomically
+from grouptron.model.checkpoint import BEST_WEIGHTS_FILE as BEST
+from grouptron.model.checkpoint import Checkpoint, save_checkpoint
+from grouptron.model.cvae import TrajectronCVAE
+
+SITE_CARD = "site.json"
+"""The card beside a kept site's weights."""
+
+
+def save_site(
+    folder: str | Path,
+    model: TrajectronCVAE,
+    config: ExperimentConfig,
+    status: LearningStatus,
+    source: str,
+) -> Path:
+    """Write ``model`` (the weights a session uses) and its card to ``folder``; returns the
+    weights' file. ``source``: the checkpoint file the session started from."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    weights = folder / BEST
+    save_checkpoint(weights, Checkpoint(config=config, model_state=model.state_dict()))
+    last = status.last_difference
+    card = {
+        "base_checkpoint": source,
+        "base_weights_sha256": weights_digest(source) if source and Path(source).is_file() else "",
+        "model": config.model_name,
+        "learnt": status.adapted,
+        "rounds": status.rounds,
+        "accepted": status.accepted,
+        "rolled_back": status.rolled_back,
+        "samples": status.samples,
+        "minutes": round(status.seconds / 60, 3),
+        "last_fde_difference_m": None if last is None else [last.mean, last.low, last.high],
+        "weights_sha256": weights_digest(weights),
+    }
+    write_text_atomically(folder / SITE_CARD, json.dumps(card, indent=2) + "\n")
+    return weights

@@ -1,0 +1,184 @@
+"""Online learning of a site: rounds, the guard, causal replays, sessions, kept sites."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from grouptron.data.formats.track_files import TrackSource
+from grouptron.errors import GrouptronError
+from grouptron.inference.learning import LearningOptions, SiteLearner
+from grouptron.inference.predictor import Predictor
+from grouptron.inference.site_model import SITE_CARD
+from grouptron.training.fine_tune import FineTune
+from grouptron.workflows.predict import PredictRequest, predict_tracks
+from tests.conftest import synthetic_recording
+
+ROUNDS = LearningOptions(
+    round_s=4.0,
+    budget=FineTune(steps=20, batch_size=32, learning_rate=3e-3),
+    min_train=20,
+    min_holdout=10,
+    background=False,
+)
+"""Rounds every 10 steps on a few people: the mechanism at test scale."""
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 36 s recording of 14 people walking (``frame id x y``, 10 frames a step)."""
+    path = tmp_path_factory.mktemp("site") / "site.txt"
+    return synthetic_recording(path, seed=11, pedestrians=14, steps=90)
+
+
+@pytest.fixture(scope="module")
+def checkpoint(tiny_checkpoints: Path) -> Path:
+    return tiny_checkpoints / "grouptron-eth-backward"
+
+
+def _rows(path: Path) -> np.ndarray:
+    return np.loadtxt(path)
+
+
+def _replayed(checkpoint: Path, path: Path, out: Path, options: LearningOptions = ROUNDS):
+    request = PredictRequest(
+        TrackSource(path), out, checkpoint=checkpoint, forecast="ml", learn=options, min_points=2
+    )
+    return predict_tracks(request)
+
+
+def test_a_replay_learns_and_is_strictly_causal(checkpoint: Path, site: Path, tmp_path: Path):
+    """Every row after t removed, the forecasts made up to t are the same: the weights in use
+    at t were trained and judged on tracks completed by then."""
+    whole = _replayed(checkpoint, site, tmp_path / "whole.csv")
+    assert whole.learning is not None and whole.learning.accepted >= 1  # the weights changed
+    again = _replayed(checkpoint, site, tmp_path / "again.csv")
+    rows = _rows(site)
+    cut_frame = 600  # step 60: after several rounds
+    cut_file = tmp_path / "cut.txt"
+    np.savetxt(cut_file, rows[rows[:, 0] <= cut_frame], fmt="%.6g", delimiter="\t")
+    cut = _replayed(checkpoint, cut_file, tmp_path / "cut.csv")
+    early = whole.forecast.frames <= cut_frame
+    assert early.sum() == len(cut.forecast.frames)
+    np.testing.assert_allclose(cut.forecast.point, whole.forecast.point[early], atol=1e-5)
+    assert again.learning == whole.learning  # deterministic
+    np.testing.assert_array_equal(again.forecast.point, whole.forecast.point)
+
+
+def test_forecasts_differ_from_the_fixed_model_only_after_an_accepted_round(
+    checkpoint: Path, site: Path, tmp_path: Path
+) -> None:
+    learnt = _replayed(checkpoint, site, tmp_path / "learnt.csv")
+    request = PredictRequest(
+        TrackSource(site), tmp_path / "fixed.csv", checkpoint=checkpoint, forecast="ml"
+    )
+    fixed = predict_tracks(dataclasses.replace(request, min_points=2))
+    np.testing.assert_array_equal(fixed.forecast.frames, learnt.forecast.frames)
+    moved = np.abs(fixed.forecast.point - learnt.forecast.point).max(axis=(1, 2)) > 1e-6
+    first_changed = learnt.forecast.frames[moved].min()
+    assert first_changed >= 10 * ROUNDS.round_s / 0.4  # not before the first round's time
+    assert moved.any()
+
+
+def _learner(checkpoint: Path, options: LearningOptions) -> tuple[SiteLearner, Predictor]:
+    predictor = Predictor.from_checkpoint(checkpoint, forecast="ml")
+    learner = SiteLearner(predictor.model, predictor.config, predictor.forecast, options, 1.2)
+    return learner, predictor
+
+
+def _feed(learner: SiteLearner, path: Path) -> None:
+    rows = _rows(path)
+    for frame in np.unique(rows[:, 0]):
+        at = rows[:, 0] == frame
+        learner.observe(frame * 0.04, rows[at, 1].astype(np.int64), rows[at, 2:4])
+
+
+@pytest.mark.parametrize("learning_rate", [1e-9, 1.0, 30.0])
+def test_rounds_that_do_not_forecast_better_keep_the_shipped_weights(
+    checkpoint: Path, site: Path, learning_rate: float
+) -> None:
+    """Nothing learnt (a learning rate too small to move the weights), a fine-tune that
+    spoils the model and one that diverges (rounds dropped, the session goes on): no round
+    is accepted."""
+    budget = dataclasses.replace(ROUNDS.budget, learning_rate=learning_rate)
+    learner, predictor = _learner(checkpoint, dataclasses.replace(ROUNDS, budget=budget))
+    _feed(learner, site)
+    status = learner.status
+    assert status.rounds >= 3 and status.accepted == 0 and not status.adapted
+    last = status.last_difference
+    if learning_rate < 1:  # beyond chance, perhaps, but nanometres: not worth a swap
+        assert last is not None and abs(last.mean) < 1e-6
+    elif learning_rate == 1:
+        assert last is not None and last.low > 0
+    else:
+        assert last is None  # every round diverged
+    for name, value in predictor.model.state_dict().items():
+        assert torch.equal(learner.model.state_dict()[name], value)
+
+
+def test_learnt_weights_that_do_worse_than_the_shipped_ones_are_rolled_back(
+    checkpoint: Path, site: Path
+) -> None:
+    """Weights in use as if learnt, but spoilt: the first round judges them against the
+    shipped ones on samples they never saw, and drops them."""
+    learner, predictor = _learner(checkpoint, dataclasses.replace(ROUNDS, min_gain=0.99))
+    spoilt = copy.deepcopy(learner.model)
+    with torch.no_grad():
+        for parameter in spoilt.parameters():
+            parameter.add_(torch.randn_like(parameter, generator=torch.Generator().manual_seed(0)))
+    learner.model = spoilt
+    learner.status = dataclasses.replace(learner.status, adapted=True)
+    _feed(learner, site)
+    assert learner.status.rolled_back == 1 and not learner.status.adapted
+    assert learner.model is learner.shipped  # min_gain 0.99: no round accepted after
+
+
+def test_a_live_session_learns_in_the_background_and_keeps_its_site(
+    checkpoint: Path, site: Path, tmp_path: Path
+) -> None:
+    predictor = Predictor.from_checkpoint(checkpoint, forecast="ml")
+    shipped = {k: v.clone() for k, v in predictor.model.state_dict().items()}
+    session = predictor.stream(learn=dataclasses.replace(ROUNDS, background=True))
+    rows = _rows(site)
+    for frame in np.unique(rows[:, 0]).astype(int):
+        at = rows[:, 0] == frame
+        session.update(int(frame), rows[at, 1], rows[at, 2:4])
+    assert session.learner is not None
+    session.learner.wait()
+    status = session.learning
+    assert status is not None and status.rounds >= 1
+    for name, value in predictor.model.state_dict().items():  # the predictor's own: unchanged
+        assert torch.equal(shipped[name], value)
+    kept = session.save_site(tmp_path / "site")
+    card = json.loads((tmp_path / "site" / SITE_CARD).read_text())
+    assert card["rounds"] == status.rounds and card["base_checkpoint"].endswith(".safetensors")
+    reloaded = Predictor.from_checkpoint(tmp_path / "site", forecast="ml")
+    for name, value in session.learner.model.state_dict().items():
+        assert torch.equal(reloaded.model.state_dict()[name], value)
+    assert kept == tmp_path / "site" / "best.safetensors"
+
+
+def test_a_session_without_learning_has_no_site_to_keep(checkpoint: Path, tmp_path: Path):
+    session = Predictor.from_checkpoint(checkpoint).stream()
+    assert session.learning is None
+    with pytest.raises(GrouptronError, match="learn=True"):
+        session.save_site(tmp_path / "site")
+
+
+def test_a_live_session_and_a_file_replay_learn_the_same_weights(
+    checkpoint: Path, site: Path, tmp_path: Path
+) -> None:
+    replayed = _replayed(checkpoint, site, tmp_path / "r.csv")
+    predictor = Predictor.from_checkpoint(checkpoint, forecast="ml")
+    session = predictor.stream(learn=ROUNDS)
+    rows = _rows(site)
+    for frame in np.unique(rows[:, 0]).astype(int):
+        at = rows[:, 0] == frame
+        session.update(int(frame), rows[at, 1], rows[at, 2:4])
+    assert session.learning == replayed.learning
