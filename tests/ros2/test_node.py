@@ -17,7 +17,9 @@ import pytest
 from grouptron.cli import main
 from grouptron.inference.predictor import Predictor
 from grouptron.ros2.messages import Tracked, marker_array
+from grouptron.inference.learning import LearningOptions
 from grouptron.ros2.node import NodeOptions, make_node
+from grouptron.training.fine_tune import FineTune
 from tests.golden.compute import synthetic_tracks
 
 rclpy = pytest.importorskip("rclpy")
@@ -123,5 +125,24 @@ def test_malformed_inputs_are_survived_and_a_moving_frame_refused(
     assert probe.send(Tracked(101.2, "map", ["1", "2"], np.array([[0.5, 0], [1, 1.5]])), forecaster)
     values = {kv.key: kv.value for kv in probe.got["diagnostics"][-1].status[0].values}
     assert values["malformed inputs"] == "2" and values["forecast inputs"] == "2"
+    forecaster.destroy_node()
+    probe.node.destroy_node()
+
+
+def test_a_node_that_learns_says_what_its_rounds_did(graph: None, tiny_checkpoints: Path):
+    checkpoint = tiny_checkpoints / "grouptron-eth-backward" / "best.safetensors"
+    rounds = LearningOptions(
+        round_s=2.0, budget=FineTune(steps=5), min_train=10, min_holdout=5, background=False
+    )
+    predictor = Predictor.from_checkpoint(checkpoint)
+    forecaster = make_node(predictor, NodeOptions(name="gt_c"), learn=rounds)
+    probe = Probe()
+    tracks = synthetic_tracks()
+    for frame in np.unique(tracks[:, 0]):
+        assert probe.send(_people(tracks, int(frame)), forecaster), frame
+    values = {kv.key: kv.value for kv in probe.got["diagnostics"][-1].status[0].values}
+    status = forecaster.session.learning
+    assert status is not None and status.rounds >= 1
+    assert values["learning"] == status.line()
     forecaster.destroy_node()
     probe.node.destroy_node()

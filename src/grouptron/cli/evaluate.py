@@ -9,6 +9,7 @@ from pathlib import Path
 import torch
 
 from grouptron.cli.common import own_layout, show_progress, track_file
+from grouptron.cli.learning import learning_options
 from grouptron.cli.options import eval_modes, parse_splits
 from grouptron.data.datasets.custom import read_dataset
 from grouptron.errors import GrouptronError
@@ -23,6 +24,12 @@ from grouptron.workflows.evaluate import (
     Tracks,
     evaluate,
 )
+from grouptron.workflows.evaluate_learning import (
+    LearningEvaluation,
+    evaluate_learning,
+    learning_json,
+    learning_table,
+)
 
 
 def _check_options(args: argparse.Namespace) -> None:
@@ -34,6 +41,8 @@ def _check_options(args: argparse.Namespace) -> None:
         raise GrouptronError("give either --tracks or --dataset, not both")
     if (args.tracks or args.dataset) and (args.split is not None or args.subset is not None):
         raise GrouptronError("--split and --subset choose benchmark test sets, not --tracks")
+    if args.learn and (not args.tracks or args.model is not None):
+        raise GrouptronError("--learn scores a checkpoint learning the sites of --tracks files")
     if args.dataset and (own_layout(args) or args.no_speed_check):
         raise GrouptronError(
             "--columns, --fps, --units, --max-gap and --no-speed-check describe --tracks files; "
@@ -70,6 +79,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     _check_options(args)
     checkpoint = None if args.model is not None else (args.checkpoint or DEFAULT_CHECKPOINT)
     torch.set_num_threads(args.threads)
+    if args.learn:
+        return _evaluate_learning(args, checkpoint or DEFAULT_CHECKPOINT)
     ablate = tuple(a.strip() for a in (args.ablate or "").split(",") if a.strip())
     options = EvaluationOptions(
         seed=args.seed,
@@ -88,4 +99,19 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     with scoring(args.metrics):  # registered while the table prints too: their labels
         rows = evaluate(_source(args), checkpoint, _modes(args), options)
         print(results_json(rows) if args.format == "json" else results_table(rows))
+    return 0
+
+
+def _evaluate_learning(args: argparse.Namespace, checkpoint: str) -> int:
+    """``evaluate --tracks ... --learn``: every file replayed learning its site, its later
+    part scored beside the fixed model."""
+    sources = _source(args)
+    assert isinstance(sources, Tracks)
+    options = learning_options(args)
+    assert options is not None
+    request = LearningEvaluation(
+        sources.sources, checkpoint, options, args.scored_from, show_progress(args)
+    )
+    rows = evaluate_learning(request)
+    print(learning_json(rows) if args.format == "json" else learning_table(rows))
     return 0

@@ -11,6 +11,7 @@ from pathlib import Path
 import torch
 
 from grouptron.cli.common import show_progress, track_file
+from grouptron.cli.learning import learning_options
 from grouptron.viz.foxglove import TOPIC
 from grouptron.workflows.plot import PlotRequest, plot_tracks
 from grouptron.workflows.predict import PredictRequest, predict_tracks
@@ -31,6 +32,8 @@ def _predict_request(args: argparse.Namespace, to_stdout: bool) -> PredictReques
         online_state=args.online_state,
         joint=args.joint,
         min_points=args.min_points,
+        learn=learning_options(args) or False,
+        save_site=args.save_site,
         device=args.device,
         progress=show_progress(args),
     )
@@ -65,6 +68,8 @@ def cmd_predict(args: argparse.Namespace) -> int:
     torch.set_num_threads(args.threads)
     request = _predict_request(args, to_stdout)
     done = predict_tracks(request)
+    if done.learning is not None:
+        print(f"learning: {done.learning.line()}", file=sys.stderr)
     if done.scene_updates:
         forecasts = f"{len(done.forecast)} forecasts"
         print(f"wrote {done.count} scene updates ({forecasts}) to {args.out}, topic {TOPIC}")

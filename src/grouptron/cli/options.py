@@ -335,3 +335,45 @@ def add_recording_options(parser: argparse.ArgumentParser) -> None:
         "of wrong --units or --fps), and leave jumps faster than anyone runs unrepaired "
         "(runners, vehicles)",
     )
+
+
+def add_learning_options(
+    parser: argparse.ArgumentParser, *, save_site: bool = False, scored: bool = False
+) -> None:
+    """``--learn`` and its knobs (predict, evaluate, ros2); ``--save-site`` and
+    ``--scored-from`` where asked."""
+    parser.add_argument(
+        "--learn",
+        action="store_true",
+        help="learn the site online as a live session does: every 30 s of recording time the "
+        "model is fine-tuned on the people seen walk so far, and the new weights are used only "
+        "where they forecast better, beyond chance, on people they did not train on "
+        "(docs/robots.md, 'Learning the site')",
+    )
+    parser.add_argument(
+        "--learn-round-s",
+        type=positive_float,
+        default=30.0,
+        help="seconds of recording time between learning rounds",
+    )
+    parser.add_argument(
+        "--learn-steps",
+        type=positive_int,
+        default=60,
+        help="optimiser steps of a learning round (batch 64; one thread)",
+    )
+    if save_site:
+        parser.add_argument(
+            "--save-site",
+            metavar="FOLDER",
+            help="with --learn: keep the weights in use at the end, and their card (site.json), "
+            "in FOLDER; --checkpoint FOLDER loads them",
+        )
+    if scored:
+        parser.add_argument(
+            "--scored-from",
+            type=float,
+            default=0.5,
+            help="with --learn: score the forecasts made from this share of each file's "
+            "duration on (0.5: its later half); the learning runs from the start",
+        )

@@ -22,11 +22,19 @@ def cmd_ros2(args: argparse.Namespace) -> int:
     import torch
 
     torch.set_num_threads(args.threads)
+    if args.save_site and not args.learn:
+        raise GrouptronError("--save-site keeps what --learn learnt: add --learn")
     rclpy.init()
     try:
         if args.replay:
             return _replay(args)
-        _spin(_node(args), args.seconds)
+        node = _node(args)
+        try:
+            _spin(node, args.seconds)
+        finally:
+            if args.save_site:  # what the node learnt, kept however it stopped
+                weights = node.session.save_site(args.save_site)
+                print(f"kept the site's weights in {weights}", flush=True)
         return 0
     except KeyboardInterrupt:
         return 0
@@ -48,6 +56,7 @@ def _replay(args: argparse.Namespace) -> int:
 
 def _node(args: argparse.Namespace) -> Any:
     """The forecasting node the options describe."""
+    from grouptron.cli.learning import learning_options
     from grouptron.inference.predictor import Predictor
     from grouptron.ros2.node import NodeOptions, make_node
 
@@ -62,7 +71,7 @@ def _node(args: argparse.Namespace) -> Any:
         regions=args.regions or 0.0,
     )
     print(f"forecasting {args.topic} ({args.type}) on /grouptron/forecasts", flush=True)
-    return make_node(predictor, options, online=args.online)
+    return make_node(predictor, options, online=args.online, learn=learning_options(args))
 
 
 def _spin(node: Any, seconds: float | None) -> None:

@@ -17,6 +17,7 @@ from typing import Any
 
 from grouptron.data.formats.ros_bag import BagFields, check_fixed_frame
 from grouptron.errors import GrouptronError
+from grouptron.inference.learning import LearningOptions
 from grouptron.inference.predictor import Predictor
 from grouptron.ros2.messages import (
     MARKER_ARRAY,
@@ -54,9 +55,15 @@ class NodeOptions:
 
 # One function holding the node's class: rclpy is imported only when a node is made (the
 # package imports without it), and the class closes over the predictor and options.
-def make_node(predictor: Predictor, options: NodeOptions, *, online: bool = False) -> Any:
+def make_node(
+    predictor: Predictor,
+    options: NodeOptions,
+    *,
+    online: bool = False,
+    learn: LearningOptions | None = None,
+) -> Any:
     """The node (rclpy must be initialised); ``predictor`` forecasts, its session adapts its
-    radii with ``online``."""
+    radii with ``online`` and learns the site with ``learn`` (``node.session.save_site``)."""
     from rclpy.node import Node
     from rclpy.qos import QoSProfile
 
@@ -69,7 +76,7 @@ def make_node(predictor: Predictor, options: NodeOptions, *, online: bool = Fals
             self.kind = chosen.type
             self.fields = BagFields.parse(chosen.ros_fields) if chosen.ros_fields else None
             self.options = chosen
-            self.session = predictor.stream(online_calibration=online)
+            self.session = predictor.stream(online_calibration=online, learn=learn or False)
             self.dt_s = predictor.config.data.dt_s
             self.latest: Any = None
             self.counts = {"received": 0, "forecast": 0, "dropped": 0, "malformed": 0}
@@ -135,7 +142,9 @@ def make_node(predictor: Predictor, options: NodeOptions, *, online: bool = Fals
                 "people": str(self.last_people),
                 **{f"{k} inputs": str(v) for k, v in self.counts.items()},
                 "calibration": "online" if online_state is not None else calibrated,
-                "learning": "off",
+                "learning": "off"
+                if self.session.learning is None
+                else self.session.learning.line(),
             }
             level = 0 if not self.counts["malformed"] else 1
             return diagnostics_message(header, "grouptron forecasts", values, level)

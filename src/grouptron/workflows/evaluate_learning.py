@@ -10,6 +10,7 @@ each forecast's time, beside the fixed model and constant velocity on the same s
 from __future__ import annotations
 
 import dataclasses
+import json
 import logging
 import time
 from dataclasses import dataclass, field
@@ -189,3 +190,29 @@ def learning_table(rows: list[LearningScores]) -> str:
             f"{r.constant_velocity_fde:.3f} | {rounds} |"
         )
     return "\n".join(lines)
+
+
+def learning_json(rows: list[LearningScores]) -> str:
+    """The rows as JSON (metres; intervals as [low, high])."""
+    out = []
+    for r in rows:
+        row = {
+            "recording": r.name,
+            "samples": r.samples,
+            "fixed_fde": r.fixed_fde,
+            "learnt_fde": r.learnt_fde,
+            "ratio": r.ratio,
+            "difference": r.difference.mean,
+            "difference_interval": r.difference.to_list(),
+            "constant_velocity_fde": r.constant_velocity_fde,
+            "replay_s": r.replay_s,
+        }
+        if r.status is not None:
+            row["learning"] = {
+                "rounds": r.status.rounds,
+                "accepted": r.status.accepted,
+                "rolled_back": r.status.rolled_back,
+                "samples": r.status.samples,
+            }
+        out.append(row)
+    return json.dumps(out, indent=2)

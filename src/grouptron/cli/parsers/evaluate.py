@@ -9,6 +9,7 @@ from grouptron.cli.options import (
     Formatter,
     add_data_options,
     add_device_option,
+    add_learning_options,
     add_recording_options,
     add_threads_option,
     calibration_option,
@@ -30,7 +31,9 @@ EXAMPLES = (
     "  grouptron evaluate --model constant-velocity --tracks corridor.txt "
     "--columns id,frame,x,y,z --fps 16 --units cm\n"
     "  grouptron evaluate --tracks site.csv --columns t,id,x,y --regions 0.5,0.9 "
-    "--calibration site.json"
+    "--calibration site.json\n"
+    "  grouptron evaluate --tracks corridor.txt --columns id,frame,x,y,z --fps 16 --units cm "
+    "--learn"
 )
 
 
@@ -72,6 +75,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "paper's Table II); univ-N-present: at time steps with >= N pedestrians present",
     )
     _add_scoring_options(evaluate)
+    add_learning_options(evaluate, scored=True)
     evaluate.add_argument(
         "--include-seen",
         action="store_true",

@@ -9,6 +9,7 @@ from grouptron.cli.options import (
     add_device_option,
     add_forecast_option,
     add_gap_option,
+    add_learning_options,
     add_recording_options,
     add_threads_option,
     calibration_option,
@@ -90,6 +91,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     )
     add_calibration_option(predict)
     add_online_options(predict)
+    add_learning_options(predict, save_site=True)
     predict.add_argument(
         "--min-points",
         type=positive_int,

@@ -7,6 +7,7 @@ import argparse
 from grouptron.cli.options import (
     Formatter,
     add_forecast_option,
+    add_learning_options,
     add_threads_option,
     calibration_option,
     plot_region_probability,
@@ -62,6 +63,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     ros2.add_argument(
         "--online", action="store_true", help="adapt the regions' radii as truths arrive"
     )
+    add_learning_options(ros2, save_site=True)
     ros2.add_argument("--replay", metavar="BAG", help="publish this bag's --topic instead")
     ros2.add_argument(
         "--out-topic", default="/tracked_people", help="with --replay: where its people go"
