@@ -5,6 +5,8 @@ from __future__ import annotations
 import copy
 import dataclasses
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -162,6 +164,37 @@ def test_a_live_session_learns_in_the_background_and_keeps_its_site(
     for name, value in session.learner.model.state_dict().items():
         assert torch.equal(reloaded.model.state_dict()[name], value)
     assert kept == tmp_path / "site" / "best.safetensors"
+    session.close()
+    worker = session.learner._worker
+    assert worker is None  # stopped
+
+
+def test_a_script_without_a_main_guard_learns_in_the_background(
+    checkpoint: Path, site: Path, tmp_path: Path
+) -> None:
+    """The learning process is a fresh interpreter: a multiprocessing child would import
+    this script again and start its loop a second time."""
+    script = tmp_path / "loop.py"
+    script.write_text(
+        "import numpy as np\n"
+        "from grouptron.inference.learning import LearningOptions\n"
+        "from grouptron.inference.predictor import Predictor\n"
+        "from grouptron.training.fine_tune import FineTune\n"
+        "options = LearningOptions(round_s=4.0, budget=FineTune(steps=5, batch_size=32),\n"
+        "                          min_train=20, min_holdout=10)\n"
+        f"session = Predictor.from_checkpoint({str(checkpoint)!r}).stream(learn=options)\n"
+        f"rows = np.loadtxt({str(site)!r})\n"
+        "for frame in np.unique(rows[:, 0]).astype(int):\n"
+        "    at = rows[:, 0] == frame\n"
+        "    session.update(int(frame), rows[at, 1], rows[at, 2:4])\n"
+        "session.close()\n"
+        "print(session.learning.rounds)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, timeout=300, cwd=tmp_path
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert int(done.stdout.strip().splitlines()[-1]) >= 1
 
 
 def test_a_session_without_learning_has_no_site_to_keep(checkpoint: Path, tmp_path: Path):
@@ -182,3 +215,21 @@ def test_a_live_session_and_a_file_replay_learn_the_same_weights(
         at = rows[:, 0] == frame
         session.update(int(frame), rows[at, 1], rows[at, 2:4])
     assert session.learning == replayed.learning
+
+
+def test_a_kept_site_refuses_a_calibration_made_for_the_shipped_weights(
+    checkpoint: Path, site: Path, tmp_path: Path
+) -> None:
+    from grouptron.cli import main
+
+    kept = tmp_path / "site"
+    request = PredictRequest(TrackSource(site), tmp_path / "f.csv", checkpoint=checkpoint)
+    request = dataclasses.replace(request, forecast="ml", learn=ROUNDS, save_site=kept)
+    learning = predict_tracks(dataclasses.replace(request, min_points=2)).learning
+    assert learning is not None and learning.accepted >= 1
+    calibration = tmp_path / "base.json"
+    argv = ["calibrate", "--tracks", str(site), "--out", str(calibration), "--forecast", "ml"]
+    assert main([*argv, "--checkpoint", str(checkpoint)]) == 0
+    Predictor.from_checkpoint(checkpoint, forecast="ml", calibration=calibration)  # its own
+    with pytest.raises(GrouptronError, match="other weights"):
+        Predictor.from_checkpoint(kept, forecast="ml", calibration=calibration)

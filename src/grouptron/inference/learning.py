@@ -19,33 +19,34 @@ are there, a round runs:
    rate, so a gain of nanometres can be beyond chance too; no such round is worth a swap).
 
 A site with nothing to learn keeps the shipped weights: no round is accepted. In a live
-session a round runs in a background thread while forecasts go on with the weights in use;
-a file's replay runs them in line, at recording time, so that it is deterministic.
+session a round runs in a process of its own (``inference.round_worker``) while forecasts go
+on with the weights in use; a file's replay runs them in line, at recording time. Either way
+a round is seeded by its number: the same samples give the same weights.
 """
 
 from __future__ import annotations
 
 import copy
 import logging
+import os
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 import torch
 
 from grouptron.config import ExperimentConfig
-from grouptron.data.datasets.subsets import time_step_ids
-from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
-from grouptron.evaluation.uncertainty import Interval, mean_interval
-from grouptron.groups.assign import SampleGroups
-from grouptron.inference.engine import EngineOptions, forecast_samples
+from grouptron.evaluation.uncertainty import Interval
+from grouptron.inference.learning_round import RoundJob, RoundResult, RoundSettings, seeded_round
+from grouptron.inference.round_worker import RoundWorker
 from grouptron.inference.site_samples import Completed, SiteLog, joined
 from grouptron.model.cvae import TrajectronCVAE
-from grouptron.model.factory import groups_for_model
 from grouptron.point_forecast import PointForecast
-from grouptron.training.fine_tune import FineTune, fine_tune
+from grouptron.training.fine_tune import FineTune
 
 log = logging.getLogger(__name__)
 
@@ -66,8 +67,8 @@ class LearningOptions:
         buffer_samples: the newest training samples kept.
         seed: of the rounds' batches, rotations and noise.
         threads: PyTorch threads of a round.
-        background: rounds in a background thread (live sessions); False: in line, at stream
-            time (a file's replay: deterministic).
+        background: rounds in a process of its own (live sessions); False: in line, at
+            stream time (a file's replay: deterministic).
     """
 
     round_s: float = 30.0
@@ -158,7 +159,6 @@ class SiteLearner:
         self.model = copy.deepcopy(model).eval()
         """The weights forecasts use now (replaced whole by a round, never changed in place)."""
         self.status = LearningStatus()
-        self.source_samples = 0
         self._log = SiteLog(config.data, max_gap_s)
         self._pool = _Pool()
         self._first_s: float | None = None
@@ -166,7 +166,11 @@ class SiteLearner:
         self._iteration = 0
         self._round = 0
         self._thread: threading.Thread | None = None
+        self._worker: RoundWorker | None = None
         self._lock = threading.Lock()
+        self._settings = RoundSettings(
+            config, forecast, options.budget, options.min_gain, options.seed
+        )
 
     def observe(self, t_s: float, ids: np.ndarray, xy_m: np.ndarray) -> None:
         """People (N,) ``ids`` seen at ``t_s`` at (N, 2) positions; runs a round when one is
@@ -201,6 +205,22 @@ class SiteLearner:
         """Whether a background round is running."""
         return self._thread is not None and self._thread.is_alive()
 
+    @contextmanager
+    def cores_shared(self) -> Iterator[None]:
+        """While a background round runs, the caller's PyTorch threads capped so that with
+        the round's they fit the machine's cores: more threads than cores make the forecast's
+        parallel regions wait for each other (4x slower on 2 cores), fewer cost it nothing
+        measurable at 50 people."""
+        if not self.busy:
+            yield
+            return
+        before = torch.get_num_threads()
+        torch.set_num_threads(min(before, max(1, _cores() - self.options.threads)))
+        try:
+            yield
+        finally:
+            torch.set_num_threads(before)
+
     def wait(self) -> None:
         """Until a background round has finished."""
         if self._thread is not None:
@@ -229,77 +249,70 @@ class SiteLearner:
         pool.buffer = _newest(joined([train, holdout]), options.buffer_samples)
         return train, holdout
 
+    def close(self) -> None:
+        """Wait for a round still running, then stop the learning process (if one started);
+        a later round starts another."""
+        self.wait()
+        if self._worker is not None:
+            self._worker.close()
+            self._worker = None
+
     def _run_round(self, train: Completed, holdout: Completed) -> None:
         started = time.perf_counter()
         self._round += 1
-        threads = torch.get_num_threads()
-        torch.set_num_threads(self.options.threads)  # in a background thread: its pool only
+        job = RoundJob(
+            in_use=self.model,
+            adapted=self.status.adapted,
+            train=train.samples,
+            holdout=holdout.samples,
+            number=self._round,
+            iteration=self._iteration,
+        )
         try:
-            if self.options.background:
-                decision = self._judged_round(train, holdout)
-            else:  # in line: seeded, and the caller's random state left as it was
-                with torch.random.fork_rng(devices=[]):
-                    torch.manual_seed(self.options.seed + self._round)
-                    decision = self._judged_round(train, holdout)
+            result = self._result(job)
         except (GrouptronError, RuntimeError, ValueError) as exc:
             # A round that breaks (its fine-tune diverged, say) is a round not accepted: a
             # session that forecasts for a robot goes on with the weights it has.
             log.warning("learning: round %d failed and was dropped: %s", self._round, exc)
-            decision = {}
-        finally:
-            torch.set_num_threads(threads)
+            result = None
         with self._lock:
-            status = self.status
-            spent = status.training_s + time.perf_counter() - started
-            self.status = replace(status, rounds=status.rounds + 1, training_s=spent, **decision)
+            self.status = self._applied(result, time.perf_counter() - started)
         log.info("learning: %s", self.status.line())
 
-    def _judged_round(self, train: Completed, holdout: Completed) -> dict[str, object]:
-        """Roll back, fine-tune and judge; the status fields the round changed."""
-        held_groups = groups_for_model(holdout.samples, self.config)
-        in_use, changes = self.model, dict[str, object]()
-        if self.status.adapted:
-            worse, _ = self._difference(in_use, self.shipped, holdout.samples, held_groups)
-            if worse.low > 0:
-                in_use = self.shipped
-                changes.update(rolled_back=self.status.rolled_back + 1, adapted=False)
-                self.model = self.shipped
-        candidate = copy.deepcopy(in_use)
-        train_groups = groups_for_model(train.samples, self.config)
-        rng = np.random.default_rng([self.options.seed, self._round])
-        self._iteration = fine_tune(
-            candidate,
-            self.config,
-            train.samples,
-            train_groups,
-            self.options.budget,
-            rng=rng,
-            iteration=self._iteration,
-        )
-        difference, fde_in_use = self._difference(candidate, in_use, holdout.samples, held_groups)
-        changes["last_difference"] = difference
-        if difference.high < 0 and -difference.mean >= self.options.min_gain * fde_in_use:
-            self.model = candidate  # one assignment: a forecast sees old or new, never half
-            changes.update(accepted=self.status.accepted + 1, adapted=True)
-        return changes
+    def _result(self, job: RoundJob) -> RoundResult:
+        """The round, in line (this thread, ``options.threads`` threads) or in the worker."""
+        if self.options.background:
+            if self._worker is None:
+                self._worker = RoundWorker(self.shipped, self._settings, self.options.threads)
+            return self._worker.run(job)
+        threads = torch.get_num_threads()
+        torch.set_num_threads(self.options.threads)
+        try:
+            return seeded_round(job, self.shipped, self._settings)
+        finally:
+            torch.set_num_threads(threads)
 
-    def _difference(
-        self,
-        new: TrajectronCVAE,
-        old: TrajectronCVAE,
-        samples: SampleSet,
-        groups: SampleGroups | None,
-    ) -> tuple[Interval, float]:
-        """FDE of ``new`` minus ``old`` on ``samples`` (metres; 95% interval over time steps),
-        and ``old``'s mean FDE."""
-        options = EngineOptions(distribution=False, batch_size=1024)
-        final = samples.fut_rel_m[:, -1].astype(np.float64)  # (S, 2)
-        errors = []
-        for model in (new, old):
-            made = forecast_samples(model, self.config, samples, self.forecast, groups, options)
-            errors.append(np.linalg.norm(made.point[:, -1] - final, axis=-1))  # (S,)
-        difference = mean_interval(errors[0] - errors[1], time_step_ids(samples))
-        return difference, float(errors[1].mean())
+    def _applied(self, result: RoundResult | None, spent_s: float) -> LearningStatus:
+        """The status after ``result`` (None: a failed round), its weights put in use."""
+        status = self.status
+        status = replace(status, rounds=status.rounds + 1, training_s=status.training_s + spent_s)
+        if result is None:
+            return status
+        self._iteration = result.iteration
+        if result.rolled_back:
+            self.model = self.shipped
+            status = replace(status, rolled_back=status.rolled_back + 1, adapted=False)
+        status = replace(status, last_difference=result.difference)
+        if result.accepted is not None:
+            self.model = result.accepted  # one assignment: a forecast sees old or new, never half
+            status = replace(status, accepted=status.accepted + 1, adapted=True)
+        return status
+
+
+def _cores() -> int:
+    """The cores this process may run on."""
+    affinity = getattr(os, "sched_getaffinity", None)
+    return len(affinity(0)) if affinity is not None else os.cpu_count() or 1
 
 
 def _subset(completed: Completed, keep: np.ndarray) -> Completed:

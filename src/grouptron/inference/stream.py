@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -27,23 +29,6 @@ class WindowForecaster(Protocol):
     check_speed: bool
     config: Any
     model: Any
-
-    @property
-    def learning(self) -> LearningStatus | None:
-        """What online learning has done so far (rounds, accepted, rolled back, the last
-        paired FDE difference); None without learning."""
-        return None if self.learner is None else self.learner.status
-
-    def save_site(self, path: str | Path) -> Path:
-        """Keep the weights in use and their card in the folder ``path`` (``best.safetensors``,
-        ``site.json``; ``Predictor.from_checkpoint(path)`` loads it); returns the weights'
-        file. A round still running is waited for."""
-        if self.learner is None:
-            raise GrouptronError("save_site needs a session that learns (stream(learn=True))")
-        self.learner.wait()
-        source = getattr(self.predictor, "source", "")
-        config = self.predictor.config
-        return save_site(path, self.learner.model, config, self.learner.status, source)
 
     @property
     def window_frames(self) -> int:
@@ -112,6 +97,12 @@ class StreamSession:
         paired FDE difference); None without learning."""
         return None if self.learner is None else self.learner.status
 
+    def close(self) -> None:
+        """Finish a learning round still running and stop the learning process (a session
+        that does not learn has nothing to close)."""
+        if self.learner is not None:
+            self.learner.close()
+
     def save_site(self, path: str | Path) -> Path:
         """Keep the weights in use and their card in the folder ``path`` (``best.safetensors``,
         ``site.json``; ``Predictor.from_checkpoint(path)`` loads it); returns the weights'
@@ -171,8 +162,8 @@ class StreamSession:
         rows = np.concatenate([kept, new])
         rows = rows[rows[:, 0] >= frame - self.window_frames]
         judged = self._judged or self.predictor.check_plausible(rows, min_pairs=STREAM_MIN_PAIRS)
-        self._use_learnt_weights()
-        forecast = self.predictor.forecast_window(rows, frame, num_samples, seed)
+        with self._learnt_weights():
+            forecast = self.predictor.forecast_window(rows, frame, num_samples, seed)
         if not judged and len(forecast):
             # No forecast leaves unjudged: one or two people never fill the window with
             # STREAM_MIN_PAIRS observations, and a centimetre stream would pass unseen.
@@ -226,8 +217,8 @@ class StreamSession:
         rows = self._live.grid_rows(t_s, codes, steps, data.dt_s, step)
         now = (steps - 1) * step
         judged = self._judged or predictor.check_plausible(rows, min_pairs=STREAM_MIN_PAIRS)
-        self._use_learnt_weights()
-        forecast = predictor.forecast_window(rows, now, num_samples, seed)
+        with self._learnt_weights():
+            forecast = predictor.forecast_window(rows, now, num_samples, seed)
         if not judged and len(forecast):
             judged = predictor.check_plausible(rows)
         self._judged = judged
@@ -244,11 +235,16 @@ class StreamSession:
                 self.online.remember(t_s, forecast.ids, forecast.point, shapes, data.dt_s)
         return _named(forecast, self._book)
 
-    def _use_learnt_weights(self) -> None:
+    @contextmanager
+    def _learnt_weights(self) -> Iterator[None]:
         """Forecast with the weights the learner has in use now (a round may have replaced
-        them since the last update)."""
-        if self.learner is not None:
-            self.predictor.model = self.learner.model
+        them since the last update), on the cores a running round leaves."""
+        if self.learner is None:
+            yield
+            return
+        self.predictor.model = self.learner.model
+        with self.learner.cores_shared():
+            yield
 
     def _calibrated_online(
         self, forecast: Forecast, frame: int, ids: np.ndarray, xy: np.ndarray
