@@ -129,7 +129,7 @@ def test_learnt_weights_that_do_worse_than_the_shipped_ones_are_rolled_back(
 ) -> None:
     """Weights in use as if learnt, but spoilt: the first round judges them against the
     shipped ones on samples they never saw, and drops them."""
-    learner, predictor = _learner(checkpoint, dataclasses.replace(ROUNDS, min_gain=0.99))
+    learner, _ = _learner(checkpoint, dataclasses.replace(ROUNDS, min_gain=0.99))
     spoilt = copy.deepcopy(learner.model)
     with torch.no_grad():
         for parameter in spoilt.parameters():

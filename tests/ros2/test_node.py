@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from grouptron.cli import main
+from grouptron.inference.learning import LearningOptions
 from grouptron.inference.predictor import Predictor
 from grouptron.ros2.messages import Tracked, marker_array
-from grouptron.inference.learning import LearningOptions
 from grouptron.ros2.node import NodeOptions, make_node
 from grouptron.training.fine_tune import FineTune
 from tests.golden.compute import synthetic_tracks
