@@ -6,7 +6,7 @@ Usage:
                                    [--forecast ml|ml-argmax|mean|ml-top10|ml-topK]
                                    [--mixture] [--min-points 2] [--max-missed-steps 2]
                                    [--regions Q] [--calibration FILE|none] [--profile]
-                                   [--replay FILE] [--learn] [--learn-frames 300]
+                                   [--replay FILE] [--learn] [--learn-frames 1500]
 
 A synthetic scene of N pedestrians walking in pairs and alone through a square sized for about
 one person per 4 m^2 is streamed frame by frame; the first 9 frames (before anyone has 8 steps)
@@ -23,10 +23,10 @@ median and 90th percentile of the update time per N
 (``--most-likely``, the older name of ``--forecast``, and ``--latent-values K``, of
 ``--forecast ml-topK``, still work). ``--learn`` then times,
 at each N, the default predictor's session without learning and then with it
-(``stream(learn=True)``, rounds every 10 s of stream time in a background thread, so that
-several run while it is timed): ``--learn-frames`` updates each, back to back (the worst case:
-a tracker at 2.5 Hz leaves the round 390 ms of every 400 ms), the medians and the ratio, and
-the median of the updates made while a round was running. ``--profile``
+(``stream(learn=True)``, rounds every 10 s of stream time in the session's learning process,
+so that several run while it is timed): ``--learn-frames`` updates each, back to back (the
+worst case: a tracker at 2.5 Hz leaves the round 390 ms of every 400 ms), the medians and the
+ratio, and the median of the updates made while a round was running. ``--profile``
 then prints, per N, where the default predictor's time goes: ``cProfile`` around its updates
 (frames 10 on), the cumulative time per update of the parts in :data:`PROFILED`.
 """
@@ -248,7 +248,7 @@ def main() -> None:
     parser.add_argument(
         "--learn", action="store_true", help="then time updates with online learning on and off"
     )
-    parser.add_argument("--learn-frames", type=int, default=300, help="updates timed each way")
+    parser.add_argument("--learn-frames", type=int, default=1500, help="updates timed each way")
     parser.add_argument(
         "--replay",
         metavar="FILE",
