@@ -233,3 +233,17 @@ def test_a_kept_site_refuses_a_calibration_made_for_the_shipped_weights(
     Predictor.from_checkpoint(checkpoint, forecast="ml", calibration=calibration)  # its own
     with pytest.raises(GrouptronError, match="other weights"):
         Predictor.from_checkpoint(kept, forecast="ml", calibration=calibration)
+
+
+def test_learning_and_online_calibration_run_together(checkpoint: Path, site: Path) -> None:
+    """The regions' radii adapt to the forecasts of whatever weights are in use."""
+    predictor = Predictor.from_checkpoint(checkpoint, forecast="ml")
+    session = predictor.stream(online_calibration=True, learn=ROUNDS)
+    rows = _rows(site)
+    for frame in np.unique(rows[:, 0]).astype(int):
+        at = rows[:, 0] == frame
+        forecast = session.update(int(frame), rows[at, 1], rows[at, 2:4])
+    assert session.learning is not None and session.learning.accepted >= 1
+    assert session.online is not None
+    regions = forecast.regions(0.9)
+    assert np.isfinite(regions.major_m).all() and len(forecast)
