@@ -35,15 +35,21 @@ def run_node(seconds: float, threads: int) -> None:
     """The node, in a process of its own as on a robot, for ``seconds``."""
     torch.set_num_threads(threads)
     import rclpy
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
     from grouptron import Predictor
     from grouptron.ros2.node import NodeOptions, make_node
 
     rclpy.init()
     node = make_node(Predictor.from_checkpoint(), NodeOptions())
+    executor = SingleThreadedExecutor()  # as grouptron ros2 spins: one executor, kept
+    executor.add_node(node)
     deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        rclpy.spin_once(node, timeout_sec=0.05)
+    try:
+        while time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+    except (ExternalShutdownException, KeyboardInterrupt):
+        pass  # the benchmark ended
     node.destroy_node()
     rclpy.try_shutdown()
 
@@ -54,6 +60,11 @@ def main() -> None:
     parser.add_argument("--messages", type=int, default=200)
     parser.add_argument("--rate", type=float, default=10.0)
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument(
+        "--python",
+        action="store_true",
+        help="receive the forecasts as Python messages (their conversion counted)",
+    )
     args = parser.parse_args()
     os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(10, 99)))
     os.environ["ROS_LOCALHOST_ONLY"] = "1"
@@ -76,14 +87,22 @@ def main() -> None:
     received: dict[tuple[int, int], float] = {}
     update_ms: list[float] = []
 
-    def arrived(message: MultiDOFJointTrajectory) -> None:
-        received[(message.header.stamp.sec, message.header.stamp.nanosec)] = time.perf_counter()
+    def arrived(message: MultiDOFJointTrajectory | bytes) -> None:
+        now = time.perf_counter()
+        if isinstance(message, bytes):  # CDR: 4 bytes of encapsulation, then the stamp
+            stamp = (int.from_bytes(message[4:8], "little", signed=True),
+                     int.from_bytes(message[8:12], "little"))  # fmt: skip
+        else:
+            stamp = (message.header.stamp.sec, message.header.stamp.nanosec)
+        received[stamp] = now
 
     def said(message: DiagnosticArray) -> None:
         values = {kv.key: kv.value for kv in message.status[0].values}
         update_ms.append(float(values["update time ms"]))
 
-    probe.create_subscription(MultiDOFJointTrajectory, "/grouptron/forecasts", arrived, 10)
+    probe.create_subscription(
+        MultiDOFJointTrajectory, "/grouptron/forecasts", arrived, 10, raw=not args.python
+    )
     probe.create_subscription(DiagnosticArray, "/diagnostics", said, 10)
     frames = synthetic_frames(args.people, args.messages + 10)
     start = 1_700_000_000.0

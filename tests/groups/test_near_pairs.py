@@ -1,5 +1,6 @@
-"""Groups at a step from near pairs only: the same groups and the same distances wherever a
-person's own grouping looks, as the all-pairs clustering."""
+"""Groups at a step from near pairs only: the same groups, the same distances within the
+threshold, and the same groups of every person's own neighbourhood, as the all-pairs
+clustering."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from grouptron.config import DataConfig, GroupConfig
 from grouptron.data.formats.reader import table_from_values
 from grouptron.data.prepare.scene import build_scene
 from grouptron.groups import scene as groups_scene
+from grouptron.groups.clustering import agglomerative_groups
 from grouptron.groups.distances import near_pairs, pairwise_distances
 
 RULE = GroupConfig(linkage="single", max_distance_m=1.5, velocity_weight_s=2.0)
@@ -47,8 +49,18 @@ def test_near_groups_equal_all_pairs_groups_at_every_step() -> None:
             assert new is None
             continue
         assert new is not None and np.array_equal(old.labels, new.labels)
-        near = np.linalg.norm(old.pos_now_m[:, None] - old.pos_now_m[None], axis=-1) <= 6.0
-        assert np.array_equal(old.distances[near], new.distances[near])
+        within = old.distances <= RULE.max_distance_m
+        assert np.array_equal(old.distances[within], new.distances[within])
+        assert (new.distances[~within] > RULE.max_distance_m).all()
+        near = np.linalg.norm(old.pos_now_m[:, None] - old.pos_now_m[None], axis=-1) <= 3.0
+        for ego in range(len(old.tracks)):  # each person's own grouping, as the model's
+            nodes = np.flatnonzero(near[ego])
+            nodes = np.concatenate([[ego], nodes[nodes != ego]])
+            mine = [
+                agglomerative_groups(d[np.ix_(nodes, nodes)], "single", max_distance=1.5)
+                for d in (old.distances, new.distances)
+            ]
+            assert np.array_equal(*mine)
         compared += len(old.tracks) > 30 and len(np.unique(old.labels)) < len(old.labels)
     assert compared >= 5  # crowded steps with real groups
 
@@ -58,7 +70,7 @@ def test_no_pair_left_out_could_be_within_the_threshold() -> None:
     traj = rng.uniform(0, 8, (60, 1, 2)) + np.cumsum(rng.normal(0, 0.5, (60, 8, 2)), axis=1)
     mask = rng.uniform(size=(60, 8)) > 0.2
     mask[:, -1] = True
-    pairs = {tuple(p) for p in near_pairs(traj, mask, traj[:, -1], 0.0, 1.5)}
+    pairs = {tuple(p) for p in near_pairs(traj, mask, traj[:, -1], 1.5)}
     full = pairwise_distances(traj, mask)
     close = np.argwhere(np.triu(full <= 1.5, k=1))
     assert len(close) and all(tuple(p) in pairs for p in close)

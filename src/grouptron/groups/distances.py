@@ -140,25 +140,41 @@ def group_distances(
 
 
 def near_pairs(
-    traj: np.ndarray, mask: np.ndarray, pos_now: np.ndarray, near_m: float, within_m: float
+    traj: np.ndarray, mask: np.ndarray, pos_now: np.ndarray, within_m: float
 ) -> np.ndarray:
-    """(P, 2) pairs i < j of the N trajectories within ``near_m`` of each other now ((N, 2)
-    ``pos_now``), and every pair that :func:`pairwise_distances` can put within ``within_m``,
-    found with one k-d tree query instead of all N^2 pairs.
+    """(P, 2) pairs i < j of the N trajectories that :func:`pairwise_distances` can put
+    within ``within_m`` of each other, found with one k-d tree query on their (N, 2)
+    positions now instead of all N^2 pairs, then screened pair by pair (both in order).
 
-    Why the second set is inside one query: the distance from i to j is at least i's distance
-    now to the nearest point of j, which is at least the distance between them now less how
+    Why: the distance from i to j is at least the distance from i now to the nearest point of
+    j (i now is one of i's points), which is at least the distance between them now less how
     far j's window reaches from j now (R_j). So a pair farther apart now than ``within_m``
-    plus the largest reach R of anyone is never within ``within_m``.
+    plus the largest reach R of anyone is never within ``within_m`` (the tree), and neither is
+    one where i now or j now is farther than ``within_m`` from every point of the other (the
+    screen).
     """
     offsets = np.where(mask[..., None], traj - pos_now[:, None, :], 0.0)
     reach = float(np.sqrt((offsets**2).sum(-1)).max(initial=0.0))
-    radius = max(near_m, within_m + reach) * 1.0001 + 1e-9  # the tree screens with a margin
-    pairs = cKDTree(pos_now).query_pairs(radius, output_type="ndarray")
+    radius = (within_m + reach) * 1.0001 + 1e-9  # the tree screens with a margin
+    pairs = cKDTree(pos_now).query_pairs(radius, output_type="ndarray").astype(np.int64)
     if not len(pairs):
         return np.zeros((0, 2), dtype=np.int64)
-    ordered: np.ndarray = np.unique(np.sort(pairs, axis=1), axis=0)
-    return ordered.astype(np.int64)
+    points = np.where(mask[..., None], traj, np.inf)  # (N, T, 2) unobserved: never nearest
+    i, j = pairs[:, 0], pairs[:, 1]  # i < j (the tree's order)
+    bound_squared = np.maximum(
+        _nearest_squared(pos_now[i], points[j]), _nearest_squared(pos_now[j], points[i])
+    )  # (P,) at most each pair's squared distance
+    limit = within_m * (1 + 1e-9) + 1e-12  # rounding: keep ties
+    kept: np.ndarray = pairs[bound_squared <= limit * limit]
+    return kept
+
+
+def _nearest_squared(point: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(P,) squared distance from each (P, 2) point to the nearest of its (P, T, 2) points."""
+    dx = points[..., 0] - point[:, 0, None]  # (P, T)
+    dy = points[..., 1] - point[:, 1, None]
+    squared: np.ndarray = (dx * dx + dy * dy).min(axis=1)
+    return squared
 
 
 def pair_hausdorff(traj: np.ndarray, mask: np.ndarray, pairs: np.ndarray) -> np.ndarray:
@@ -184,17 +200,17 @@ def sparse_group_distances(
     mask: np.ndarray,
     pos_now: np.ndarray,
     *,
-    near_m: float,
     within_m: float,
     velocity_weight_s: float,
     dt_s: float,
 ) -> np.ndarray:
     """(N, N) :func:`group_distances` (``hausdorff``) for the pairs :func:`near_pairs` finds
-    and infinity for the rest: exact wherever a clustering at ``within_m`` or a neighbourhood
-    of ``near_m`` looks (the tree's radius may take in more pairs; they are exact too),
-    without the N^2 T^2 work of all pairs (a station's 300 people)."""
+    and infinity for the rest: exact for every pair within ``within_m`` (and some beyond),
+    without the N^2 T^2 work of all pairs (a station's 300 people). What a clustering at
+    ``within_m`` with single linkage and no size cap decides (its connected pieces) is the
+    same as with all pairs; its merges beyond ``within_m`` are not."""
     N = len(mask)
-    pairs = near_pairs(traj, mask, pos_now, near_m, within_m)
+    pairs = near_pairs(traj, mask, pos_now, within_m)
     distance = pair_hausdorff(traj, mask, pairs)
     if velocity_weight_s > 0 and len(pairs):
         velocity = mean_velocities(traj, mask, dt_s)  # (N, 2)

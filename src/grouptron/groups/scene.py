@@ -65,17 +65,17 @@ def groups_at_step(
     config: GroupConfig,
     step: int,
     history_steps: int = HISTORY_STEPS,
-    near_m: float = 2 * PERCEPTION_RADIUS_M,
 ) -> StepGroups | None:
     """The scene-wide groups of one step (None when nobody is present). Under a distance
     threshold with single linkage and no size cap (the detection rule and the default
     model's), the groups are the connected pieces of the pairs within the threshold, and only
-    pairs that a k-d tree finds near are measured: the groups equal the all-pairs
-    clustering's (a test checks), ``distances`` hold every pair within ``near_m`` now (what
-    each person's own grouping reads) and infinity for the others."""
+    pairs that could be within the threshold are measured (a k-d tree, then a bound per pair):
+    the groups equal the all-pairs clustering's (a test checks), and ``distances`` hold every
+    pair within the threshold exactly and infinity for most others, so that each person's own
+    grouping (the same rule on a sub-matrix) decides as with all pairs."""
     pad = history_steps - 1
     pos, present = position_grid(scene, pad)
-    return _cluster_step(pos, present, step, pad, config=config, dt_s=scene.dt_s, near_m=near_m)
+    return _cluster_step(pos, present, step, pad, config=config, dt_s=scene.dt_s, near_only=True)
 
 
 def _connected_pieces_suffice(config: GroupConfig) -> bool:
@@ -97,22 +97,21 @@ def _cluster_step(
     *,
     config: GroupConfig,
     dt_s: float,
-    near_m: float | None = None,
+    near_only: bool = False,
 ) -> StepGroups | None:
-    """The groups of the people present at ``step``; with ``near_m``, where the rule's groups
-    are its threshold's connected pieces, from near pairs only (``groups_at_step``)."""
+    """The groups of the people present at ``step``; with ``near_only``, where the rule's
+    groups are its threshold's connected pieces, from near pairs only (``groups_at_step``)."""
     tracks = np.flatnonzero(present[:, step + pad])
     if len(tracks) == 0:
         return None
     window = slice(step, step + pad + 1)
     traj, mask, now = pos[tracks, window], present[tracks, window], pos[tracks, step + pad]
-    if near_m is not None and _connected_pieces_suffice(config):
+    if near_only and _connected_pieces_suffice(config):
         assert config.max_distance_m is not None
         distances = sparse_group_distances(
             traj,
             mask,
             now,
-            near_m=near_m,
             within_m=config.max_distance_m,
             velocity_weight_s=config.velocity_weight_s,
             dt_s=dt_s,
