@@ -146,3 +146,22 @@ def test_a_node_that_learns_says_what_its_rounds_did(graph: None, tiny_checkpoin
     assert values["learning"] == status.line()
     forecaster.destroy_node()
     probe.node.destroy_node()
+
+
+def test_the_command_runs_for_its_seconds_and_keeps_its_site(
+    tiny_checkpoints: Path, tmp_path: Path
+) -> None:
+    """``grouptron ros2`` in a process of its own: it spins, stops after ``--seconds`` and
+    keeps what ``--learn`` learnt (nothing in a second without people) in ``--save-site``."""
+    import subprocess
+    import sys
+
+    env = {**os.environ, "ROS_DOMAIN_ID": str(random.randint(10, 99)), "ROS_LOCALHOST_ONLY": "1"}
+    checkpoint = tiny_checkpoints / "grouptron-eth-backward"
+    argv = ["ros2", "--checkpoint", str(checkpoint), "--seconds", "1", "--learn"]
+    argv += ["--save-site", str(tmp_path / "site")]
+    command = [sys.executable, "-m", "grouptron", *argv]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=120, env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert (tmp_path / "site" / "site.json").is_file()
+    assert "kept the site's weights" in done.stdout

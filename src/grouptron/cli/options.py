@@ -50,10 +50,13 @@ class Parser(argparse.ArgumentParser):
         raise GrouptronError(message)
 
 
-def add_threads_option(parser: argparse.ArgumentParser) -> None:
+def add_threads_option(parser: argparse.ArgumentParser, default: int = 2, why: str = "") -> None:
     """Add ``--threads``: CPU threads for the computation (2 by default)."""
     parser.add_argument(
-        "--threads", type=positive_int, default=2, help="CPU threads for the computation"
+        "--threads",
+        type=positive_int,
+        default=default,
+        help=f"CPU threads for the computation{why}",
     )
 
 

@@ -75,9 +75,18 @@ def _node(args: argparse.Namespace) -> Any:
 
 
 def _spin(node: Any, seconds: float | None) -> None:
-    """Spin ``node`` until ROS shuts down or ``seconds`` have passed."""
+    """Spin ``node`` until ROS shuts down or ``seconds`` have passed, on one executor kept
+    for the whole run (``rclpy.spin_once`` builds its wait set anew at every call)."""
     import rclpy
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
     deadline = time.monotonic() + seconds if seconds else None
-    while rclpy.ok() and (deadline is None or time.monotonic() < deadline):
-        rclpy.spin_once(node, timeout_sec=0.05)
+    try:
+        while rclpy.ok() and (deadline is None or time.monotonic() < deadline):
+            executor.spin_once(timeout_sec=0.05)
+    except ExternalShutdownException:
+        pass  # ROS was shut down from outside: stop as for Ctrl-C
+    finally:
+        executor.remove_node(node)

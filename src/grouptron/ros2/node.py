@@ -19,13 +19,13 @@ from grouptron.data.formats.ros_bag import BagFields, check_fixed_frame
 from grouptron.errors import GrouptronError
 from grouptron.inference.learning import LearningOptions
 from grouptron.inference.predictor import Predictor
+from grouptron.ros2.cdr import trajectory_bytes
 from grouptron.ros2.messages import (
     MARKER_ARRAY,
     diagnostics_message,
     marker_message,
     message_class,
     tracked,
-    trajectory_message,
 )
 
 
@@ -130,7 +130,17 @@ def make_node(
             self.last_people = len(people.ids)
             self.counts["forecast"] += 1
             header = _header_of(message, self.kind)
-            self.forecasts.publish(trajectory_message(forecast, header, self.dt_s))
+            stamp = header.stamp
+            self.forecasts.publish(  # serialized here: 600 transform objects cost 3 ms
+                trajectory_bytes(
+                    [str(i) for i in forecast.ids],
+                    forecast.point,
+                    stamp.sec,
+                    stamp.nanosec,
+                    header.frame_id,
+                    self.dt_s,
+                )
+            )
             self.markers.publish(marker_message(forecast, header, regions, self.dt_s))
             self.diagnostics.publish(self._diagnostics(header))
 

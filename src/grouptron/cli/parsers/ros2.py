@@ -71,5 +71,11 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     ros2.add_argument(
         "--seconds", type=float, help="stop after this many seconds (default: run until Ctrl-C)"
     )
-    add_threads_option(ros2)
+    add_threads_option(
+        ros2,
+        default=1,
+        why=" (default 1: the middleware and the other nodes need a core too; on 2 cores one "
+        "thread kept the slowest tenth of forecasts within 19 ms of their input, two within "
+        "24-30 ms, at the same median; benchmarks/ros2_latency.py)",
+    )
     ros2.set_defaults(handler="grouptron.cli.ros2:cmd_ros2")
