@@ -165,3 +165,29 @@ def test_the_command_runs_for_its_seconds_and_keeps_its_site(
     assert done.returncode == 0, done.stderr[-2000:]
     assert (tmp_path / "site" / "site.json").is_file()
     assert "kept the site's weights" in done.stdout
+
+
+def test_ros_parameters_after_ros_args_override_the_flags(
+    tiny_checkpoints: Path, tmp_path: Path
+) -> None:
+    """``-p learn:=true`` turns learning on without ``--learn`` (its site is kept), and
+    ``-p learn:=false`` off despite it (nothing to keep: refused before the node runs)."""
+    import subprocess
+    import sys
+
+    env = {**os.environ, "ROS_DOMAIN_ID": str(random.randint(10, 99)), "ROS_LOCALHOST_ONLY": "1"}
+    checkpoint = tiny_checkpoints / "grouptron-eth-backward"
+    argv = [sys.executable, "-m", "grouptron", "ros2", "--checkpoint", str(checkpoint)]
+    argv += ["--seconds", "1", "--save-site", str(tmp_path / "site")]
+    done = subprocess.run(
+        [*argv, "--ros-args", "-p", "learn:=true"], capture_output=True, text=True, env=env
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert (tmp_path / "site" / "site.json").is_file()
+    done = subprocess.run(
+        [*argv, "--learn", "--ros-args", "-p", "learn:=false"],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
+    assert done.returncode == 2 and "add --learn" in done.stderr

@@ -22,13 +22,13 @@ def cmd_ros2(args: argparse.Namespace) -> int:
     import torch
 
     torch.set_num_threads(args.threads)
-    if args.save_site and not args.learn:
-        raise GrouptronError("--save-site keeps what --learn learnt: add --learn")
-    rclpy.init()
+    rclpy.init(args=["grouptron", "--ros-args", *args.ros_args] if args.ros_args else None)
     try:
         if args.replay:
             return _replay(args)
         node = _node(args)
+        if args.save_site and node.session.learning is None:
+            raise GrouptronError("--save-site keeps what the node learns: add --learn")
         try:
             _spin(node, args.seconds)
         finally:

@@ -76,7 +76,11 @@ def make_node(
             self.kind = chosen.type
             self.fields = BagFields.parse(chosen.ros_fields) if chosen.ros_fields else None
             self.options = chosen
-            self.session = predictor.stream(online_calibration=online, learn=learn or False)
+            # Online calibration and learning are ROS parameters too (flags their defaults).
+            online_on = bool(self.declare_parameter("online", online).value)
+            learn_on = bool(self.declare_parameter("learn", learn is not None).value)
+            chosen_learn = (learn or LearningOptions()) if learn_on else False
+            self.session = predictor.stream(online_calibration=online_on, learn=chosen_learn)
             self.dt_s = predictor.config.data.dt_s
             self.latest: Any = None
             self.counts = {"received": 0, "forecast": 0, "dropped": 0, "malformed": 0}

@@ -64,6 +64,13 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--online", action="store_true", help="adapt the regions' radii as truths arrive"
     )
     add_learning_options(ros2, save_site=True)
+    ros2.add_argument(
+        "--ros-args",
+        nargs=argparse.REMAINDER,
+        default=[],
+        help="the rest goes to ROS: parameters that override the flags of the same names "
+        "(-p learn:=true, -p regions:=0.5, -p topic:=/people), remappings, a log level",
+    )
     ros2.add_argument("--replay", metavar="BAG", help="publish this bag's --topic instead")
     ros2.add_argument(
         "--out-topic", default="/tracked_people", help="with --replay: where its people go"
