@@ -15,6 +15,7 @@ from grouptron.cli.options import (
 from grouptron.constants import DEFAULT_CHECKPOINT
 
 
+# A flat list of options, each with its help: long, but one thing to read.
 def add_parser(commands: argparse._SubParsersAction) -> None:
     """Add the command and its options to the ``grouptron`` parser."""
     ros2 = commands.add_parser(
