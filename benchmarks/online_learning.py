@@ -31,7 +31,6 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.data.datasets.custom import read_dataset
 from grouptron.data.formats.track_files import TrackSource, read_track_file
 from grouptron.data.prepare.windows import step_window
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT
@@ -45,16 +44,7 @@ from grouptron.workflows.evaluate_learning import (
 from grouptron.workflows.predict import PredictRequest, predict_tracks
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from out_of_domain import DEVELOPMENT_SET
-
-
-def recordings(descriptions: str) -> list[TrackSource]:
-    """Every test file of the descriptions, with its layout."""
-    sources = []
-    for description in descriptions.split(","):
-        dataset = read_dataset(description)
-        sources += [TrackSource.from_format(f, dataset.recording) for f in dataset.files("test")]
-    return sources
+from out_of_domain import DEVELOPMENT_SET, files_of_test_parts
 
 
 def time_replay(source: TrackSource, minutes: float) -> None:
@@ -104,7 +94,7 @@ def main() -> None:
     budget = FineTune(steps=args.steps, learning_rate=args.learning_rate)
     options = LearningOptions(round_s=args.round_s, budget=budget, seed=args.seed)
     print(f"checkpoint {args.checkpoint}; {options}\n")
-    sources = tuple(recordings(args.datasets))
+    sources = tuple(files_of_test_parts(args.datasets))
     request = LearningEvaluation(sources, args.checkpoint, options, args.scored_from)
     rows = evaluate_learning(request)
     for row in rows:

@@ -29,7 +29,6 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from grouptron.data.datasets.custom import read_dataset
 from grouptron.data.formats.track_files import TrackSource, read_track_file
 from grouptron.data.prepare.samples import scene_samples
 from grouptron.data.prepare.scene import build_scene
@@ -48,18 +47,9 @@ from grouptron.model.predict import default_point_forecast
 from grouptron.model.regions import region_shapes, shape_distances
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from out_of_domain import DEVELOPMENT_SET
+from out_of_domain import DEVELOPMENT_SET, files_of_test_parts
 
 STEPS = (4, 8, 12)
-
-
-def recordings(descriptions: str) -> list[TrackSource]:
-    """Every test file of the descriptions, with its layout."""
-    sources = []
-    for description in descriptions.split(","):
-        dataset = read_dataset(description)
-        sources += [TrackSource.from_format(f, dataset.recording) for f in dataset.files("test")]
-    return sources
 
 
 def replayed(
@@ -216,7 +206,7 @@ def main() -> None:
     print(f"starting radii: {chosen or 'the Gaussian radii'}; q = {args.q:g}")
     print("| recording | radii | " + " | ".join(f"step {k}" for k in STEPS) + " |")
     print("|---|---|" + "---|" * len(STEPS))
-    for source in recordings(args.datasets):
+    for source in files_of_test_parts(args.datasets):
         for row in score_file(source, args, start):
             print(row, flush=True)
 

@@ -25,6 +25,7 @@ from pathlib import Path
 import torch
 
 from grouptron.data.datasets.custom import read_dataset
+from grouptron.data.formats.track_files import TrackSource
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.reporting.out_of_domain import (
     out_of_domain_markdown,
@@ -36,6 +37,15 @@ HERE = Path(__file__).resolve().parent
 DEVELOPMENT_SET = ",".join(
     str(HERE / "ood" / f) for f in ("stanford_drone.toml", "hermes_corridor.toml")
 )
+
+
+def files_of_test_parts(descriptions: str) -> list[TrackSource]:
+    """Every test file of the comma-separated dataset descriptions, with its layout."""
+    sources = []
+    for description in descriptions.split(","):
+        dataset = read_dataset(description)
+        sources += [TrackSource.from_format(f, dataset.recording) for f in dataset.files("test")]
+    return sources
 
 
 def main() -> None:
