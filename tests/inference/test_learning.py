@@ -27,6 +27,7 @@ ROUNDS = LearningOptions(
     budget=FineTune(steps=20, batch_size=32, learning_rate=3e-3),
     min_train=20,
     min_holdout=10,
+    min_holdout_steps=3,
     background=False,
 )
 """Rounds every 10 steps on a few people: the mechanism at test scale."""
@@ -181,7 +182,7 @@ def test_a_script_without_a_main_guard_learns_in_the_background(
         "from grouptron.inference.predictor import Predictor\n"
         "from grouptron.training.fine_tune import FineTune\n"
         "options = LearningOptions(round_s=4.0, budget=FineTune(steps=5, batch_size=32),\n"
-        "                          min_train=20, min_holdout=10)\n"
+        "                          min_train=20, min_holdout=10, min_holdout_steps=3)\n"
         f"session = Predictor.from_checkpoint({str(checkpoint)!r}).stream(learn=options)\n"
         f"rows = np.loadtxt({str(site)!r})\n"
         "for frame in np.unique(rows[:, 0]).astype(int):\n"
@@ -247,3 +248,44 @@ def test_learning_and_online_calibration_run_together(checkpoint: Path, site: Pa
     assert session.online is not None
     regions = forecast.regions(0.9)
     assert np.isfinite(regions.major_m).all() and len(forecast)
+
+
+def test_a_site_log_gives_every_sample_whatever_the_rounds(site: Path) -> None:
+    """Asked every step or every 30 s, the log gives the same samples with the same
+    histories: nothing completed between two rounds is lost or cut short."""
+    from grouptron.config import DataConfig
+    from grouptron.inference.site_samples import SiteLog
+
+    rows = _rows(site)
+    found = {}
+    for every in (1, 75):
+        log, after, parts = SiteLog(DataConfig(derivatives="backward"), 1.2), None, []
+        for k, frame in enumerate(np.unique(rows[:, 0])):
+            at = rows[:, 0] == frame
+            t_s = frame * 0.04
+            log.add(t_s, rows[at, 1].astype(np.int64), rows[at, 2:4])
+            after = t_s if after is None else after
+            if k % every == every - 1 or frame == rows[:, 0].max():
+                done = log.completed(after, t_s)
+                parts += [] if done is None else [done]
+                after = t_s
+        keys = [
+            (round(float(d), 6), int(n))
+            for part in parts
+            for d, n in zip(part.done_s, part.samples.hist_mask.sum(axis=1), strict=True)
+        ]
+        found[every] = sorted(keys)
+    assert len(found[1]) > 300 and found[1] == found[75]
+
+
+def test_no_held_out_position_was_a_training_target(checkpoint: Path, site: Path) -> None:
+    """Every training sample of a round ended a horizon (4.8 s) or more before the first
+    held-out one: a person's samples a step apart share 11 of their 12 future positions."""
+    learner, _ = _learner(checkpoint, ROUNDS)
+    planned = []
+    learner._run_round = lambda train, holdout: planned.append((train, holdout))  # type: ignore[method-assign]
+    _feed(learner, site)
+    assert len(planned) >= 2
+    for train, holdout in planned:
+        assert train.done_s.max() <= holdout.done_s.min() - 4.8 + 1e-6
+        assert len(np.unique(holdout.done_s)) >= ROUNDS.min_holdout_steps

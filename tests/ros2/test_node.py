@@ -20,6 +20,7 @@ from grouptron.inference.predictor import Predictor
 from grouptron.ros2.messages import Tracked, marker_array
 from grouptron.ros2.node import NodeOptions, make_node
 from grouptron.training.fine_tune import FineTune
+from tests.conftest import synthetic_recording
 from tests.golden.compute import synthetic_tracks
 
 rclpy = pytest.importorskip("rclpy")
@@ -129,15 +130,22 @@ def test_malformed_inputs_are_survived_and_a_moving_frame_refused(
     probe.node.destroy_node()
 
 
-def test_a_node_that_learns_says_what_its_rounds_did(graph: None, tiny_checkpoints: Path):
+def test_a_node_that_learns_says_what_its_rounds_did(
+    graph: None, tiny_checkpoints: Path, tmp_path: Path
+) -> None:
     checkpoint = tiny_checkpoints / "grouptron-eth-backward" / "best.safetensors"
     rounds = LearningOptions(
-        round_s=2.0, budget=FineTune(steps=5), min_train=10, min_holdout=5, background=False
+        round_s=2.0,
+        budget=FineTune(steps=5),
+        min_train=10,
+        min_holdout=5,
+        min_holdout_steps=2,
+        background=False,
     )
     predictor = Predictor.from_checkpoint(checkpoint)
     forecaster = make_node(predictor, NodeOptions(name="gt_c"), learn=rounds)
     probe = Probe()
-    tracks = synthetic_tracks()
+    tracks = np.loadtxt(synthetic_recording(tmp_path / "site.txt", 11, 14, 90))
     for frame in np.unique(tracks[:, 0]):
         assert probe.send(_people(tracks, int(frame)), forecaster), frame
     values = {kv.key: kv.value for kv in probe.got["diagnostics"][-1].status[0].values}

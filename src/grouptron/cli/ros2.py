@@ -22,7 +22,7 @@ def cmd_ros2(args: argparse.Namespace) -> int:
     import torch
 
     torch.set_num_threads(args.threads)
-    rclpy.init(args=["grouptron", "--ros-args", *args.ros_args] if args.ros_args else None)
+    _init(rclpy, args.ros_args)
     try:
         if args.replay:
             return _replay(args)
@@ -35,11 +35,24 @@ def cmd_ros2(args: argparse.Namespace) -> int:
             if args.save_site:  # what the node learnt, kept however it stopped
                 weights = node.session.save_site(args.save_site)
                 print(f"kept the site's weights in {weights}", flush=True)
+            node.session.close()
         return 0
     except KeyboardInterrupt:
         return 0
     finally:
         rclpy.try_shutdown()
+
+
+def _init(rclpy: Any, ros_args: list[str]) -> None:
+    """rclpy, with the arguments after ``--ros-args``; arguments ROS does not know are one
+    line."""
+    try:
+        rclpy.init(args=["grouptron", "--ros-args", *ros_args] if ros_args else None)
+    except Exception as error:
+        raise GrouptronError(
+            f"--ros-args {' '.join(ros_args)}: ROS does not read these ({error}); --ros-args "
+            "comes last, after grouptron's own options"
+        ) from None
 
 
 def _replay(args: argparse.Namespace) -> int:

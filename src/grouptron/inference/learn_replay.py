@@ -3,7 +3,8 @@ would have used at every step, and the forecasts made with them.
 
 The rounds run in line at recording time (``LearningOptions.background`` off), so a replay is
 deterministic, and strictly causal: the weights in use at step ``t`` were trained and judged
-on samples whose futures had ended by ``t``, read from the recording's rows up to ``t``.
+on samples whose futures had ended before ``t``, read from the recording's rows before ``t``
+(a round run at a step's observations serves from the next step, as in a live session).
 """
 
 from __future__ import annotations
@@ -72,8 +73,9 @@ def replay_learning(
         t_s = (scene.first_frame / scene.frames_per_step + float(step)) * scene.dt_s
         learner.observe(t_s, scene.track[rows], xy_world[rows])
         if learner.model is not models[-1]:
+            # From the next step, as in a live session, which observes after it forecasts.
             models.append(learner.model)
-            from_step.append(int(step))
+            from_step.append(int(step) + 1)
     return Replay(models, np.asarray(from_step), learner.status, learner)
 
 
@@ -95,8 +97,9 @@ def forecast_by_version(
     for number in np.unique(version):
         mine = version == number
         part_groups = None if groups is None else groups.subset(mine, samples)
+        weights = replay.models[number].to(options.device)
         made = forecast_samples(
-            replay.models[number], config, samples.subset(mine), forecast, part_groups, options
+            weights, config, samples.subset(mine), forecast, part_groups, options
         )
         parts.append(made)
         index.append(np.flatnonzero(mine))

@@ -62,6 +62,8 @@ class LearningOptions:
         min_holdout: fresh samples (completed since the last round) a round needs to judge.
         holdout_share: the newest share of the fresh samples held out (at least
             ``min_holdout``); the rest join the buffer.
+        min_holdout_steps: distinct completion times the held-out samples span at least (the
+            guard's interval resamples time steps).
         min_gain: the smallest mean FDE gain a round must bring, as a share of the FDE of the
             weights in use on the held-out samples.
         buffer_samples: the newest training samples kept.
@@ -76,6 +78,7 @@ class LearningOptions:
     min_train: int = 100
     min_holdout: int = 40
     holdout_share: float = 0.3
+    min_holdout_steps: int = 10
     min_gain: float = 0.01
     buffer_samples: int = 4000
     seed: int = 0
@@ -85,8 +88,12 @@ class LearningOptions:
     def __post_init__(self) -> None:
         if not self.round_s > 0:
             raise GrouptronError(f"learning round_s must be > 0 seconds, not {self.round_s}")
-        if min(self.min_train, self.min_holdout, self.buffer_samples, self.threads) < 1:
-            raise GrouptronError("learning min_train, min_holdout, buffer_samples, threads >= 1")
+        counts = (self.min_train, self.min_holdout, self.min_holdout_steps, self.buffer_samples)
+        if min(*counts, self.threads) < 1:
+            raise GrouptronError(
+                "learning min_train, min_holdout, min_holdout_steps, buffer_samples and "
+                "threads must be >= 1"
+            )
         if not 0 < self.holdout_share < 1 or not 0 <= self.min_gain < 1:
             raise GrouptronError("learning holdout_share and min_gain are shares below 1")
         if self.budget.steps < 1 or self.budget.batch_size < 1 or self.budget.learning_rate <= 0:
@@ -158,6 +165,7 @@ class SiteLearner:
         self.shipped = copy.deepcopy(model).eval()
         self.model = copy.deepcopy(model).eval()
         """The weights forecasts use now (replaced whole by a round, never changed in place)."""
+        self._device = next(model.parameters()).device
         self.status = LearningStatus()
         self._log = SiteLog(config.data, max_gap_s)
         self._pool = _Pool()
@@ -227,35 +235,42 @@ class SiteLearner:
             self._thread.join()
 
     def _plan(self) -> tuple[Completed, Completed] | None:
-        """(train, holdout) of the next round, or None while there is too little of either."""
+        """(train, holdout) of the next round, or None while there is too little of either.
+
+        The holdout: the fresh samples (never trained on) of the newest completion times, at
+        least ``min_holdout`` samples over ``min_holdout_steps`` times (the interval is over
+        time steps) and ``holdout_share`` of them. Training: every sample completed a horizon
+        or more before the first held-out one, so that no held-out future position was a
+        training target (a person's samples a step apart share 11 of 12); the others wait
+        for the next round."""
         options, pool = self.options, self._pool
         if pool.fresh_count() < options.min_holdout:
             return None
         fresh = joined(pool.fresh)
-        order = np.argsort(fresh.done_s, kind="stable")
-        held = max(options.min_holdout, round(options.holdout_share * len(order)))
-        newest = np.zeros(len(order), dtype=bool)
-        newest[order[len(order) - held :]] = True
-        older = _subset(fresh, ~newest)
-        if len(older.done_s):
-            pool.buffer = older if pool.buffer is None else joined([pool.buffer, older])
-            pool.buffer = _newest(pool.buffer, options.buffer_samples)
-        holdout = _subset(fresh, newest)
-        pool.fresh = [holdout]
-        if pool.buffer is None or len(pool.buffer.done_s) < options.min_train:
+        held = _newest_times(
+            fresh.done_s,
+            max(options.min_holdout, round(options.holdout_share * len(fresh.done_s))),
+            options.min_holdout_steps,
+        )
+        if held is None:
             return None
+        horizon_s = self.config.data.horizon_steps * self.config.data.dt_s
+        cut_s = fresh.done_s[held].min() - horizon_s + 1e-9
+        everything = fresh if pool.buffer is None else joined([pool.buffer, fresh])
+        train = _subset(everything, everything.done_s <= cut_s)
+        if len(train.done_s) < options.min_train:
+            return None  # the fresh samples stay fresh
+        pool.buffer = _newest(everything, options.buffer_samples)
         pool.fresh = []
-        train = pool.buffer
-        pool.buffer = _newest(joined([train, holdout]), options.buffer_samples)
-        return train, holdout
+        return _newest(train, options.buffer_samples), _subset(fresh, held)
 
     def close(self) -> None:
-        """Wait for a round still running, then stop the learning process (if one started);
-        a later round starts another."""
+        """Stop the learning process (if one started; a round still running there is
+        dropped) and the thread waiting on it; a later round starts another process."""
+        worker, self._worker = self._worker, None
+        if worker is not None:
+            worker.close()
         self.wait()
-        if self._worker is not None:
-            self._worker.close()
-            self._worker = None
 
     def _run_round(self, train: Completed, holdout: Completed) -> None:
         started = time.perf_counter()
@@ -270,9 +285,9 @@ class SiteLearner:
         )
         try:
             result = self._result(job)
-        except (GrouptronError, RuntimeError, ValueError) as exc:
-            # A round that breaks (its fine-tune diverged, say) is a round not accepted: a
-            # session that forecasts for a robot goes on with the weights it has.
+        except Exception as exc:
+            # A round that breaks (its fine-tune diverged, its process was killed) is a round
+            # not accepted: a session that forecasts for a robot goes on with its weights.
             log.warning("learning: round %d failed and was dropped: %s", self._round, exc)
             result = None
         with self._lock:
@@ -284,7 +299,18 @@ class SiteLearner:
         if self.options.background:
             if self._worker is None:
                 self._worker = RoundWorker(self.shipped, self._settings, self.options.threads)
-            return self._worker.run(job)
+            worker = self._worker
+            try:
+                result = worker.run(job)
+            except (GrouptronError, OSError):
+                worker.close()  # a process that failed once is not trusted again
+                if self._worker is worker:
+                    self._worker = None  # the next round starts a fresh one
+                raise
+            accepted = result.accepted
+            if accepted is not None:  # built on the CPU there: to where the session forecasts
+                result = replace(result, accepted=accepted.to(self._device))
+            return result
         threads = torch.get_num_threads()
         torch.set_num_threads(self.options.threads)
         try:
@@ -317,6 +343,18 @@ def _cores() -> int:
 
 def _subset(completed: Completed, keep: np.ndarray) -> Completed:
     return Completed(completed.samples.subset(keep), completed.done_s[keep])
+
+
+def _newest_times(done_s: np.ndarray, samples: int, times: int) -> np.ndarray | None:
+    """(S,) mask of the samples of the newest completion times that hold at least ``samples``
+    samples over at least ``times`` distinct times; None where all of them do not."""
+    distinct, per_time = np.unique(done_s, return_counts=True)
+    distinct, held = distinct[::-1], np.cumsum(per_time[::-1])  # newest first
+    enough = (held >= samples) & (np.arange(1, len(distinct) + 1) >= times)
+    if not enough.any():
+        return None
+    mask: np.ndarray = done_s >= distinct[int(np.argmax(enough))]
+    return mask
 
 
 def _newest(completed: Completed, count: int) -> Completed:

@@ -119,7 +119,8 @@ def _difference(
 ) -> tuple[Interval, float]:
     """FDE of ``new`` minus ``old`` on ``samples`` (metres; 95% interval over time steps),
     and ``old``'s mean FDE."""
-    options = EngineOptions(distribution=False, batch_size=1024)
+    device = next(new.parameters()).device
+    options = EngineOptions(distribution=False, batch_size=1024, device=device)
     final = samples.fut_rel_m[:, -1].astype(np.float64)  # (S, 2)
     errors = []
     for model in (new, old):

@@ -170,7 +170,7 @@ def serve(threads: int) -> None:
 
 
 def _weights_bytes(model: TrajectronCVAE) -> bytes:
-    return save_weights({k: v.contiguous() for k, v in model.state_dict().items()})
+    return save_weights({k: v.detach().cpu().contiguous() for k, v in model.state_dict().items()})
 
 
 def _model(weights: bytes, settings: RoundSettings) -> TrajectronCVAE:

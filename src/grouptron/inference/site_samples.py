@@ -60,10 +60,9 @@ class SiteLog:
         data = self.data
         span_s = (data.history_steps + data.horizon_steps + _LOOKBACK_STEPS) * data.dt_s
         rows = np.concatenate(self._parts) if self._parts else np.zeros((0, 4))
-        rows = rows[rows[:, 0] >= until_s - span_s - 1e-9]  # what a later window still reads
-        self._parts = [rows] if len(rows) else []
-        start_s = max(after_s - span_s, -np.inf)
-        window = rows[(rows[:, 0] >= start_s - 1e-9) & (rows[:, 0] <= until_s + 1e-9)]
+        window = rows[(rows[:, 0] >= after_s - span_s - 1e-9) & (rows[:, 0] <= until_s + 1e-9)]
+        later = rows[rows[:, 0] >= until_s - span_s - 1e-9]  # what the next window reads
+        self._parts = [later] if len(later) else []
         if len(np.unique(window[:, 0])) < data.horizon_steps + 2:
             return None
         return self._samples(window, after_s)
@@ -77,7 +76,9 @@ class SiteLog:
             window[:, 2:4],
             np.arange(len(window)),
         )
-        table = resample(recording, self._format, data.dt_s, on_gap="split")
+        # People who leave and come back split their tracks, as a live session does, without
+        # a warning at every round.
+        table = resample(recording, self._format, data.dt_s, on_gap="split", warn_on_gap=False)
         origin_s = float(window[:, 0].min())
         scene = build_scene(table, data, name="site")
         samples = scene_samples(scene, data, data.min_history_train)

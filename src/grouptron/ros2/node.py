@@ -77,8 +77,8 @@ def make_node(
             self.fields = BagFields.parse(chosen.ros_fields) if chosen.ros_fields else None
             self.options = chosen
             # Online calibration and learning are ROS parameters too (flags their defaults).
-            online_on = bool(self.declare_parameter("online", online).value)
-            learn_on = bool(self.declare_parameter("learn", learn is not None).value)
+            online_on = bool(_parameter(self, "online", online))
+            learn_on = bool(_parameter(self, "learn", learn is not None))
             chosen_learn = (learn or LearningOptions()) if learn_on else False
             self.session = predictor.stream(online_calibration=online_on, learn=chosen_learn)
             self.dt_s = predictor.config.data.dt_s
@@ -176,19 +176,30 @@ def make_node(
             for name in ("topic", "type", "ros_fields", "regions", "namespace"):
                 default = getattr(given, name)
                 default = "" if default is None else default
-                values[name] = self.declare_parameter(name, default).value
-            fixed = self.declare_parameter("fixed_frames", list(given.fixed_frames) or [""])
+                values[name] = _parameter(self, name, default)
+            fixed = _parameter(self, "fixed_frames", list(given.fixed_frames) or [""])
             return NodeOptions(
                 topic=str(values["topic"]),
                 type=str(values["type"]),
                 ros_fields=str(values["ros_fields"]) or None,
-                fixed_frames=tuple(f for f in fixed.value if f),
+                fixed_frames=tuple(f for f in fixed if f),
                 regions=float(values["regions"]),
                 namespace=str(values["namespace"]),
                 name=given.name,
             )
 
     return ForecastNode()
+
+
+def _parameter(node: Any, name: str, default: Any) -> Any:
+    """A ROS parameter's value (``default`` unless ``-p name:=value`` was given); a value of
+    another type than the default's is one line, not rclpy's traceback."""
+    from rclpy.exceptions import ParameterException
+
+    try:
+        return node.declare_parameter(name, default).value
+    except ParameterException as error:
+        raise GrouptronError(f"ROS parameter {name}: {error}") from None
 
 
 def _header_of(message: Any, kind: str) -> Any:

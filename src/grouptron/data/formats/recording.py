@@ -145,7 +145,12 @@ def read_recording(path: Path, fmt: RecordingFormat) -> Recording:
 # One vectorised pass over every row, kept whole: each step reads the sorted arrays the
 # step before it made, and cutting it up would pass a dozen arrays between the pieces.
 def resample(
-    recording: Recording, fmt: RecordingFormat, dt_s: float = DT_S, on_gap: GapPolicy = "split"
+    recording: Recording,
+    fmt: RecordingFormat,
+    dt_s: float = DT_S,
+    on_gap: GapPolicy = "split",
+    *,
+    warn_on_gap: bool = True,
 ) -> TrackTable:
     """Every track on the grid ``t0 + k * dt_s`` (t0: the recording's first time), linearly
     interpolated between consecutive observations of the track that are at most
@@ -154,7 +159,8 @@ def resample(
     Returns a table in the file's own frame numbers when a step is a whole number of its
     frames and the first frame is on it (ETH/UCY: 10, TrajNet: 12); else its "frames" are the
     grid steps (``first_frame`` 0, ``frames_per_step`` 1). ``on_gap="error"`` refuses a
-    track with a gap longer than ``fmt.max_gap_s`` instead of splitting it.
+    track with a gap longer than ``fmt.max_gap_s`` instead of splitting it; ``warn_on_gap``
+    False splits it without a warning.
     """
     span_steps = (recording.time_s.max() - recording.time_s.min()) / dt_s
     if not span_steps < MAX_SPAN_STEPS:
@@ -179,7 +185,7 @@ def resample(
     # Segments between consecutive observations of one track, bridged when short enough.
     joined = (ids[1:] == ids[:-1]) & (np.diff(time_s) <= fmt.max_gap_s + 1e-9)
     split = np.flatnonzero((ids[1:] == ids[:-1]) & ~joined)
-    if split.size and on_gap != "error":  # as the reader of ETH/UCY-style files says it
+    if split.size and on_gap != "error" and warn_on_gap:  # as the ETH/UCY reader says it
         _warn_gaps(recording.path, fmt, ids[split], time_s[split + 1] - time_s[split], lines[split])
     joined &= ~split_before[1:]
     if on_gap == "error" and split.size:
