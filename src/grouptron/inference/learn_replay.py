@@ -32,14 +32,17 @@ class Replay:
     Attributes:
         models: the weights in use, in order (the first: the model as given).
         from_step: (V,) the scene step from which each one was used.
-        status: the learning's status at the recording's end.
         learner: the learner (its ``model``: the weights in use at the end).
     """
 
     models: list[TrajectronCVAE]
     from_step: np.ndarray
-    status: LearningStatus
     learner: SiteLearner
+
+    @property
+    def status(self) -> LearningStatus:
+        """The learning's status at the recording's end."""
+        return self.learner.status
 
     def version_of(self, steps: np.ndarray) -> np.ndarray:
         """(S,) the index in ``models`` of the weights in use at each of (S,) steps."""
@@ -76,7 +79,7 @@ def replay_learning(
             # From the next step, as in a live session, which observes after it forecasts.
             models.append(learner.model)
             from_step.append(int(step) + 1)
-    return Replay(models, np.asarray(from_step), learner.status, learner)
+    return Replay(models, np.asarray(from_step), learner)
 
 
 def forecast_by_version(

@@ -216,9 +216,9 @@ class SiteLearner:
     @contextmanager
     def cores_shared(self) -> Iterator[None]:
         """While a background round runs, the caller's PyTorch threads capped so that with
-        the round's they fit the machine's cores: more threads than cores make the forecast's
-        parallel regions wait for each other (4x slower on 2 cores), fewer cost it nothing
-        measurable at 50 people."""
+        the round's they fit the machine's cores: with more threads than cores the forecast's
+        parallel regions wait for each other, while one thread instead of two costs a live
+        update at 50 people about 2% (``benchmarks/streaming.py --threads 1``, ``2``)."""
         if not self.busy:
             yield
             return

@@ -1,9 +1,9 @@
 """A process of its own for a live session's learning rounds.
 
 A round run in a thread of the forecasting process shares its interpreter lock: the
-forecast's Python between PyTorch calls waits for the round's, and a live update at 50 people
-took 1.2 times as long while a round ran (``benchmarks/streaming.py --learn``); beside a
-process of its own it is within measurement noise of none. The session's process sends each
+forecast's Python between PyTorch calls waits for the round's, which slowed live updates;
+beside a process of its own a live update at 50 people is within a few percent of one without
+learning (``benchmarks/streaming.py --learn``). The session's process sends each
 round's job and waits for the answer in a thread that sleeps meanwhile.
 
 Nothing crosses the pipe as a pickle: settings go as JSON, weights as safetensors, samples as
@@ -180,16 +180,15 @@ def _model(weights: bytes, settings: RoundSettings) -> TrajectronCVAE:
 
 
 def _samples_bytes(samples: SampleSet) -> bytes:
+    """The samples as the sample cache stores them (``SampleSet.to_arrays``), in memory."""
     buffer = io.BytesIO()
-    arrays = {f.name: np.asarray(getattr(samples, f.name)) for f in dataclasses.fields(samples)}
-    arrays["scene_names"] = arrays["scene_names"].astype(str)  # never an object array
-    np.savez(buffer, **arrays)  # type: ignore[arg-type]  # the stubs read a name as allow_pickle
+    np.savez(buffer, **samples.to_arrays())  # type: ignore[arg-type]  # stubs: allow_pickle
     return buffer.getvalue()
 
 
 def _samples(blob: bytes) -> SampleSet:
     with np.load(io.BytesIO(blob), allow_pickle=False) as arrays:
-        return SampleSet(**{name: arrays[name] for name in arrays.files})
+        return SampleSet.from_arrays(dict(arrays))
 
 
 if __name__ == "__main__":

@@ -1,0 +1,78 @@
+"""What the ROS 2 node's messages cost in Python, per message (median ms), at N people.
+
+Usage:
+    python benchmarks/ros2_messages.py [--people 50] [--repeats 200]
+
+The forecasts of the default model for the synthetic crowd of ``benchmarks/streaming.py``:
+the ``MultiDOFJointTrajectory`` built as rclpy messages (``ros2.messages.trajectory_message``)
+and serialized by rclpy, against the same bytes written directly (``ros2.cdr``); a Python
+subscriber's conversion of them back into messages; and the incoming ``MarkerArray`` of the
+tracked people, serialized by the publisher and converted by the node.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from streaming import synthetic_frames  # benchmarks/ is on sys.path
+
+
+def median_ms(work: Callable[[], object], repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        work()
+        times.append(1000 * (time.perf_counter() - started))
+    return statistics.median(times)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--people", type=int, default=50)
+    parser.add_argument("--repeats", type=int, default=200)
+    args = parser.parse_args()
+    from rclpy.serialization import deserialize_message, serialize_message
+    from std_msgs.msg import Header
+    from trajectory_msgs.msg import MultiDOFJointTrajectory
+    from visualization_msgs.msg import MarkerArray
+
+    from grouptron import Predictor
+    from grouptron.ros2.cdr import trajectory_bytes
+    from grouptron.ros2.messages import Tracked, marker_array, trajectory_message
+
+    session = Predictor.from_checkpoint().stream()
+    for k, (ids, xy) in enumerate(synthetic_frames(args.people, 20)):
+        forecast = session.update(0.4 * k, [str(int(i)) for i in ids], xy)
+    header = Header(frame_id="map")
+    header.stamp.sec = 1_700_000_000
+    names = [str(i) for i in forecast.ids]
+    built = trajectory_message(forecast, header, 0.4)
+    people = marker_array(Tracked(1.7e9, "map", names, np.asarray(xy)), header)
+    incoming, outgoing = serialize_message(people), serialize_message(built)
+    parts = {
+        "trajectory built as messages": lambda: trajectory_message(forecast, header, 0.4),
+        "  and serialized by rclpy": lambda: serialize_message(built),
+        "trajectory written as bytes (ros2.cdr)": lambda: trajectory_bytes(
+            names, forecast.point, 1_700_000_000, 0, "map", 0.4
+        ),
+        "trajectory read back as messages": lambda: deserialize_message(
+            outgoing, MultiDOFJointTrajectory
+        ),
+        "MarkerArray serialized by the publisher": lambda: serialize_message(people),
+        "MarkerArray converted by the node": lambda: deserialize_message(incoming, MarkerArray),
+    }
+    print(f"{len(forecast)} people, 12 steps; median ms per message over {args.repeats}")
+    for label, work in parts.items():
+        print(f"{label:>42}: {median_ms(work, args.repeats):.2f}")
+
+
+if __name__ == "__main__":
+    main()
