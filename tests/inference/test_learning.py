@@ -91,7 +91,7 @@ def test_forecasts_differ_from_the_fixed_model_only_after_an_accepted_round(
 
 def _learner(checkpoint: Path, options: LearningOptions) -> tuple[SiteLearner, Predictor]:
     predictor = Predictor.from_checkpoint(checkpoint, forecast="ml")
-    learner = SiteLearner(predictor.model, predictor.config, predictor.forecast, options, 1.2)
+    learner = SiteLearner(predictor.model, predictor.config, predictor.forecast, options)
     return learner, predictor
 
 

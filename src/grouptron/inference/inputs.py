@@ -19,6 +19,11 @@ MAX_EXACT_INTEGER = 2**53
 """Frames and ids travel as float64, which holds every integer exactly only below this."""
 
 
+MAX_MISSED_STEPS = 2
+"""Missed detections in a row a live session fills by default (``Predictor``'s
+``max_missed_steps``); a longer gap restarts the track."""
+
+
 def integer_argument(value: Any, name: str, minimum: int = 0, maximum: int | None = None) -> int:
     """``value`` as an int: a Python or NumPy integer (not a bool) from ``minimum`` to
     ``maximum``, or one clear line saying what it must be."""

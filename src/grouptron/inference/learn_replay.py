@@ -56,11 +56,11 @@ def replay_learning(
     scene: Scene,
     options: LearningOptions,
     *,
-    max_gap_s: float,
     progress: bool = False,
 ) -> Replay:
-    """Replay ``scene`` step by step into a learner (rounds in line, at recording time)."""
-    learner = SiteLearner(model, config, forecast, replace(options, background=False), max_gap_s)
+    """Replay ``scene`` step by step into a learner (rounds in line, at recording time) that
+    bridges gaps as a live session does by default."""
+    learner = SiteLearner(model, config, forecast, replace(options, background=False))
     models, from_step = [learner.model], [0]
     xy_world = scene.state_scene[:, :2].astype(np.float64) + scene.centre_world_m  # (R, 2)
     order = np.argsort(scene.step, kind="stable")

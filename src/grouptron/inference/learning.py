@@ -41,6 +41,7 @@ import torch
 from grouptron.config import ExperimentConfig
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.uncertainty import Interval
+from grouptron.inference.inputs import MAX_MISSED_STEPS
 from grouptron.inference.learning_round import RoundJob, RoundResult, RoundSettings, seeded_round
 from grouptron.inference.round_worker import RoundWorker
 from grouptron.inference.site_samples import Completed, SiteLog, joined
@@ -157,7 +158,7 @@ class SiteLearner:
         config: ExperimentConfig,
         forecast: PointForecast,
         options: LearningOptions,
-        max_gap_s: float,
+        max_missed_steps: int = MAX_MISSED_STEPS,
     ) -> None:
         self.config = config
         self.forecast = forecast
@@ -167,7 +168,8 @@ class SiteLearner:
         """The weights forecasts use now (replaced whole by a round, never changed in place)."""
         self._device = next(model.parameters()).device
         self.status = LearningStatus()
-        self._log = SiteLog(config.data, max_gap_s)
+        # Its tracks bridge the gaps the session fills, and split at longer ones.
+        self._log = SiteLog(config.data, (max_missed_steps + 1) * config.data.dt_s)
         self._pool = _Pool()
         self._first_s: float | None = None
         self._cut_s: float | None = None  # samples completed by then are in the pool

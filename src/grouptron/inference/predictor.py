@@ -38,6 +38,7 @@ from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoi
 from grouptron.inference.engine import EngineOptions, forecast_samples
 from grouptron.inference.forecast import Forecast, empty_forecast
 from grouptron.inference.inputs import (
+    MAX_MISSED_STEPS,
     as_track_array,
     check_track_rows,
     check_walking_speed,
@@ -111,7 +112,7 @@ class Predictor:
         check_speed: bool = True,
         device: str | torch.device = "cpu",
         min_points: int = 2,
-        max_missed_steps: int = 2,
+        max_missed_steps: int = MAX_MISSED_STEPS,
         calibration: str | Path | RegionCalibration | bool | None = None,
         online_calibration: bool | str | Path | OnlineCalibration = False,
         learn: bool | LearningOptions = False,
@@ -262,8 +263,9 @@ class Predictor:
         if options is None:
             return StreamSession(self, self._online_state(chosen))
         own = copy.copy(self)  # the session's weights change; this predictor's do not
-        gap_s = (self.max_missed_steps + 1) * self.config.data.dt_s
-        learner = SiteLearner(self.model, self.config, self.forecast, options, gap_s)
+        learner = SiteLearner(
+            self.model, self.config, self.forecast, options, self.max_missed_steps
+        )
         return StreamSession(own, self._online_state(chosen), learner)
 
     def _online_state(

@@ -121,14 +121,12 @@ def evaluate_learning(request: LearningEvaluation) -> list[LearningScores]:
         if not len(samples):
             raise GrouptronError(f"{source.path}: no forecast to score in its scored part")
         started = time.perf_counter()
-        gap_s = 3 * data.dt_s  # a live session fills two missed steps
         replay = replay_learning(
             model,
             experiment,
             forecast,
             scene,
             request.options,
-            max_gap_s=gap_s,
             progress=request.progress,
         )
         replay_s = time.perf_counter() - started

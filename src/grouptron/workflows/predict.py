@@ -204,10 +204,7 @@ def _learnt(
     if not request.learn:
         return None
     options = request.learn if isinstance(request.learn, LearningOptions) else LearningOptions()
-    gap_s = experiment.data.dt_s * 3  # a live session's two missed steps filled
-    learnt = replay_learning(
-        model, experiment, point, scene, options, max_gap_s=gap_s, progress=request.progress
-    )
+    learnt = replay_learning(model, experiment, point, scene, options, progress=request.progress)
     if request.save_site is not None:
         learner = learnt.learner
         save_site(request.save_site, learner.model, experiment, learner.status, source)
