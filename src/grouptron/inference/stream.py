@@ -14,7 +14,12 @@ import numpy as np
 from grouptron.data.formats.glitches import MAX_JUMP_SPEED_MPS
 from grouptron.errors import GrouptronError
 from grouptron.inference.forecast import Forecast
-from grouptron.inference.inputs import as_track_array, frame_argument, frame_arrays
+from grouptron.inference.inputs import (
+    MAX_MISSED_STEPS,
+    as_track_array,
+    frame_argument,
+    frame_arrays,
+)
 from grouptron.inference.learning import LearningStatus, SiteLearner
 from grouptron.inference.live import IdBook, LiveTracks
 from grouptron.inference.online import OnlineCalibration
@@ -198,7 +203,7 @@ class StreamSession:
         predictor, data = self.predictor, self.predictor.config.data
         if self._live is None:
             window = (self.window_frames / self.predictor.frames_per_step + 1) * data.dt_s
-            gap = (getattr(predictor, "max_missed_steps", 2) + 1) * data.dt_s
+            gap = (getattr(predictor, "max_missed_steps", MAX_MISSED_STEPS) + 1) * data.dt_s
             self._live = LiveTracks(window, gap, predictor.check_speed)
             self._book = IdBook()
         assert self._book is not None
