@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import pytest
 import torch
 
 from grouptron.model import gaussians
+from grouptron.model import mixture_mode as mixture_mode_module
 from grouptron.model.mixture_mode import grid_mode, mixture_mode
 
 
@@ -67,11 +69,12 @@ def test_default_search_is_never_worse_than_the_reference_grid() -> None:
         assert ours >= theirs - 1e-3, i
 
 
-def test_blocks_side_by_side_give_one_block_s_answer() -> None:
+def test_blocks_side_by_side_give_one_block_s_answer(monkeypatch: pytest.MonkeyPatch) -> None:
     """Large inputs are cut into equal blocks climbed on worker threads; the answer does not
     depend on the cut."""
     log_weights, mean, cov = random_mixtures(50, 3)
     whole = mixture_mode(log_weights, mean, cov)
+    monkeypatch.setattr(mixture_mode_module, "PARALLEL_MIN_BLOCK_VALUES", 0)
     threads = torch.get_num_threads()
     torch.set_num_threads(2)
     try:
@@ -80,3 +83,23 @@ def test_blocks_side_by_side_give_one_block_s_answer() -> None:
     finally:
         torch.set_num_threads(threads)
     assert mixture_mode(log_weights[:0], mean[:0], cov[:0]).shape == (0, 2)
+
+
+def test_small_mixtures_climb_on_the_calling_thread(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A live update's few thousand two-component mixtures start no worker threads (they cost
+    more than they save there); the benchmark's 25 components and 4 starts do."""
+
+    class NoThreads:
+        def __init__(self, workers: int) -> None:
+            raise AssertionError(f"{workers} worker threads started")
+
+    monkeypatch.setattr(mixture_mode_module, "ThreadPoolExecutor", NoThreads)
+    threads = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        log_weights, mean, cov = random_mixtures(3600, 4)
+        mixture_mode(log_weights[:, :2], mean[:, :2], cov[:, :2], num_starts=1)
+        with pytest.raises(AssertionError, match="2 worker threads"):
+            mixture_mode(log_weights, mean, cov, num_starts=4)
+    finally:
+        torch.set_num_threads(threads)

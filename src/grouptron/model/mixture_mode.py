@@ -5,8 +5,14 @@ Here every mixture starts from its most promising component means and climbs the
 the mode-finding fixed point ``x <- (sum_k r_k(x) P_k)^-1 sum_k r_k(x) P_k mu_k`` (``P_k`` the
 precision matrices, ``r_k`` the responsibilities; it never descends, Carreira-Perpinan 2000)
 or, where it climbs higher, a Newton step. The best end point wins. Float64 throughout, in
-NumPy: a live update climbs a few hundred small mixtures, where each array operation's fixed
+NumPy: a live update climbs a few thousand small mixtures, where each array operation's fixed
 cost, not its arithmetic, sets the time, and NumPy's is a fraction of PyTorch's.
+
+Arrays are laid out entry-first and mixture-last: a mixture's Z components lie along the
+leading axis and each coordinate or matrix entry is an array of its own, ``mean`` (2, Z, R),
+``precision`` (3, Z, R), ``log_norm`` (Z, R) for R mixtures. Sums over components are then
+whole-row additions and every operation runs over contiguous memory; with the live forecast's
+two components a reduction over a trailing axis of length 2 cost more than the arithmetic.
 """
 
 from __future__ import annotations
@@ -19,50 +25,60 @@ import torch
 
 from grouptron.model import gaussians
 
+PARALLEL_MIN_BLOCK_VALUES = 32768
+"""Worker threads climb the blocks only when a block's arrays hold at least this many values
+(mixtures x components x starts): NumPy frees the interpreter inside each operation, but on
+smaller arrays handing it between threads costs more than the second core gives. A live
+update's ``ml-top2`` (at most 2048 x 2 x 1 per block) and ``ml-top10`` (20,480) climb on the
+calling thread, the benchmark's ``ml`` (25 components, 4 starts) on workers
+(``benchmarks/mixture_mode.py``)."""
 
-def _logsumexp(values: np.ndarray) -> np.ndarray:
-    """(..., Z) -> (...) log of the sum of exponentials over the last axis."""
-    top = values.max(axis=-1)
-    total: np.ndarray = top + np.log(np.exp(values - top[..., None]).sum(axis=-1))
+
+def _logsumexp(values: np.ndarray, axis: int = 0) -> np.ndarray:
+    """Log of the sum of exponentials over ``axis`` (the components')."""
+    top = values.max(axis=axis)
+    shifted = values - np.expand_dims(top, axis)
+    total: np.ndarray = top + np.log(np.exp(shifted).sum(axis=axis))
     return total
 
 
 def _precision(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(..., 3) covariance entries -> (..., 3) precision entries and (...) log-determinants."""
-    var_x, cov_xy, var_y = cov[..., 0], cov[..., 1], cov[..., 2]
+    """(3, ...) covariance entries -> (3, ...) precision entries and (...) log-determinants."""
+    var_x, cov_xy, var_y = cov
     det = var_x * var_y - cov_xy**2
-    return np.stack([var_y, -cov_xy, var_x], -1) / det[..., None], np.log(det)
+    return np.stack([var_y, -cov_xy, var_x]) / det, np.log(det)
 
 
-def _quad(diff: np.ndarray, precision: np.ndarray) -> np.ndarray:
-    """(..., 2) vectors, (..., 3) precision entries -> (...) quadratic forms."""
-    dx, dy = diff[..., 0], diff[..., 1]
-    quad: np.ndarray = (
-        precision[..., 0] * dx**2 + 2.0 * precision[..., 1] * dx * dy + precision[..., 2] * dy**2
-    )
+def _quad(dx: np.ndarray, dy: np.ndarray, precision: np.ndarray) -> np.ndarray:
+    """(...) vector entries, (3, ...) precision entries -> (...) quadratic forms."""
+    quad: np.ndarray = precision[0] * dx**2 + 2.0 * precision[1] * dx * dy + precision[2] * dy**2
     return quad
 
 
 def _log_components(
     points: np.ndarray, log_norm: np.ndarray, mean: np.ndarray, precision: np.ndarray
 ) -> np.ndarray:
-    """(R, 2) points of R mixtures -> (R, Z) log of weight * component density."""
-    return log_norm - 0.5 * _quad(points[:, None, :] - mean, precision)
+    """(2, R) points of R mixtures -> (Z, R) log of weight * component density."""
+    return log_norm - 0.5 * _quad(points[0] - mean[0], points[1] - mean[1], precision)
 
 
 def _solve(a: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """(R, 3) symmetric 2x2 matrices (xx, xy, yy), (R, 2) vectors -> (R, 2) ``a^-1 v``."""
-    det = a[:, 0] * a[:, 2] - a[:, 1] ** 2
-    adjugate_v = np.stack(
-        [a[:, 2] * v[:, 0] - a[:, 1] * v[:, 1], a[:, 0] * v[:, 1] - a[:, 1] * v[:, 0]], -1
-    )
-    solved: np.ndarray = adjugate_v / det[:, None]
+    """(3, R) symmetric 2x2 matrices (xx, xy, yy), (2, R) vectors -> (2, R) ``a^-1 v``."""
+    det = a[0] * a[2] - a[1] ** 2
+    solved: np.ndarray = np.stack([a[2] * v[0] - a[1] * v[1], a[0] * v[1] - a[1] * v[0]]) / det
     return solved
 
 
+def _columns(values: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """(..., R) values, (R,) booleans -> (..., K) the kept mixtures' columns, contiguous (plain
+    indexing of the last axis gives a strided array, and every later operation pays for it)."""
+    kept: np.ndarray = np.compress(keep, values, axis=-1)
+    return kept
+
+
 def _weighted(resp: np.ndarray, entries: np.ndarray) -> np.ndarray:
-    """(R, Z) responsibilities, (R, Z, C) entries -> (R, C) their responsibility-weighted sum."""
-    weighted: np.ndarray = np.einsum("rz,rzc->rc", resp, entries)
+    """(Z, R) responsibilities, (C, Z, R) entries -> (C, R) their responsibility-weighted sum."""
+    weighted: np.ndarray = (resp * entries).sum(axis=1)
     return weighted
 
 
@@ -74,35 +90,30 @@ def _newton_or_fixed_point(
     prec: np.ndarray,
     pm: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """One safeguarded step from (A, 2) points with (A, Z) log components: Newton's where the
+    """One safeguarded step from (2, A) points with (Z, A) log components: Newton's where the
     Hessian is negative definite and the density rises, else the fixed point ``A^-1 b``
     (which never descends). Returns the new points and their log components."""
     f = _logsumexp(lc)
-    resp = np.exp(lc - f[:, None])  # (A, Z)
-    a = _weighted(resp, prec)  # (A, 3)
-    b = _weighted(resp, pm)  # (A, 2)
+    resp = np.exp(lc - f)  # (Z, A)
+    a = _weighted(resp, prec)  # (3, A)
+    b = _weighted(resp, pm)  # (2, A)
     # grad l_k = P_k (mu_k - x) = pm_k - P_k x; grad f = sum_k r_k grad l_k = b - A x
-    x0, x1 = x[:, None, 0], x[:, None, 1]
-    grad_k = pm - np.stack(
-        [prec[..., 0] * x0 + prec[..., 1] * x1, prec[..., 1] * x0 + prec[..., 2] * x1], -1
-    )  # (A, Z, 2)
-    grad = b - np.stack(
-        [a[:, 0] * x[:, 0] + a[:, 1] * x[:, 1], a[:, 1] * x[:, 0] + a[:, 2] * x[:, 1]], -1
-    )
-    g0, g1 = grad_k[..., 0], grad_k[..., 1]
-    hessian = _weighted(resp, np.stack([g0**2, g0 * g1, g1**2], -1)) - a
-    hessian -= np.stack([grad[:, 0] ** 2, grad[:, 0] * grad[:, 1], grad[:, 1] ** 2], -1)
-    concave = (hessian[:, 0] < 0) & (hessian[:, 0] * hessian[:, 2] - hessian[:, 1] ** 2 > 0)
+    g0 = pm[0] - (prec[0] * x[0] + prec[1] * x[1])  # (Z, A)
+    g1 = pm[1] - (prec[1] * x[0] + prec[2] * x[1])
+    grad = b - np.stack([a[0] * x[0] + a[1] * x[1], a[1] * x[0] + a[2] * x[1]])  # (2, A)
+    hessian = _weighted(resp, np.stack([g0**2, g0 * g1, g1**2])) - a
+    hessian -= np.stack([grad[0] ** 2, grad[0] * grad[1], grad[1] ** 2])
+    concave = (hessian[0] < 0) & (hessian[0] * hessian[2] - hessian[1] ** 2 > 0)
     with np.errstate(divide="ignore", invalid="ignore"):  # non-concave rows are discarded
         newton = x - _solve(hessian, grad)
-    newton = np.where(concave[:, None], newton, x)
+    newton = np.where(concave, newton, x)
     lc_newton = _log_components(newton, ln, mu, prec)
     fallback = ~(concave & (_logsumexp(lc_newton) > f))
     if fallback.any():
-        fixed_point = _solve(a[fallback], b[fallback])
-        newton[fallback] = fixed_point
-        lc_newton[fallback] = _log_components(
-            fixed_point, ln[fallback], mu[fallback], prec[fallback]
+        fixed_point = _solve(*(_columns(v, fallback) for v in (a, b)))
+        newton[:, fallback] = fixed_point
+        lc_newton[:, fallback] = _log_components(
+            fixed_point, *(_columns(v, fallback) for v in (ln, mu, prec))
         )
     return newton, lc_newton
 
@@ -121,28 +132,24 @@ def _climb(
     move are computed.
 
     Args:
-        points: (R, 2) starts; log_norm: (R, Z); mean: (R, Z, 2); precision: (R, Z, 3);
-            prec_mean: (R, Z, 2) ``P_k mu_k``.
+        points: (2, R) starts; log_norm: (Z, R); mean: (2, Z, R); precision: (3, Z, R);
+            prec_mean: (2, Z, R) ``P_k mu_k``.
 
     Returns:
-        (R, 2) end points and (R,) their log-densities.
+        (2, R) end points and (R,) their log-densities.
     """
     points = points.copy()
-    log_comp = _log_components(points, log_norm, mean, precision)  # (R, Z)
-    active = np.arange(len(points))
+    log_comp = _log_components(points, log_norm, mean, precision)  # (Z, R)
+    active = np.arange(points.shape[1])
+    arrays = (log_norm, mean, precision, prec_mean)
     for _ in range(max_iters):
-        x = points[active]
+        x = points[:, active]
         new_x, new_lc = _newton_or_fixed_point(
-            x,
-            log_comp[active],
-            log_norm[active],
-            mean[active],
-            precision[active],
-            prec_mean[active],
+            x, *(np.take(a, active, axis=-1) for a in (log_comp, *arrays))
         )
-        moved = np.abs(new_x - x).max(axis=-1)
-        points[active] = new_x
-        log_comp[active] = new_lc
+        moved = np.abs(new_x - x).max(axis=0)
+        points[:, active] = new_x
+        log_comp[:, active] = new_lc
         active = active[moved >= tol]
         if len(active) == 0:
             break
@@ -156,25 +163,25 @@ def _separated_starts(
     within ``min_gap`` of one already picked (they would climb to the same peak).
 
     Args:
-        at_means: (N, Z) mixture log-density at every component mean.
-        mean: (N, Z, 2).
+        at_means: (Z, N) mixture log-density at every component mean.
+        mean: (2, Z, N).
 
     Returns:
-        (N, count) component indices (repeats when fewer distinct means exist).
+        (count, N) component indices (repeats when fewer distinct means exist).
     """
     score = at_means.copy()
-    rows = np.arange(len(mean))
+    columns = np.arange(score.shape[1])
     picked = []
     for _ in range(count):  # a handful of rounds, vectorised over mixtures
-        best = score.argmax(axis=-1)  # (N,)
+        best = score.argmax(axis=0)  # (N,)
         picked.append(best)
         if len(picked) == count:
             break
-        near = np.linalg.norm(mean - mean[rows, best][:, None], axis=-1) < min_gap  # (N, Z)
-        score[near] = -np.inf
-        exhausted = np.isinf(score).all(axis=-1)
-        score[exhausted] = at_means[exhausted]
-    return np.stack(picked, axis=-1)
+        dx, dy = mean[0] - mean[0, best, columns], mean[1] - mean[1, best, columns]
+        score[np.sqrt(dx**2 + dy**2) < min_gap] = -np.inf
+        exhausted = np.isinf(score).all(axis=0)
+        score[:, exhausted] = at_means[:, exhausted]
+    return np.stack(picked)
 
 
 def mixture_mode(
@@ -200,25 +207,37 @@ def mixture_mode(
 
     Returns:
         (N, 2) float64 modes, on the device of ``mean`` (the climb itself runs on the CPU: a
-        few hundred 2-D mixtures are too small for an accelerator to pay off).
+        few thousand 2-D mixtures are too small for an accelerator to pay off).
     """
-    arrays = [t.detach().cpu().double().numpy() for t in (log_weights, mean, cov)]
-
-    count = len(arrays[0])
-    size = -(-count // max(1, -(-count // chunk)))  # equal blocks of at most ``chunk``
+    weights_zn = np.ascontiguousarray(log_weights.detach().cpu().double().numpy().T)  # (Z, N)
+    mean_czn, cov_czn = (
+        np.ascontiguousarray(t.detach().cpu().double().numpy().transpose(2, 1, 0))
+        for t in (mean, cov)
+    )  # (2, Z, N), (3, Z, N)
+    count = weights_zn.shape[1]
+    size = max(1, -(-count // max(1, -(-count // chunk))))  # equal blocks of at most ``chunk``
 
     def block(start: int) -> np.ndarray:
-        weights, means, covs = (a[start : start + size] for a in arrays)
-        return _mixture_mode_block(weights, means, covs, num_starts, max_iters=max_iters, tol=tol)
+        part = slice(start, start + size)
+        return _mixture_mode_block(
+            weights_zn[:, part],
+            mean_czn[..., part],
+            cov_czn[..., part],
+            num_starts,
+            max_iters=max_iters,
+            tol=tol,
+        )
 
-    starts = range(0, count, max(size, 1))
+    starts = range(0, count, size)
     workers = min(torch.get_num_threads(), len(starts))
-    if workers > 1:  # NumPy frees the interpreter inside its loops over large blocks
+    block_values = size * weights_zn.shape[0] * min(num_starts, weights_zn.shape[0])
+    if workers > 1 and block_values >= PARALLEL_MIN_BLOCK_VALUES:
         with ThreadPoolExecutor(workers) as pool:
             modes = list(pool.map(block, starts))
     else:
         modes = [block(start) for start in starts]
-    return torch.from_numpy(np.concatenate(modes) if modes else np.zeros((0, 2))).to(mean.device)
+    modes_2n = np.concatenate(modes, axis=1) if modes else np.zeros((2, 0))
+    return torch.from_numpy(np.ascontiguousarray(modes_2n.T)).to(mean.device)
 
 
 def _mixture_mode_block(
@@ -230,35 +249,31 @@ def _mixture_mode_block(
     max_iters: int,
     tol: float,
 ) -> np.ndarray:
-    N, Z = log_weights.shape
-    precision, log_det = _precision(cov)  # (N, Z, 3), (N, Z)
-    log_norm = log_weights - math.log(2.0 * math.pi) - 0.5 * log_det  # (N, Z)
+    """(Z, N) log weights, (2, Z, N) means, (3, Z, N) covariances -> (2, N) modes."""
+    Z, N = log_weights.shape
+    precision, log_det = _precision(cov)  # (3, Z, N), (Z, N)
+    log_norm = log_weights - math.log(2.0 * math.pi) - 0.5 * log_det  # (Z, N)
     prec_mean = np.stack(
         [
-            precision[..., 0] * mean[..., 0] + precision[..., 1] * mean[..., 1],
-            precision[..., 1] * mean[..., 0] + precision[..., 2] * mean[..., 1],
-        ],
-        -1,
-    )  # (N, Z, 2)
+            precision[0] * mean[0] + precision[1] * mean[1],
+            precision[1] * mean[0] + precision[2] * mean[1],
+        ]
+    )  # (2, Z, N)
 
-    # Density of each mixture at each of its own component means: (N, Z, Z) in one go.
-    diff = mean[:, :, None, :] - mean[:, None, :, :]  # (N, Z_at, Z_comp, 2)
-    at_means = _logsumexp(log_norm[:, None] - 0.5 * _quad(diff, precision[:, None]))
+    # Density of each mixture at each of its own component means: (Z_at, Z_comp, N) in one go.
+    dx, dy = (m[:, None] - m[None] for m in mean)
+    at_means = _logsumexp(log_norm[None] - 0.5 * _quad(dx, dy, precision[:, None]), axis=1)
     S = min(num_starts, Z)
-    starts = _separated_starts(at_means, mean, S)  # (N, S)
-    owner = np.repeat(np.arange(N), S)  # mixture of each start
-    points = np.take_along_axis(mean, starts[..., None], axis=1).reshape(N * S, 2)
-    points, score = _climb(
-        points,
-        log_norm[owner],
-        mean[owner],
-        precision[owner],
-        prec_mean=prec_mean[owner],
-        max_iters=max_iters,
-        tol=tol,
-    )
-    best = score.reshape(N, S).argmax(axis=-1)
-    modes: np.ndarray = points.reshape(N, S, 2)[np.arange(N), best]
+    starts = _separated_starts(at_means, mean, S)  # (S, N)
+    columns = np.arange(N)
+    points = np.stack([mean[0, starts, columns], mean[1, starts, columns]]).reshape(2, S * N)
+    owned: tuple[np.ndarray, ...] = (log_norm, mean, precision, prec_mean)
+    if S > 1:  # start s of mixture n is column s * N + n
+        owner = np.tile(columns, S)
+        owned = tuple(np.take(a, owner, axis=-1) for a in owned)
+    points, score = _climb(points, *owned[:3], prec_mean=owned[3], max_iters=max_iters, tol=tol)
+    best = score.reshape(S, N).argmax(axis=0)
+    modes: np.ndarray = points.reshape(2, S, N)[:, best, columns]
     return modes
 
 
