@@ -102,7 +102,9 @@ def _feed(learner: SiteLearner, path: Path) -> None:
         learner.observe(frame * 0.04, rows[at, 1].astype(np.int64), rows[at, 2:4])
 
 
-@pytest.mark.parametrize("learning_rate", [1e-9, 1.0, 30.0])
+# 0.5 spoils the tiny model without diverging: where spoiling turns into diverging (between
+# 0.7 and 2) a rounding difference in the last bit decides which one happens.
+@pytest.mark.parametrize("learning_rate", [1e-9, 0.5, 30.0])
 def test_rounds_that_do_not_forecast_better_keep_the_shipped_weights(
     checkpoint: Path, site: Path, learning_rate: float
 ) -> None:
@@ -115,9 +117,9 @@ def test_rounds_that_do_not_forecast_better_keep_the_shipped_weights(
     status = learner.status
     assert status.rounds >= 3 and status.accepted == 0 and not status.adapted
     last = status.last_difference
-    if learning_rate < 1:  # beyond chance, perhaps, but nanometres: not worth a swap
+    if learning_rate < 1e-3:  # beyond chance, perhaps, but nanometres: not worth a swap
         assert last is not None and abs(last.mean) < 1e-6
-    elif learning_rate == 1:
+    elif learning_rate < 1:
         assert last is not None and last.low > 0
     else:
         assert last is None  # every round diverged

@@ -17,7 +17,7 @@ from grouptron.config import ModelConfig
 from grouptron.errors import GrouptronError
 from grouptron.model import gaussians, noise
 from grouptron.model.batch import Batch
-from grouptron.model.layers import HoistedGRUDecoder, run_masked_lstm
+from grouptron.model.layers import HoistedGRUDecoder, StepBuffers, run_masked_lstm
 from grouptron.model.noise import TrainingNoise
 
 Feedback = Literal["sample", "mean"]
@@ -252,16 +252,25 @@ class TrajectronCVAE(nn.Module):
         and (R, 2) or 0 offset for R = B*M rows -> Gaussians shaped (B, M, H, ...).
 
         Only the means feed the next step, so the loop computes the head's two mean rows and
-        the spreads come from all steps' states at once afterwards (the same affine map)."""
+        the spreads come from all steps' states at once afterwards (the same affine map).
+        Without gradients the steps reuse preallocated storage (:class:`StepBuffers`)."""
         c = self.config
         weight, bias = self.gaussian_head.weight, self.gaussian_head.bias  # (5, h), (5,)
-        states, means = [], []
-        for _ in range(shape[2]):  # the recurrence; batched over B*M rows
-            h = self.decoder.step(gates_zx, action, h)
+        horizon = shape[2]
+        reuse = not torch.is_grad_enabled() and not torch.compiler.is_exporting()
+        work = StepBuffers.like(gates_zx) if reuse else None
+        states = h.new_empty(horizon, *h.shape) if reuse else None  # (H, R, h)
+        kept, means = [], []
+        for k in range(horizon):  # the recurrence; batched over B*M rows
+            if work is not None and states is not None:
+                h = self.decoder.step_into(gates_zx, action, h, work, out=states[k])
+            else:
+                h = self.decoder.step(gates_zx, action, h)
+                kept.append(h)
             action = torch.addmm(bias[:2], h, weight[:2].T).float() + offset  # (R, 2)
-            states.append(h)
             means.append(action)
-        spread = F.linear(torch.stack(states, 1), weight[2:], bias[2:]).float()  # (R, H, 3)
+        every_state = states if states is not None else torch.stack(kept)  # (H, R, h)
+        spread = F.linear(every_state, weight[2:], bias[2:]).float().transpose(0, 1)  # (R, H, 3)
         mean = torch.stack(means, 1).reshape(*shape, 2)
         return VelocityGaussians(
             mean=mean,

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import torch
 from torch import nn
 
@@ -70,6 +72,31 @@ class HoistedGRUDecoder(nn.Module):
         from_x = x @ self.initial_h.weight[:, Z:].T + self.initial_h.bias  # (B, h)
         return from_x[:, None, :] + self._latent_rows(self.initial_h.weight[:, :Z], z_index)
 
+    def step_into(
+        self,
+        gates_zx: torch.Tensor,
+        action: torch.Tensor,
+        h: torch.Tensor,
+        work: StepBuffers,
+        out: torch.Tensor,
+    ) -> torch.Tensor:
+        """:meth:`step` with every intermediate written into ``work`` and the new (R, h) state
+        into ``out`` (returned): the same operations in the same order, so the same numbers,
+        without allocating. Inference only (``out=`` operations have no gradient)."""
+        hidden = self.cell.hidden_size
+        w_a = self.cell.weight_ih[:, self.latent_values + self.condition_dim :]  # (3h, A)
+        gates_in = torch.addmm(gates_zx, action, w_a.T, out=work.gates_in)
+        gates_h = torch.addmm(self.cell.bias_hh, h, self.cell.weight_hh.T, out=work.gates_h)
+        reset_update = torch.add(
+            gates_in[:, : 2 * hidden], gates_h[:, : 2 * hidden], out=work.reset_update
+        ).sigmoid_()
+        reset, update = reset_update[:, :hidden], reset_update[:, hidden:]
+        candidate = torch.addcmul(
+            gates_in[:, 2 * hidden :], reset, gates_h[:, 2 * hidden :], out=work.candidate
+        ).tanh_()
+        change = torch.sub(h, candidate, out=work.change).mul_(update)
+        return torch.add(candidate, change, out=out)
+
     def step(self, gates_zx: torch.Tensor, action: torch.Tensor, h: torch.Tensor) -> torch.Tensor:
         """One GRU step on rows: (R, 3h) constant gates, (R, A) previous action, (R, h) state."""
         hidden = self.cell.hidden_size
@@ -84,3 +111,36 @@ class HoistedGRUDecoder(nn.Module):
             torch.addcmul(gates_in[:, 2 * hidden :], reset, gates_h[:, 2 * hidden :])
         )
         return candidate + update * (h - candidate)
+
+
+@dataclass(frozen=True)
+class StepBuffers:
+    """Storage for the intermediates of :meth:`HoistedGRUDecoder.step_into` on R rows.
+
+    A live update's decoder allocates about 5 MB of intermediates per step; fresh memory of
+    that size comes from the operating system page by page, which took half of each step's
+    time (``benchmarks/streaming.py``), so inference reuses these for every step.
+
+    Attributes:
+        gates_in, gates_h: (R, 3h) the input's and the state's gates.
+        reset_update: (R, 2h) both sigmoid gates.
+        candidate, change: (R, h) the candidate state and the update's share of the change.
+    """
+
+    gates_in: torch.Tensor
+    gates_h: torch.Tensor
+    reset_update: torch.Tensor
+    candidate: torch.Tensor
+    change: torch.Tensor
+
+    @classmethod
+    def like(cls, gates_zx: torch.Tensor) -> StepBuffers:
+        """Buffers for the rows of (R, 3h) ``gates_zx``, of its dtype and device."""
+        rows, hidden = gates_zx.shape[0], gates_zx.shape[1] // 3
+        return cls(
+            gates_in=torch.empty_like(gates_zx),
+            gates_h=torch.empty_like(gates_zx),
+            reset_update=gates_zx.new_empty(rows, 2 * hidden),
+            candidate=gates_zx.new_empty(rows, hidden),
+            change=gates_zx.new_empty(rows, hidden),
+        )
