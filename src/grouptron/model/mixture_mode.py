@@ -140,19 +140,26 @@ def _climb(
     """
     points = points.copy()
     log_comp = _log_components(points, log_norm, mean, precision)  # (Z, R)
+    # The moving points' columns, kept contiguous and cut only when some stop: most climbs
+    # move every point for the first iterations.
     active = np.arange(points.shape[1])
-    arrays = (log_norm, mean, precision, prec_mean)
+    arrays: tuple[np.ndarray, ...] = (log_norm, mean, precision, prec_mean)
+    x, lc = points, log_comp
     for _ in range(max_iters):
-        x = points[:, active]
-        new_x, new_lc = _newton_or_fixed_point(
-            x, *(np.take(a, active, axis=-1) for a in (log_comp, *arrays))
-        )
-        moved = np.abs(new_x - x).max(axis=0)
-        points[:, active] = new_x
-        log_comp[:, active] = new_lc
-        active = active[moved >= tol]
+        new_x, new_lc = _newton_or_fixed_point(x, lc, *arrays)
+        moving = np.abs(new_x - x).max(axis=0) >= tol
+        x, lc = new_x, new_lc
+        if moving.all():
+            continue
+        stopped = active[~moving]
+        points[:, stopped], log_comp[:, stopped] = x[:, ~moving], lc[:, ~moving]
+        active = active[moving]
         if len(active) == 0:
             break
+        x, lc = _columns(x, moving), _columns(lc, moving)
+        arrays = tuple(_columns(a, moving) for a in arrays)
+    else:  # some still moving after max_iters
+        points[:, active], log_comp[:, active] = x, lc
     return points, _logsumexp(log_comp)
 
 
