@@ -176,14 +176,17 @@ def timing_line(label: str, times: list[list[float]], forecasts: int, yardstick:
 
 
 PROFILED = (
-    ("encoders", "encode_prior"),
-    ("decoder", "decode"),
-    ("mixture mode", "mixture_mode"),
-    ("groups at the step", "groups_at_step"),
-    ("samples and edges", "scene_samples"),
-    ("whole update", "update"),
+    ("encoders", "model/predict.py", "encode_prior"),
+    ("of which the scene encoder", "model/grouptron.py", "encode_scene"),
+    ("decoder", "model/cvae.py", "decode"),
+    ("of which its steps", "model/cvae.py", "_decode_means"),
+    ("mixture mode", "model/mixture_mode.py", "mixture_mode"),
+    ("groups at the step", "groups/scene.py", "groups_at_step"),
+    ("samples and edges", "prepare/samples.py", "scene_samples"),
+    ("whole update", "inference/stream.py", "update"),
 )
-"""The parts of an update the profile reports: (label, function name)."""
+"""The parts of an update the profile reports: (label, the end of its file's path, function
+name). Parts may hold others, as their labels say."""
 
 
 def profile_update(predictor: Predictor, people: int, frames: int) -> dict[str, float]:
@@ -200,9 +203,11 @@ def profile_update(predictor: Predictor, people: int, frames: int) -> dict[str, 
         profiler.disable()
     stats = pstats.Stats(profiler).stats  # type: ignore[attr-defined]
     spent: dict[str, float] = {}
-    for label, function in PROFILED:
+    for label, module, function in PROFILED:
         seconds = sum(
-            v[3] for (path, _, name), v in stats.items() if name == function and "grouptron" in path
+            v[3]
+            for (path, _, name), v in stats.items()
+            if name == function and path.endswith(module) and "grouptron" in path
         )
         spent[label] = 1000 * seconds / max(timed, 1)
     return spent

@@ -117,9 +117,10 @@ class HoistedGRUDecoder(nn.Module):
 class StepBuffers:
     """Storage for the intermediates of :meth:`HoistedGRUDecoder.step_into` on R rows.
 
-    A live update's decoder allocates about 5 MB of intermediates per step; fresh memory of
-    that size comes from the operating system page by page, which took half of each step's
-    time (``benchmarks/streaming.py``), so inference reuses these for every step.
+    A live update's decoder allocates about 5 MB of intermediates per step at 300 people, and
+    fresh memory of that size comes from the operating system page by page: reusing these for
+    every step took the decoder's steps from 7.5 to 6.5 ms there
+    (``benchmarks/streaming.py --profile``).
 
     Attributes:
         gates_in, gates_h: (R, 3h) the input's and the state's gates.
