@@ -8,8 +8,9 @@ Usage:
 ``--save`` streams the frames around the most crowded one of an ETH/UCY-layout recording
 (default: the densest Grand Central file, ``../shared/data/crowds/gc/gc_043.txt``) through
 each checkpoint's live session with its own point forecast and stores the last update's point
-forecasts (N, 12, 2) and their distribution's means (N, M, 12, 2). Run it in a worktree of
-each commit (``PYTHONPATH=src``). ``--compare`` prints, per checkpoint and array, the largest
+forecasts (N, 12, 2) and their distribution's means (N, M, 12, 2). Run it once per commit
+with that commit's package first on the path (``PYTHONPATH=<worktree of it>/src``; this
+script itself may be newer). ``--compare`` prints, per checkpoint and array, the largest
 difference in metres and whether the two are bitwise equal.
 """
 

@@ -108,3 +108,24 @@ def test_following_the_means_equals_sampled_feedback_with_zero_draws() -> None:
         sampled = model.decode(x, batch.state_now_st, None, 12, feedback="sample", draws=zero)
         for name in ("mean", "log_sigma", "corr", "fed_back"):
             torch.testing.assert_close(getattr(means, name), getattr(sampled, name))
+
+
+def test_inference_decoding_reuses_storage_with_the_same_numbers() -> None:
+    """Without gradients the decoder's steps write into storage made once per call; the
+    Gaussians are bitwise those of the allocating path (which training and export use), for one
+    sample (whose rows are a column-major view) and several, every latent value or chosen
+    ones, and come out contiguous."""
+    torch.manual_seed(0)
+    model = TrajectronCVAE(dataclasses.replace(SMALL, velocity_residual=True)).eval()
+    batch = random_batch()
+    for rows in (slice(0, 1), slice(0, 6)):
+        x, now = model.encode_condition(batch)[rows].detach(), batch.state_now_st[rows]
+        chosen = torch.tensor([[3, 1]]).expand(len(x), 2)
+        for z_index in (None, chosen):
+            allocating = model.decode(x, now, z_index, 12, feedback="mean")
+            with torch.no_grad():
+                reusing = model.decode(x, now, z_index, 12, feedback="mean")
+            for name in ("mean", "log_sigma", "corr", "fed_back"):
+                value = getattr(reusing, name)
+                assert torch.equal(value, getattr(allocating, name)), (rows, name)
+                assert value.is_contiguous(), (rows, name)

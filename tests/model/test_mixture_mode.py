@@ -103,3 +103,23 @@ def test_small_mixtures_climb_on_the_calling_thread(monkeypatch: pytest.MonkeyPa
             mixture_mode(log_weights, mean, cov, num_starts=4)
     finally:
         torch.set_num_threads(threads)
+
+
+def test_a_climb_cut_short_keeps_the_steps_it_made() -> None:
+    """With too few iterations for the points to settle, the modes are where the climb got to:
+    never below the start (the densest component mean), above it for most mixtures, and
+    no higher than with the full iteration budget."""
+    log_weights, mean, cov = random_mixtures(40, 5)
+    for i in range(len(mean)):
+        at_means = log_density_at(mean[i], log_weights[i], mean[i], cov[i])
+        start = at_means.max()
+        one, full = (
+            mixture_mode(log_weights[i : i + 1], mean[i : i + 1], cov[i : i + 1], 1, max_iters=n)
+            for n in (1, 30)
+        )
+        after_one = log_density_at(one, log_weights[i], mean[i], cov[i])[0]
+        settled = log_density_at(full, log_weights[i], mean[i], cov[i])[0]
+        assert start - 1e-12 <= after_one <= settled + 1e-12, i
+    cut = mixture_mode(log_weights, mean, cov, 1, max_iters=1)
+    moved = (cut - mixture_mode(log_weights, mean, cov, 1, max_iters=0)).norm(dim=-1) > 1e-6
+    assert moved.float().mean() > 0.5

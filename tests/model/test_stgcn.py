@@ -19,8 +19,18 @@ def test_the_temporal_convolution_equals_conv1d(kernel: int, dilation: int) -> N
     expected = conv(x.transpose(1, 2)).transpose(1, 2)
     torch.testing.assert_close(temporal_conv(conv, x), expected, rtol=1e-5, atol=1e-6)
     x.requires_grad_(True)
-    temporal_conv(conv, x).sum().backward()
-    x_ref = x.detach().clone().requires_grad_(True)
-    conv(x_ref.transpose(1, 2)).sum().backward()
-    assert x.grad is not None and x_ref.grad is not None
-    torch.testing.assert_close(x.grad, x_ref.grad, rtol=1e-5, atol=1e-6)
+    weights = torch.randn_like(expected)  # a loss that weighs every output differently
+    ours = torch.autograd.grad((temporal_conv(conv, x) * weights).sum(), [x, *conv.parameters()])
+    theirs = torch.autograd.grad(
+        (conv(x.transpose(1, 2)).transpose(1, 2) * weights).sum(), [x, *conv.parameters()]
+    )
+    for mine, reference in zip(ours, theirs, strict=True):  # input, weight and bias
+        torch.testing.assert_close(mine, reference, rtol=1e-5, atol=1e-5)
+
+
+def test_a_temporal_convolution_without_bias_equals_conv1d() -> None:
+    torch.manual_seed(0)
+    conv = torch.nn.Conv1d(5, 7, 3, padding=2, dilation=2, bias=False)
+    x = torch.randn(11, 8, 5)
+    expected = conv(x.transpose(1, 2)).transpose(1, 2)
+    torch.testing.assert_close(temporal_conv(conv, x), expected, rtol=1e-5, atol=1e-6)

@@ -270,7 +270,8 @@ class TrajectronCVAE(nn.Module):
             action = torch.addmm(bias[:2], h, weight[:2].T).float() + offset  # (R, 2)
             means.append(action)
         every_state = states if states is not None else torch.stack(kept)  # (H, R, h)
-        spread = F.linear(every_state, weight[2:], bias[2:]).float().transpose(0, 1)  # (R, H, 3)
+        spread = F.linear(every_state, weight[2:], bias[2:]).float()  # (H, R, 3)
+        spread = spread.transpose(0, 1).contiguous()  # (R, H, 3)
         mean = torch.stack(means, 1).reshape(*shape, 2)
         return VelocityGaussians(
             mean=mean,

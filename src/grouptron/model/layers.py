@@ -138,9 +138,11 @@ class StepBuffers:
     def like(cls, gates_zx: torch.Tensor) -> StepBuffers:
         """Buffers for the rows of (R, 3h) ``gates_zx``, of its dtype and device."""
         rows, hidden = gates_zx.shape[0], gates_zx.shape[1] // 3
+        # Row-major whatever the layout of ``gates_zx`` (one sample's rows are a column-major
+        # view): a product written into a column-major buffer is summed in another order.
         return cls(
-            gates_in=torch.empty_like(gates_zx),
-            gates_h=torch.empty_like(gates_zx),
+            gates_in=gates_zx.new_empty(gates_zx.shape),
+            gates_h=gates_zx.new_empty(gates_zx.shape),
             reset_update=gates_zx.new_empty(rows, 2 * hidden),
             candidate=gates_zx.new_empty(rows, hidden),
             change=gates_zx.new_empty(rows, hidden),

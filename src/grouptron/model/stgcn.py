@@ -84,7 +84,7 @@ def temporal_conv(conv: nn.Conv1d, x: torch.Tensor) -> torch.Tensor:
     weight = conv.weight.permute(2, 0, 1).reshape(kernel * out, -1)  # (k out, D), tap-major
     taps = nn.functional.linear(x, weight)  # (N, T, k out)
     centre = kernel // 2  # the tap at shift 0
-    bias = 0.0 if conv.bias is None else conv.bias
+    bias = 0.0 if conv.bias is None else conv.bias.to(taps.dtype)  # bf16 stays bf16
     result = taps[..., centre * out : (centre + 1) * out] + bias  # (N, T, out), a copy
     for j in range(kernel):  # tap j reads step t + shift; padded steps add nothing
         shift = j * dilation - pad
