@@ -259,17 +259,15 @@ class TrajectronCVAE(nn.Module):
         horizon = shape[2]
         reuse = not torch.is_grad_enabled() and not torch.compiler.is_exporting()
         work = StepBuffers.like(gates_zx) if reuse else None
-        states = h.new_empty(horizon, *h.shape) if reuse else None  # (H, R, h)
-        kept, means = [], []
+        buffered = h.new_empty(horizon, *h.shape) if reuse else None  # (H, R, h) the states
+        states, means = [], []
         for k in range(horizon):  # the recurrence; batched over B*M rows
-            if work is not None and states is not None:
-                h = self.decoder.step_into(gates_zx, action, h, work, out=states[k])
-            else:
-                h = self.decoder.step(gates_zx, action, h)
-                kept.append(h)
+            out = None if buffered is None else buffered[k]
+            h = self.decoder.step(gates_zx, action, h, work, out=out)
             action = torch.addmm(bias[:2], h, weight[:2].T).float() + offset  # (R, 2)
+            states.append(h)
             means.append(action)
-        every_state = states if states is not None else torch.stack(kept)  # (H, R, h)
+        every_state = torch.stack(states) if buffered is None else buffered  # (H, R, h)
         spread = F.linear(every_state, weight[2:], bias[2:]).float()  # (H, R, 3)
         spread = spread.transpose(0, 1).contiguous()  # (R, H, 3)
         mean = torch.stack(means, 1).reshape(*shape, 2)

@@ -72,50 +72,39 @@ class HoistedGRUDecoder(nn.Module):
         from_x = x @ self.initial_h.weight[:, Z:].T + self.initial_h.bias  # (B, h)
         return from_x[:, None, :] + self._latent_rows(self.initial_h.weight[:, :Z], z_index)
 
-    def step_into(
+    def step(
         self,
         gates_zx: torch.Tensor,
         action: torch.Tensor,
         h: torch.Tensor,
-        work: StepBuffers,
-        out: torch.Tensor,
+        work: StepBuffers | None = None,
+        out: torch.Tensor | None = None,
     ) -> torch.Tensor:
-        """:meth:`step` with every intermediate written into ``work`` and the new (R, h) state
-        into ``out`` (returned): the same operations in the same order, so the same numbers,
-        without allocating. Inference only (``out=`` operations have no gradient)."""
+        """One GRU step on rows: (R, 3h) constant gates, (R, A) previous action, (R, h) state
+        -> the new (R, h) state. With ``work`` every intermediate is written into it and the
+        new state into ``out`` (inference only: ``out=`` operations have no gradient); the
+        operations are the same either way, so are the numbers."""
         hidden = self.cell.hidden_size
+        w = work if work is not None else _ALLOCATE
         w_a = self.cell.weight_ih[:, self.latent_values + self.condition_dim :]  # (3h, A)
-        gates_in = torch.addmm(gates_zx, action, w_a.T, out=work.gates_in)
-        gates_h = torch.addmm(self.cell.bias_hh, h, self.cell.weight_hh.T, out=work.gates_h)
-        reset_update = torch.add(
-            gates_in[:, : 2 * hidden], gates_h[:, : 2 * hidden], out=work.reset_update
-        ).sigmoid_()
-        reset, update = reset_update[:, :hidden], reset_update[:, hidden:]
-        candidate = torch.addcmul(
-            gates_in[:, 2 * hidden :], reset, gates_h[:, 2 * hidden :], out=work.candidate
-        ).tanh_()
-        change = torch.sub(h, candidate, out=work.change).mul_(update)
-        return torch.add(candidate, change, out=out)
-
-    def step(self, gates_zx: torch.Tensor, action: torch.Tensor, h: torch.Tensor) -> torch.Tensor:
-        """One GRU step on rows: (R, 3h) constant gates, (R, A) previous action, (R, h) state."""
-        hidden = self.cell.hidden_size
-        w_a = self.cell.weight_ih[:, self.latent_values + self.condition_dim :]  # (3h, A)
-        gates_in = torch.addmm(gates_zx, action, w_a.T)
-        gates_h = torch.addmm(self.cell.bias_hh, h, self.cell.weight_hh.T)
+        gates_in = torch.addmm(gates_zx, action, w_a.T, out=w.gates_in)
+        gates_h = torch.addmm(self.cell.bias_hh, h, self.cell.weight_hh.T, out=w.gates_h)
         # reset and update gates in one sigmoid: each operation's fixed cost counts at the
         # few hundred rows of a live update
-        reset_update = torch.sigmoid(gates_in[:, : 2 * hidden] + gates_h[:, : 2 * hidden])
+        both = torch.add(gates_in[:, : 2 * hidden], gates_h[:, : 2 * hidden], out=w.reset_update)
+        reset_update = torch.sigmoid(both, out=w.reset_update)
         reset, update = reset_update[:, :hidden], reset_update[:, hidden:]
-        candidate = torch.tanh(
-            torch.addcmul(gates_in[:, 2 * hidden :], reset, gates_h[:, 2 * hidden :])
+        candidate = torch.addcmul(
+            gates_in[:, 2 * hidden :], reset, gates_h[:, 2 * hidden :], out=w.candidate
         )
-        return candidate + update * (h - candidate)
+        candidate = torch.tanh(candidate, out=w.candidate)
+        change = torch.mul(torch.sub(h, candidate, out=w.change), update, out=w.change)
+        return torch.add(candidate, change, out=out)
 
 
 @dataclass(frozen=True)
 class StepBuffers:
-    """Storage for the intermediates of :meth:`HoistedGRUDecoder.step_into` on R rows.
+    """Storage for the intermediates of :meth:`HoistedGRUDecoder.step` on R rows.
 
     A live update's decoder allocates about 5 MB of intermediates per step at 300 people, and
     fresh memory of that size comes from the operating system page by page: reusing these for
@@ -126,13 +115,14 @@ class StepBuffers:
         gates_in, gates_h: (R, 3h) the input's and the state's gates.
         reset_update: (R, 2h) both sigmoid gates.
         candidate, change: (R, h) the candidate state and the update's share of the change.
+        (None everywhere: the operations allocate their results.)
     """
 
-    gates_in: torch.Tensor
-    gates_h: torch.Tensor
-    reset_update: torch.Tensor
-    candidate: torch.Tensor
-    change: torch.Tensor
+    gates_in: torch.Tensor | None = None
+    gates_h: torch.Tensor | None = None
+    reset_update: torch.Tensor | None = None
+    candidate: torch.Tensor | None = None
+    change: torch.Tensor | None = None
 
     @classmethod
     def like(cls, gates_zx: torch.Tensor) -> StepBuffers:
@@ -147,3 +137,7 @@ class StepBuffers:
             candidate=gates_zx.new_empty(rows, hidden),
             change=gates_zx.new_empty(rows, hidden),
         )
+
+
+_ALLOCATE = StepBuffers()
+"""No buffers: every operation of a step allocates its result (training, export)."""
