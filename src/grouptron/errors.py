@@ -22,3 +22,9 @@ class DataFormatError(GrouptronError):
 
 class DownloadError(GrouptronError):
     """A benchmark file could not be downloaded or did not match its checksum."""
+
+
+class LateUpdateError(GrouptronError):
+    """A live update stamped slightly before the previous one (a message out of order): it is
+    dropped, the session unchanged and counted (``StreamSession.faults.late``); go on with the
+    next one."""

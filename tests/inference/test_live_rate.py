@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from grouptron.errors import GrouptronError
+from grouptron.errors import GrouptronError, LateUpdateError
 from grouptron.inference.live import LiveTracks
 from grouptron.inference.predictor import Predictor
 from tests.golden.compute import synthetic_tracks
@@ -73,11 +73,12 @@ def test_a_jittered_tracker_with_dropped_messages_is_answered_at_every_update() 
     assert np.isfinite(forecast.regions(0.9).major_m).all()
 
 
-def test_updates_that_go_back_in_time_or_mix_frames_and_seconds_are_refused() -> None:
+def test_late_updates_or_frames_mixed_with_seconds_are_refused() -> None:
     session = Predictor.from_checkpoint().stream()
     session.update(10.0, [1], [[0.0, 0.0]])
-    with pytest.raises(GrouptronError, match="not after the previous update"):
+    with pytest.raises(LateUpdateError, match="not after the previous update"):
         session.update(9.9, [1], [[0.0, 0.0]])
+    assert session.faults.late == 1
     with pytest.raises(GrouptronError, match="fed times in seconds"):
         session.update(20, [1], [[0.0, 0.0]])
     with pytest.raises(GrouptronError, match=r"positions must be \(N, 2\)"):

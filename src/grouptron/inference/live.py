@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from grouptron.data.formats.glitches import MAX_JUMP_SPEED_MPS
 from grouptron.errors import GrouptronError
+from grouptron.inference.track_faults import VELOCITY_BASE_S, unreachable
 
 TIME_TOLERANCE_S = 1e-6
 """Times this close are one time (a grid time and an observation's)."""
@@ -79,8 +79,9 @@ class LiveTracks:
     Attributes:
         window_s: how far back observations are kept.
         max_gap_s: observations further apart than this are not interpolated between.
-        check_speed: restart a person's history at a sighting farther from their last than
-            anyone moves (a glitch or an id swap), as the frame-numbered session does.
+        check_speed: restart a person's history at a sighting where no walker gets to from
+            their last (a glitch, an id swap, a reused id: ``track_faults.unreachable``), as
+            the frame-numbered session does.
     """
 
     window_s: float
@@ -92,10 +93,10 @@ class LiveTracks:
     last_s: float | None = None
 
     def add(self, t_s: float, codes: np.ndarray, xy: np.ndarray) -> list[Any]:
-        """Keep (N,) people's (N, 2) positions at ``t_s``; returns the numbers whose history
-        restarted at an impossible jump."""
-        if self.last_s is not None and not t_s > self.last_s:
-            raise GrouptronError(f"time {t_s} s is not after the previous update's {self.last_s} s")
+        """Keep (N,) people's (N, 2) positions at ``t_s`` (after the last update's); returns
+        the numbers whose history restarted where no walker gets to."""
+        # The session judges clocks first (``track_faults.clock_step``): times only increase.
+        assert self.last_s is None or t_s > self.last_s, (t_s, self.last_s)
         jumped = self._jumped(t_s, codes, xy) if self.check_speed else np.zeros(0, np.int64)
         keep = (self.time_s >= t_s - self.window_s) & ~np.isin(self.code, jumped)
         self.time_s = np.concatenate([self.time_s[keep], np.full(len(codes), t_s)])
@@ -105,7 +106,9 @@ class LiveTracks:
         return [int(c) for c in jumped]
 
     def _jumped(self, t_s: float, codes: np.ndarray, xy: np.ndarray) -> np.ndarray:
-        """Numbers among ``codes`` seen last farther away than anyone moves since then."""
+        """Numbers among ``codes`` seen last where no walker gets to by ``t_s``
+        (``track_faults.unreachable``: their last velocity, an acceleration bound, and
+        ``MAX_JUMP_SPEED_MPS``)."""
         if not len(self.code) or not len(codes):
             return np.zeros(0, dtype=np.int64)
         order = np.lexsort((self.time_s, self.code))
@@ -114,9 +117,11 @@ class LiveTracks:
         last_xy = self.xy[order][last]
         at = np.clip(np.searchsorted(last_code, codes), 0, len(last_code) - 1)
         seen = last_code[at] == codes
-        metres = np.linalg.norm(xy[seen] - last_xy[at[seen]], axis=1)
-        too_far = metres > MAX_JUMP_SPEED_MPS * (t_s - last_t[at[seen]])
-        jumped: np.ndarray = codes[seen][too_far]
+        who, then_s, then_xy = codes[seen], last_t[at[seen]], last_xy[at[seen]]
+        # The last velocity over one model step of track before the last sighting.
+        before_xy, known = self.positions_at(who, then_s - VELOCITY_BASE_S)
+        velocity = np.where(known[:, None], (then_xy - before_xy) / VELOCITY_BASE_S, np.nan)
+        jumped: np.ndarray = who[unreachable(t_s - then_s, then_xy, velocity, xy[seen])]
         return jumped
 
     def positions_at(self, codes: np.ndarray, times_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -207,6 +207,11 @@ class OnlineCalibration:
             self.radii[:, h] + self.learning_rate * self.scale[h] * share, 0.0
         )
 
+    def forget_pending(self) -> None:
+        """Drop the forecasts still awaiting their truths (the session's clock jumped: their
+        times no longer compare with the new ones)."""
+        self._pending = []
+
     def save(self, path: str | Path) -> None:
         """Write the state (not the forecasts awaiting truths) as JSON."""
         document = {

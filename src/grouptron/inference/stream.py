@@ -11,8 +11,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from grouptron.data.formats.glitches import MAX_JUMP_SPEED_MPS
-from grouptron.errors import GrouptronError
+from grouptron.errors import GrouptronError, LateUpdateError
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.inputs import (
     MAX_MISSED_STEPS,
@@ -24,6 +23,13 @@ from grouptron.inference.learning import LearningStatus, SiteLearner
 from grouptron.inference.live import IdBook, LiveTracks
 from grouptron.inference.online import OnlineCalibration
 from grouptron.inference.site_model import save_site
+from grouptron.inference.track_faults import (
+    LATE_TOLERANCE_S,
+    Clock,
+    StreamFaults,
+    clock_step,
+    unreachable,
+)
 from grouptron.model.regions import region_shapes
 
 
@@ -60,6 +66,10 @@ class WindowForecaster(Protocol):
 
 log = logging.getLogger(__name__)
 
+CLOCK_RESET_GAP_S = 60.0
+"""After a clock jump the learner's time goes on this much later than the last update's, so
+that no track it keeps joins positions from both sides of the jump."""
+
 STREAM_MIN_PAIRS = 30
 """A stream's speeds are judged once it holds this many consecutive observations, and in any
 case before its first forecast leaves (with the pairs there are then, as ``predict`` does)."""
@@ -71,10 +81,12 @@ class StreamSession:
     Keeps the last ``Predictor.window_frames`` of rows (the history, the two steps before it
     and room for a missed detection at its start); agents appear and vanish freely, and up to
     ``Predictor.max_missed_steps`` missed detections in a row are filled once the agent is
-    seen again (a longer gap restarts its track). A sighting farther from the person's last
-    than anyone moves (``MAX_JUMP_SPEED_MPS``: a glitch or an id swap; a stream cannot wait to
-    see which) restarts the person's track from it, with a warning, so that the jump never
-    reaches a forecast.
+    seen again (a longer gap restarts its track). A sighting where no walker gets to from the
+    person's last (``track_faults.unreachable``: a glitch, an id swap, a reused id; a stream
+    cannot wait to see which) restarts the person's track from it, with a warning, so that
+    the jump never reaches a forecast. A clock that jumps restarts the whole history with a
+    warning, and an update slightly out of order raises ``LateUpdateError`` and changes nothing
+    (``track_faults``; counted in ``faults``).
     """
 
     def __init__(
@@ -95,6 +107,11 @@ class StreamSession:
         self._judged = False  # units and frame grid judged plausible once (they do not change)
         self._book: IdBook | None = None  # where ids are not all numbers, or times in seconds
         self._live: LiveTracks | None = None  # a tracker's own rate: times in seconds
+        self.faults = StreamFaults()
+        """Late updates dropped, clock jumps and reused ids survived so far."""
+        # The learner's clock runs on across clock jumps (None: set at the next update).
+        self._learner_offset_s: float | None = 0.0
+        self._learner_last_s: float | None = None
 
     @property
     def learning(self) -> LearningStatus | None:
@@ -149,16 +166,19 @@ class StreamSession:
     def _update_frame(self, frame: int, ids: Any, xy: Any, num_samples: int, seed: int) -> Forecast:
         """An update at a frame number, ids numbers (the session as it always was)."""
         ids_arr, xy_arr = frame_arrays(frame, ids, xy)
+        seconds_per_frame = self.predictor.config.data.dt_s / self.predictor.frames_per_step
         if self._last_frame is not None:
-            if frame <= self._last_frame:
-                raise GrouptronError(
-                    f"frame {frame} is not after the previous frame {self._last_frame}"
-                )
-            if (frame - self._last_frame) % self.predictor.frames_per_step:
-                raise GrouptronError(
-                    f"frame {frame} is not on the {self.predictor.frames_per_step}-frame grid of "
-                    f"the previous frame {self._last_frame}"
-                )
+            clock = clock_step(self._last_frame * seconds_per_frame, frame * seconds_per_frame)
+            if clock is Clock.LATE:
+                self._late(f"frame {frame}", f"the previous frame {self._last_frame}")
+            if clock is not Clock.NEXT:
+                self._restart_clock(f"frame {frame}", clock)
+        last = self._last_frame  # None after a clock jump: any grid starts again
+        if last is not None and (frame - last) % self.predictor.frames_per_step:
+            raise GrouptronError(
+                f"frame {frame} is not on the {self.predictor.frames_per_step}-frame grid of "
+                f"the previous frame {self._last_frame}"
+            )
         new = np.column_stack([np.full(len(ids_arr), float(frame)), ids_arr, xy_arr])
         as_track_array(new)  # finite, shape
         # Jumps are judged once the units are: a stream in centimetres is refused, not
@@ -175,10 +195,8 @@ class StreamSession:
             judged = self.predictor.check_plausible(rows)
         # Kept only once the update is accepted: a refused one leaves the session as it was.
         self._rows, self._last_frame, self._judged = rows, frame, judged
-        if self.learner is not None:
-            # As a file's replay counts it (steps * dt_s), so that both learn from the same times.
-            t_s = frame / self.predictor.frames_per_step * self.predictor.config.data.dt_s
-            self.learner.observe(t_s, ids_arr.astype(np.int64), xy_arr)
+        # As a file's replay counts it (steps * dt_s), so that both learn from the same times.
+        self._learn(frame * seconds_per_frame, ids_arr.astype(np.int64), xy_arr)
         return self._calibrated_online(forecast, frame, ids_arr, xy_arr)
 
     def _update_named_frame(
@@ -208,15 +226,17 @@ class StreamSession:
             self._book = IdBook()
         assert self._book is not None
         codes = self._book.encode(list(ids) if not isinstance(ids, np.ndarray) else ids, where)
+        clock = clock_step(self._live.last_s, t_s)
+        if clock is Clock.LATE:
+            self._late(where, f"the previous update's {self._live.last_s} s")
+        if clock is not Clock.NEXT:
+            self._restart_clock(where, clock)
         since = self._live.last_s
         jumped = self._live.add(t_s, codes, xy_arr)
         if jumped:
-            names = ", ".join(str(n) for n in self._book.decode(np.array(jumped))[:5])
-            log.warning(
-                "%s: %s moved faster than %g m/s since last seen (an id swap?): their tracks "
-                "restart",
-                *(where, names, MAX_JUMP_SPEED_MPS),
-            )
+            self.faults.id_restarts += len(jumped)
+            names = ", ".join(f"id {n}" for n in self._book.decode(np.array(jumped))[:5])
+            log.warning(_REUSED, where, names + (" ..." if len(jumped) > 5 else ""))
         steps = self.window_frames // self.predictor.frames_per_step + 1
         step = self.predictor.frames_per_step
         rows = self._live.grid_rows(t_s, codes, steps, data.dt_s, step)
@@ -227,8 +247,7 @@ class StreamSession:
         if not judged and len(forecast):
             judged = predictor.check_plausible(rows)
         self._judged = judged
-        if self.learner is not None:
-            self.learner.observe(t_s, codes, xy_arr)
+        self._learn(t_s, codes, xy_arr)
         forecast = dataclasses.replace(forecast, frame=None, time_s=t_s)
         if self.online is not None:
             live = self._live
@@ -239,6 +258,41 @@ class StreamSession:
                 shapes = region_shapes(forecast.point, forecast.distribution)
                 self.online.remember(t_s, forecast.ids, forecast.point, shapes, data.dt_s)
         return _named(forecast, self._book)
+
+    def _late(self, where: str, previous: str) -> None:
+        """Drop an update slightly out of order: counted, raised, the session unchanged."""
+        self.faults.late += 1
+        raise LateUpdateError(
+            f"{where} is not after {previous} (late by at most {LATE_TOLERANCE_S:g} s: a "
+            "message out of order); dropped"
+        )
+
+    def _restart_clock(self, where: str, clock: Clock) -> None:
+        """The clock jumped: forget every history (the new times do not follow the old ones)
+        and the forecasts awaiting truths; forecasts resume once people have two steps."""
+        self.faults.clock_resets += 1
+        log.warning("%s: the clock %s; every track restarts from this update", where, clock.value)
+        self._rows = np.zeros((0, 4))
+        self._last_frame = None
+        if self._live is not None:
+            self._live = LiveTracks(
+                self._live.window_s, self._live.max_gap_s, self._live.check_speed
+            )
+        if self.online is not None:
+            self.online.forget_pending()
+        if self._learner_last_s is not None:
+            self._learner_offset_s = None
+
+    def _learn(self, t_s: float, codes: np.ndarray, xy: np.ndarray) -> None:
+        """Hand the update to the learner on its own clock, which runs on across clock jumps
+        (``CLOCK_RESET_GAP_S`` later, so that no track it keeps spans one)."""
+        if self.learner is None:
+            return
+        if self._learner_offset_s is None:  # the first update after a jump
+            assert self._learner_last_s is not None
+            self._learner_offset_s = self._learner_last_s + CLOCK_RESET_GAP_S - t_s
+        self._learner_last_s = t_s + self._learner_offset_s
+        self.learner.observe(self._learner_last_s, codes, xy)
 
     @contextmanager
     def _learnt_weights(self) -> Iterator[None]:
@@ -268,31 +322,41 @@ class StreamSession:
 
     def _restart_jumped(self, rows: np.ndarray, new: np.ndarray, frame: int) -> np.ndarray:
         """The (R, 4) window ``rows`` without the history of every person in ``new`` ((N, 4)
-        rows at ``frame``) whose last sighting is farther away than anyone moves in the time
-        between, with a warning; unchanged when the speed check is off (runners, vehicles)."""
+        rows at ``frame``) seen last where no walker gets to by ``frame``
+        (``track_faults.unreachable``), with a warning; unchanged when the speed check is off
+        (runners, vehicles)."""
         if not self.predictor.check_speed or not len(rows) or not len(new):
             return rows
         order = np.lexsort((rows[:, 0], rows[:, 1]))
         by_id = rows[order]
-        last = by_id[np.append(by_id[1:, 1] != by_id[:-1, 1], True)]  # (P, 4) last sighting
+        is_last = np.append(by_id[1:, 1] != by_id[:-1, 1], True)
+        last = by_id[is_last]  # (P, 4) last sighting
+        # The sighting before it, where it is the same person's, one step earlier.
+        before = by_id[np.maximum(np.flatnonzero(is_last) - 1, 0)]
+        step_frames = self.predictor.frames_per_step
+        seconds_per_frame = self.predictor.config.data.dt_s / step_frames
+        base = (before[:, 1] == last[:, 1]) & (last[:, 0] - before[:, 0] == step_frames)
+        velocity = (last[:, 2:4] - before[:, 2:4]) / (step_frames * seconds_per_frame)
+        velocity[~base] = np.nan
         at = np.searchsorted(last[:, 1], new[:, 1])
         seen = at < len(last)
         seen[seen] = last[at[seen], 1] == new[seen, 1]
         previous = last[at[seen]]
-        seconds_per_frame = self.predictor.config.data.dt_s / self.predictor.frames_per_step
-        seconds = (frame - previous[:, 0]) * seconds_per_frame
-        metres = np.linalg.norm(new[seen, 2:4] - previous[:, 2:4], axis=1)
-        jumped = new[seen][metres > MAX_JUMP_SPEED_MPS * seconds, 1]
+        gap_s = (frame - previous[:, 0]) * seconds_per_frame
+        far = unreachable(gap_s, previous[:, 2:4], velocity[at[seen]], new[seen, 2:4])
+        jumped = new[seen][far, 1]
         if not jumped.size:
             return rows
-        log.warning(
-            "frame %d: %s moved faster than %g m/s since last seen (an id swap?): their "
-            "tracks restart",
-            frame,
-            ", ".join(f"id {int(i)}" for i in jumped[:5]) + (" ..." if jumped.size > 5 else ""),
-            MAX_JUMP_SPEED_MPS,
-        )
+        self.faults.id_restarts += int(jumped.size)
+        names = ", ".join(f"id {int(i)}" for i in jumped[:5]) + (" ..." if jumped.size > 5 else "")
+        log.warning(_REUSED, f"frame {frame}", names)
         return rows[~np.isin(rows[:, 1], jumped)]
+
+
+_REUSED = (
+    "%s: %s reappeared where no walker gets to since last seen (a reused id or an id swap): "
+    "their tracks restart"
+)
 
 
 def _numeric(ids: Any) -> bool:
