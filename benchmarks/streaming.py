@@ -2,7 +2,7 @@
 
 Usage:
     python benchmarks/streaming.py [--checkpoint NAME_OR_PATH] [--people 10,50,100,200]
-                                   [--frames 60] [--threads 2]
+                                   [--frames 60] [--threads N] [--stress torch|N]
                                    [--forecast ml|ml-argmax|mean|ml-top10|ml-topK]
                                    [--mixture] [--min-points 2] [--max-missed-steps 2]
                                    [--regions Q] [--calibration FILE|none] [--profile]
@@ -26,7 +26,11 @@ at each N, the default predictor's session without learning and then with it
 (``stream(learn=True)``, rounds every 10 s of stream time in the session's learning process,
 so that several run while it is timed): ``--learn-frames`` updates each, back to back (the
 worst case: a tracker at 2.5 Hz leaves the round 390 ms of every 400 ms), the medians and the
-ratio, and the median of the updates made while a round was running. ``--profile``
+ratio, and the median of the updates made while a round was running. ``--stress torch``
+(another PyTorch process multiplying matrices beside it) or ``--stress N`` (N busy processes)
+times every N twice in the same run, quiet and then beside those processes
+(``benchmarks/stress.py``), and prints the ratio of the default predictor's medians: what a
+shared CPU does to it. ``--profile``
 then prints, per N, where the default predictor's time goes: ``cProfile`` around its updates
 (frames 10 on), the cumulative time per update of the parts in :data:`PROFILED`.
 """
@@ -41,7 +45,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-import torch
+from stress import stress_kind, stressed  # benchmarks/ is on sys.path
 
 from grouptron import Predictor
 from grouptron.cli.options import calibration_option, point_forecast_option
@@ -71,7 +75,12 @@ def synthetic_frames(
 def add_predictor_options(parser: argparse.ArgumentParser, forecast: str | None) -> None:
     """The options that pick and configure the predictor (shared with ``soak.py``)."""
     parser.add_argument("--checkpoint", default=DEFAULT_CHECKPOINT)
-    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument(
+        "--threads",
+        type=int,
+        help="Predictor(threads=...): PyTorch threads of its forecasts (default: the "
+        "Predictor's own, LIVE_THREADS)",
+    )
     parser.add_argument(
         "--forecast",
         "--most-likely",
@@ -112,9 +121,9 @@ def chosen_forecast(args: argparse.Namespace) -> PointForecast | None:
 def load_predictor(args: argparse.Namespace, forecast: str | None = None) -> Predictor:
     """The predictor the options describe, or (``forecast``) a yardstick of the same
     checkpoint with that point forecast and no calibration."""
-    torch.set_num_threads(args.threads)
     return Predictor.from_checkpoint(
         args.checkpoint,
+        threads=args.threads,
         forecast=forecast or chosen_forecast(args),
         mixture=args.mixture,
         min_points=args.min_points,
@@ -251,6 +260,12 @@ def main() -> None:
     )
     parser.add_argument("--profile", action="store_true", help="then profile the default's parts")
     parser.add_argument(
+        "--stress",
+        type=stress_kind,
+        help="also time each N beside busy processes: 'torch' (another PyTorch process) or a "
+        "number of busy processes",
+    )
+    parser.add_argument(
         "--learn", action="store_true", help="then time updates with online learning on and off"
     )
     parser.add_argument("--learn-frames", type=int, default=1500, help="updates timed each way")
@@ -275,7 +290,7 @@ def main() -> None:
         names.append("argmax")
     named = chosen_forecast(args)
     print(
-        f"{predictor.source}: {predictor.config.model_name}, {args.threads} threads, "
+        f"{predictor.source}: {predictor.config.model_name}, {predictor.threads} threads, "
         f"point forecast {named or 'by default'} ({predictor.point_forecast_name}, "
         f"{predictor.decoded_latent_values} latent values decoded), mixture = {predictor.mixture}"
     )
@@ -288,6 +303,12 @@ def main() -> None:
     for people in (int(n) for n in args.people.split(",")):
         times, counts = timed_updates(variants, people, args.frames)
         print(timing_line(str(people), times, counts[0], yardstick))
+        if args.stress:
+            with stressed(args.stress) as beside:
+                busy, _ = timed_updates(variants, people, args.frames)
+            print(timing_line(str(people), busy, counts[0], yardstick) + f" ({beside})")
+            ratio = statistics.median(busy[0]) / statistics.median(times[0])
+            print(f"{'':>7} stressed / quiet median, {names[0]}: {ratio:.2f}")
     if args.replay:
         recorded = recorded_frames(Path(args.replay), args.frames)
         times, counts = timed_updates(variants, 0, args.frames, recorded)

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import torch
 
 from grouptron.errors import GrouptronError
@@ -28,3 +31,18 @@ def available_device(value: str | torch.device) -> torch.device:
     elif device.type not in ("cpu", "cuda", "mps"):
         raise GrouptronError(f"{value}: grouptron runs on cpu, cuda or mps devices")
     return device
+
+
+@contextmanager
+def torch_threads(count: int | None) -> Iterator[None]:
+    """PyTorch's intra-op threads set to ``count`` for the block and restored after (None:
+    left as they are), so that one component's choice does not leak into the process."""
+    if count is None or count == torch.get_num_threads():
+        yield
+        return
+    before = torch.get_num_threads()
+    torch.set_num_threads(count)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)

@@ -74,7 +74,7 @@ def _node(args: argparse.Namespace) -> Any:
     from grouptron.ros2.node import NodeOptions, make_node
 
     predictor = Predictor.from_checkpoint(
-        args.checkpoint, forecast=args.forecast, calibration=args.calibration
+        args.checkpoint, forecast=args.forecast, calibration=args.calibration, threads=args.threads
     )
     options = NodeOptions(
         topic=args.topic,

@@ -31,8 +31,6 @@ import logging
 import os
 import threading
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -215,21 +213,13 @@ class SiteLearner:
         """Whether a background round is running."""
         return self._thread is not None and self._thread.is_alive()
 
-    @contextmanager
-    def cores_shared(self) -> Iterator[None]:
-        """While a background round runs, the caller's PyTorch threads capped so that with
-        the round's they fit the machine's cores: with more threads than cores the forecast's
-        parallel regions wait for each other, while one thread instead of two costs a live
-        update at 50 people about 2% (``benchmarks/streaming.py --threads 1``, ``2``)."""
+    def threads_left(self, wanted: int) -> int:
+        """The PyTorch threads a forecast may use beside a background round (``wanted`` while
+        none runs): capped so that with the round's they fit the machine's cores, since with
+        more threads than cores the forecast's parallel regions wait for each other."""
         if not self.busy:
-            yield
-            return
-        before = torch.get_num_threads()
-        torch.set_num_threads(min(before, max(1, _cores() - self.options.threads)))
-        try:
-            yield
-        finally:
-            torch.set_num_threads(before)
+            return wanted
+        return min(wanted, max(1, _cores() - self.options.threads))
 
     def wait(self) -> None:
         """Until a background round has finished."""

@@ -29,7 +29,7 @@ from grouptron.data.formats.reader import table_from_values
 from grouptron.data.prepare.gaps import bridge_gaps, filled_in_histories
 from grouptron.data.prepare.samples import SampleSet, scene_samples
 from grouptron.data.prepare.scene import Scene, build_scene
-from grouptron.devices import available_device
+from grouptron.devices import available_device, torch_threads
 from grouptron.errors import GrouptronError
 from grouptron.groups.assign import assign_groups_at_step
 from grouptron.groups.scene import groups_at_step
@@ -60,6 +60,14 @@ log = logging.getLogger(__name__)
 
 MAX_SAMPLES = 10_000
 """Sampled futures per agent at most: more only fill memory (1.9 MB an agent)."""
+
+LIVE_THREADS = 1
+"""PyTorch threads a predictor's forecasts run on by default. A robot's CPU is shared, and
+PyTorch's default of one thread per core spins at every parallel region until all its threads
+arrive: beside other busy processes one of them is descheduled and the update collapses
+(2.6x slower at 50 people beside another PyTorch process, and 802 ms once in four runs), while
+one thread holds within 1.1x. On a quiet machine two threads save nothing at 50 people and
+about a quarter at 300 (``benchmarks/streaming.py --stress``, benchmarks/RESULTS.md)."""
 
 
 class Predictor:
@@ -95,6 +103,9 @@ class Predictor:
         learn: live sessions (``stream``) learn their site: each fine-tunes its own copy of
             the weights in rounds on the people it saw walk, guarded (``inference.learning``;
             True: the default ``LearningOptions``, or one's own).
+        threads: PyTorch threads its forecasts run on (set for each forecast and restored
+            after, the rest of the process untouched); default ``LIVE_THREADS`` (1), which
+            holds on a shared CPU; None: whatever PyTorch is set to.
 
     Attributes:
         group_rule: the rule behind ``Forecast.group``: the model's own for one that reads
@@ -116,6 +127,7 @@ class Predictor:
         calibration: str | Path | RegionCalibration | bool | None = None,
         online_calibration: bool | str | Path | OnlineCalibration = False,
         learn: bool | LearningOptions = False,
+        threads: int | None = LIVE_THREADS,
         **older: Any,
     ) -> None:
         refuse_future_neighbours(config.data, source)
@@ -138,6 +150,7 @@ class Predictor:
         self.calibration = calibration_for(calibration, config, self.forecast, source)
         self.online_calibration = online_calibration
         self.learn = _learning_options(learn)
+        self.threads = None if threads is None else integer_argument(threads, "threads", 1)
         self._warned_central = False
 
     @classmethod
@@ -155,9 +168,8 @@ class Predictor:
             threads = integer_argument(threads, "threads", 1)
         path = resolve_checkpoint(name_or_path, checkpoints_dir)
         model, config = load_trained_model(path)
-        if threads is not None:
-            torch.set_num_threads(threads)
-        return cls(model, config, str(path), forecast, **options)
+        threads = LIVE_THREADS if threads is None else threads
+        return cls(model, config, str(path), forecast, threads=threads, **options)
 
     @property
     def point_forecast_name(self) -> str:
@@ -358,7 +370,10 @@ class Predictor:
             batch_size=len(samples),
             device=self.device,
         )
-        made = forecast_samples(self.model, self.config, samples, self.forecast, groups, options)
+        with torch_threads(self.threads):
+            made = forecast_samples(
+                self.model, self.config, samples, self.forecast, groups, options
+            )
         origin = samples.pos_now_scene_m.astype(np.float64) + scene.centre_world_m  # (N, 2)
         group_of_track = np.full(scene.num_tracks, -1)
         if found is not None:

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
+import torch
 
 from grouptron.errors import GrouptronError, LateUpdateError
 from grouptron.inference.forecast import Forecast
@@ -40,6 +41,7 @@ class WindowForecaster(Protocol):
     check_speed: bool
     config: Any
     model: Any
+    threads: int | None
 
     @property
     def window_frames(self) -> int:
@@ -196,7 +198,8 @@ class StreamSession:
         # Kept only once the update is accepted: a refused one leaves the session as it was.
         self._rows, self._last_frame, self._judged = rows, frame, judged
         # As a file's replay counts it (steps * dt_s), so that both learn from the same times.
-        self._learn(frame * seconds_per_frame, ids_arr.astype(np.int64), xy_arr)
+        t_s = frame / self.predictor.frames_per_step * self.predictor.config.data.dt_s
+        self._learn(t_s, ids_arr.astype(np.int64), xy_arr)
         return self._calibrated_online(forecast, frame, ids_arr, xy_arr)
 
     def _update_named_frame(
@@ -302,8 +305,12 @@ class StreamSession:
             yield
             return
         self.predictor.model = self.learner.model
-        with self.learner.cores_shared():
+        wanted = self.predictor.threads
+        self.predictor.threads = self.learner.threads_left(wanted or torch.get_num_threads())
+        try:
             yield
+        finally:
+            self.predictor.threads = wanted
 
     def _calibrated_online(
         self, forecast: Forecast, frame: int, ids: np.ndarray, xy: np.ndarray

@@ -176,6 +176,7 @@ def _predictors(request: PlotRequest) -> list[Predictor]:
             device=request.device,
             check_speed=request.tracks.check_speed,  # the file was checked as it was read
             calibration=request.calibration if c == request.checkpoint else None,
+            threads=None,  # a picture is no live loop: the threads the command was given
         )
         for c in (request.checkpoint, request.compare)
         if c
