@@ -176,6 +176,7 @@ class SiteLearner:
         self._thread: threading.Thread | None = None
         self._worker: RoundWorker | None = None
         self._lock = threading.Lock()
+        self._closing = False  # close() is stopping a round: its end is no failure
         self._settings = RoundSettings(
             config, forecast, options.budget, options.min_gain, options.seed
         )
@@ -212,6 +213,12 @@ class SiteLearner:
     def busy(self) -> bool:
         """Whether a background round is running."""
         return self._thread is not None and self._thread.is_alive()
+
+    def resume(self, model: TrajectronCVAE, status: LearningStatus) -> None:
+        """Start from weights a session of this site learnt before (a kept state) and its
+        status; the shipped weights stay the yardstick a rollback returns to."""
+        self.model = model.to(self._device).eval()
+        self.status = status
 
     def threads_left(self, wanted: int) -> int:
         """The PyTorch threads a forecast may use beside a background round (``wanted`` while
@@ -259,10 +266,12 @@ class SiteLearner:
     def close(self) -> None:
         """Stop the learning process (if one started; a round still running there is
         dropped) and the thread waiting on it; a later round starts another process."""
+        self._closing = True
         worker, self._worker = self._worker, None
         if worker is not None:
             worker.close()
         self.wait()
+        self._closing = False
 
     def _run_round(self, train: Completed, holdout: Completed) -> None:
         started = time.perf_counter()
@@ -278,6 +287,9 @@ class SiteLearner:
         try:
             result = self._result(job)
         except Exception as exc:
+            if self._closing:  # the session stopped it: nothing failed
+                log.info("learning: round %d stopped with the session", self._round)
+                return
             # A round that breaks (its fine-tune diverged, its process was killed) is a round
             # not accepted: a session that forecasts for a robot goes on with its weights.
             log.warning("learning: round %d failed and was dropped: %s", self._round, exc)

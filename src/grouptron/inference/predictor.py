@@ -261,6 +261,7 @@ class Predictor:
         self,
         online_calibration: bool | str | Path | OnlineCalibration | None = None,
         learn: bool | LearningOptions | None = None,
+        state: str | Path | None = None,
     ) -> StreamSession:
         """A session that is fed one frame at a time and keeps the history it needs.
 
@@ -268,17 +269,25 @@ class Predictor:
         every forecast whose truth arrives (True: starting from ``calibration``, else the
         Gaussian radii; a saved state's file, or an ``OnlineCalibration``, resumes it). With
         ``learn`` (default: the predictor's; True or ``LearningOptions``) it learns its site
-        on its own copy of the weights (``session.learning``, ``session.save_site``).
+        on its own copy of the weights (``session.learning``, ``session.save_site``). With
+        ``state`` (a folder that ``session.save_state`` writes to), the session takes up the
+        online radii and learnt weights kept there by an earlier one (none yet: a first
+        start).
         """
         chosen = self.online_calibration if online_calibration is None else online_calibration
         options = self.learn if learn is None else _learning_options(learn)
         if options is None:
-            return StreamSession(self, self._online_state(chosen))
-        own = copy.copy(self)  # the session's weights change; this predictor's do not
-        learner = SiteLearner(
-            self.model, self.config, self.forecast, options, self.max_missed_steps
-        )
-        return StreamSession(own, self._online_state(chosen), learner)
+            session = StreamSession(self, self._online_state(chosen))
+        else:
+            own = copy.copy(self)  # the session's weights change; this predictor's do not
+            learner = SiteLearner(
+                self.model, self.config, self.forecast, options, self.max_missed_steps
+            )
+            session = StreamSession(own, self._online_state(chosen), learner)
+        if state is not None:
+            resumed = session.resume_state(state)
+            log.info("resumed %s from %s", ", ".join(resumed) or "nothing", state)
+        return session
 
     def _online_state(
         self, chosen: bool | str | Path | OnlineCalibration

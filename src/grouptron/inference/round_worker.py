@@ -16,6 +16,7 @@ import dataclasses
 import io
 import json
 import os
+import signal
 import subprocess
 import sys
 import weakref
@@ -90,13 +91,26 @@ class RoundWorker:
         self._stop()
 
 
+STOP_WAIT_S = 0.3
+"""How long a worker between rounds gets to read the end of its input and return before it is
+terminated (a round it is running is dropped): a node stops within a second."""
+
+
 def _stop(process: subprocess.Popen[bytes]) -> None:
     if process.stdin is not None:
-        process.stdin.close()  # the worker reads the end of its input and returns
+        try:
+            process.stdin.close()  # a worker between rounds reads the end of its input and returns
+        except OSError:
+            pass  # it is gone already
     try:
-        process.wait(timeout=5)
+        process.wait(timeout=STOP_WAIT_S)
     except subprocess.TimeoutExpired:
-        process.kill()
+        process.terminate()
+        try:
+            process.wait(timeout=STOP_WAIT_S)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
 
 
 class _Pipes:
@@ -129,6 +143,9 @@ class _Pipes:
 def serve(threads: int) -> None:
     """The worker process: read the session's settings, then answer rounds until its input
     ends. Its standard output carries the frames alone (anything printed goes to stderr)."""
+    # Ctrl-C in a terminal reaches the whole process group: the session stops this process
+    # (``RoundWorker.close``), which must not end in a traceback of its own first.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     torch.set_num_threads(threads)
     frames_out = os.fdopen(os.dup(sys.stdout.fileno()), "wb")
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())
