@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
+import contextlib
 import os
 import signal
 import subprocess
@@ -98,10 +99,8 @@ terminated (a round it is running is dropped): a node stops within a second."""
 
 def _stop(process: subprocess.Popen[bytes]) -> None:
     if process.stdin is not None:
-        try:
-            process.stdin.close()  # a worker between rounds reads the end of its input and returns
-        except OSError:
-            pass  # it is gone already
+        with contextlib.suppress(OSError):  # it is gone already
+            process.stdin.close()  # a worker between rounds reads the end and returns
     try:
         process.wait(timeout=STOP_WAIT_S)
     except subprocess.TimeoutExpired:
