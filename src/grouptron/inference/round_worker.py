@@ -12,10 +12,10 @@ NumPy ``.npz`` (read with ``allow_pickle=False``).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import io
 import json
-import contextlib
 import os
 import signal
 import subprocess
