@@ -4,6 +4,8 @@
 from __future__ import annotations
 
 import argparse
+import signal
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -14,7 +16,7 @@ EXTRA = "pip install 'grouptron[ros2]'"
 
 
 def cmd_ros2(args: argparse.Namespace) -> int:
-    """Run the node (or the replay) until Ctrl-C or ``--seconds``."""
+    """Run the node (or the replay) until Ctrl-C, SIGTERM or ``--seconds``."""
     try:
         import rclpy
     except ImportError:
@@ -22,7 +24,9 @@ def cmd_ros2(args: argparse.Namespace) -> int:
     import torch
 
     torch.set_num_threads(args.threads)
-    _init(rclpy, args.ros_args)
+    # A replay ends at Ctrl-C as any command does; the node stops on its own terms.
+    stop = None if args.replay else _stop_on_signals()
+    _init(rclpy, args.ros_args, own_signals=stop is not None)
     try:
         if args.replay:
             return _replay(args)
@@ -30,12 +34,14 @@ def cmd_ros2(args: argparse.Namespace) -> int:
         if args.save_site and node.session.learning is None:
             raise GrouptronError("--save-site keeps what the node learns: add --learn")
         try:
-            _spin(node, args.seconds)
+            assert stop is not None
+            _spin(node, args.seconds, stop)
         finally:
+            node.stop()  # the last diagnostics, the state kept, the learning process stopped
             if args.save_site:  # what the node learnt, kept however it stopped
                 weights = node.session.save_site(args.save_site)
                 print(f"kept the site's weights in {weights}", flush=True)
-            node.session.close()
+            node.destroy_node()
         return 0
     except KeyboardInterrupt:
         return 0
@@ -43,11 +49,30 @@ def cmd_ros2(args: argparse.Namespace) -> int:
         rclpy.try_shutdown()
 
 
-def _init(rclpy: Any, ros_args: list[str]) -> None:
+def _stop_on_signals() -> threading.Event:
+    """An event set by SIGINT or SIGTERM: the node stops between updates, says so and exits
+    with code 0 (rclpy's own handler would shut the context down under a publishing node)."""
+    stop = threading.Event()
+
+    def handle(signum: int, frame: Any) -> None:
+        stop.set()
+
+    for number in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(number, handle)
+    return stop
+
+
+def _init(rclpy: Any, ros_args: list[str], *, own_signals: bool = False) -> None:
     """rclpy, with the arguments after ``--ros-args``; arguments ROS does not know are one
     line."""
     try:
-        rclpy.init(args=["grouptron", "--ros-args", *ros_args] if ros_args else None)
+        from rclpy.signals import SignalHandlerOptions
+
+        rclpy.init(
+            args=["grouptron", "--ros-args", *ros_args] if ros_args else None,
+            # With our own handlers (_stop_on_signals), rclpy installs none.
+            signal_handler_options=SignalHandlerOptions.NO if own_signals else None,
+        )
     except Exception as error:
         raise GrouptronError(
             f"--ros-args {' '.join(ros_args)}: ROS does not read these ({error}); --ros-args "
@@ -82,14 +107,17 @@ def _node(args: argparse.Namespace) -> Any:
         ros_fields=args.ros_fields,
         fixed_frames=tuple(args.fixed_frame or ()),
         regions=args.regions or 0.0,
+        markers=args.markers,
+        state=args.state,
     )
     print(f"forecasting {args.topic} ({args.type}) on /grouptron/forecasts", flush=True)
     return make_node(predictor, options, online=args.online, learn=learning_options(args))
 
 
-def _spin(node: Any, seconds: float | None) -> None:
-    """Spin ``node`` until ROS shuts down or ``seconds`` have passed, on one executor kept
-    for the whole run (``rclpy.spin_once`` builds its wait set anew at every call)."""
+def _spin(node: Any, seconds: float | None, stop: threading.Event) -> None:
+    """Spin ``node`` until ``stop`` is set, ROS shuts down or ``seconds`` have passed, on one
+    executor kept for the whole run (``rclpy.spin_once`` builds its wait set anew at every
+    call); a spin waits at most 50 ms, so a signal is answered within one update."""
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
@@ -97,7 +125,9 @@ def _spin(node: Any, seconds: float | None) -> None:
     executor.add_node(node)
     deadline = time.monotonic() + seconds if seconds else None
     try:
-        while rclpy.ok() and (deadline is None or time.monotonic() < deadline):
+        while (
+            not stop.is_set() and rclpy.ok() and (deadline is None or time.monotonic() < deadline)
+        ):
             executor.spin_once(timeout_sec=0.05)
     except ExternalShutdownException:
         pass  # ROS was shut down from outside: stop as for Ctrl-C

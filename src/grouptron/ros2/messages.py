@@ -13,7 +13,7 @@ import numpy as np
 from grouptron.data.formats.ros_bag import KNOWN_MESSAGES, BagFields
 from grouptron.errors import GrouptronError
 from grouptron.inference.forecast import Forecast
-from grouptron.model.regions import Regions
+from grouptron.ros2.health import Status
 
 MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
 MARKER_ADD = 0
@@ -114,60 +114,25 @@ def trajectory_message(forecast: Forecast, header: Any, dt_s: float) -> Any:
     return MultiDOFJointTrajectory(header=header, joint_names=names, points=points)
 
 
-def marker_message(
-    forecast: Forecast, header: Any, regions: Regions | None, lifetime_s: float
-) -> Any:
-    """``visualization_msgs/msg/MarkerArray`` for RViz and Foxglove: the previous update's
-    markers deleted, then a line per person (namespace ``forecast``) and, with ``regions``,
-    the ellipse of every step (``region``, a flat cylinder)."""
-    from builtin_interfaces.msg import Duration
-    from visualization_msgs.msg import Marker, MarkerArray
-
-    lifetime = Duration(sec=int(lifetime_s), nanosec=round((lifetime_s % 1) * 1e9))
-    out = MarkerArray(markers=[Marker(header=header, action=Marker.DELETEALL)])
-    for i, person in enumerate(forecast.ids):
-        line = Marker(header=header, ns="forecast", id=i, type=Marker.LINE_STRIP, lifetime=lifetime)
-        line.scale.x = 0.05
-        line.color.r, line.color.g, line.color.b, line.color.a = 0.9, 0.3, 0.1, 1.0
-        line.text = str(person)
-        for x, y in forecast.point[i]:
-            line.points.append(_point(x, y))
-        out.markers.append(line)
-        if regions is None:
-            continue
-        for k in range(regions.major_m.shape[1]):
-            ellipse = Marker(
-                header=header, ns="region", id=i * 100 + k, type=Marker.CYLINDER, lifetime=lifetime
-            )
-            ellipse.pose.position = _point(*regions.centre[i, k])
-            half = 0.5 * float(regions.angle_rad[i, k])
-            ellipse.pose.orientation.z, ellipse.pose.orientation.w = math.sin(half), math.cos(half)
-            ellipse.scale.x = 2 * float(regions.major_m[i, k])
-            ellipse.scale.y = 2 * float(regions.minor_m[i, k])
-            ellipse.scale.z = 0.01
-            ellipse.color.r, ellipse.color.g, ellipse.color.b, ellipse.color.a = 0.9, 0.3, 0.1, 0.15
-            out.markers.append(ellipse)
-    return out
-
-
 def _point(x: float, y: float) -> Any:
     from geometry_msgs.msg import Point
 
     return Point(x=float(x), y=float(y), z=0.0)
 
 
-def diagnostics_message(header: Any, name: str, values: dict[str, str], level: int) -> Any:
-    """``diagnostic_msgs/msg/DiagnosticArray`` with one status of ``values``."""
+def diagnostics_message(header: Any, name: str, status: Status) -> Any:
+    """``diagnostic_msgs/msg/DiagnosticArray`` with one status: its level, message and
+    values."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
-    status = DiagnosticStatus(
-        level=bytes([level]),
+    out = DiagnosticStatus(
+        level=bytes([status.level]),
         name=name,
-        message="forecasting" if level == 0 else "inputs refused",
+        message=status.message,
         hardware_id="grouptron",
-        values=[KeyValue(key=k, value=v) for k, v in values.items()],
+        values=[KeyValue(key=k, value=v) for k, v in status.values.items()],
     )
-    return DiagnosticArray(header=header, status=[status])
+    return DiagnosticArray(header=header, status=[out])
 
 
 def marker_array(tracks: Tracked, header: Any) -> Any:

@@ -1,32 +1,36 @@
-"""The node: forecasts every message of tracked people on a live ROS 2 graph.
+"""The node: forecasts the newest message of tracked people on a live ROS 2 graph.
 
 In: a topic of tracked people (``visualization_msgs/msg/MarkerArray`` by default, or any
-installed type with a field mapping). Out, on every input: ``/grouptron/forecasts``
-(``trajectory_msgs/msg/MultiDOFJointTrajectory``), ``/grouptron/markers``
-(``visualization_msgs/msg/MarkerArray``: lines and region ellipses) and ``/diagnostics``.
-When updates fall behind, the newest input wins and the ones it replaced are counted, never
-queued without bound; a malformed message gives one warning and is skipped.
+installed type with a field mapping). Out, on every input forecast: ``/grouptron/forecasts``
+(``trajectory_msgs/msg/MultiDOFJointTrajectory``) and ``/grouptron/markers``
+(``visualization_msgs/msg/MarkerArray``, ``ros2.markers``); ``/diagnostics`` after every
+input and once a second (``ros2.health``). Only the newest input is forecast, never a backlog
+(the input keeps the last message only, ``ros2.qos``); the ones it replaced, and those refused,
+are counted. The work between a message and what leaves is ``ros2.live`` (no graph).
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
-from grouptron.data.formats.ros_bag import BagFields, check_fixed_frame
+from grouptron.data.formats.ros_bag import BagFields
 from grouptron.errors import GrouptronError
 from grouptron.inference.learning import LearningOptions
 from grouptron.inference.predictor import Predictor
 from grouptron.ros2.cdr import trajectory_bytes
-from grouptron.ros2.messages import (
-    MARKER_ARRAY,
-    diagnostics_message,
-    marker_message,
-    message_class,
-    tracked,
-)
+from grouptron.ros2.live import LiveForecaster, Made
+from grouptron.ros2.markers import MARKER_STYLES, marker_message
+from grouptron.ros2.messages import MARKER_ARRAY, diagnostics_message, message_class, tracked
+from grouptron.ros2.qos import DEFAULT_QOS, TopicQoS
+
+DIAGNOSTICS_PERIOD_S = 1.0
+"""``/diagnostics`` also leaves this often without input, so that a silent or refusing node is
+seen."""
+STATE_PERIOD_S = 10.0
+"""With a state folder, the online radii (and learnt weights, when a round changed them) are
+kept this often, and when the node stops."""
 
 
 @dataclass(frozen=True)
@@ -39,9 +43,14 @@ class NodeOptions:
         type: its message type, ``pkg/msg/Type``.
         ros_fields: where another type holds its people (``people=PATH,id=PATH,x=..,y=..``).
         fixed_frames: frames of one's own fixed to the world (besides map, odom, world, ...).
-        regions: the q of the region ellipses on the markers topic (0: none).
+        regions: the q of the regions drawn on the markers topic (0: none).
         namespace: of the output topics (``/grouptron/forecasts``, ``/grouptron/markers``).
         name: the node's name.
+        markers: ``light``, ``full`` or ``off`` (``ros2.markers``).
+        qos_input, qos_forecasts, qos_markers, qos_diagnostics: overrides of each topic's
+            QoS (``depth=N,reliability=reliable|best_effort``; ``ros2.qos``).
+        state: a folder where the online radii and learnt weights are kept and taken up
+            again after a restart (None: none).
     """
 
     topic: str = "/tracked_people"
@@ -51,10 +60,200 @@ class NodeOptions:
     regions: float = 0.9
     namespace: str = "/grouptron"
     name: str = "grouptron"
+    markers: str = "light"
+    qos_input: str = ""
+    qos_forecasts: str = ""
+    qos_markers: str = ""
+    qos_diagnostics: str = ""
+    state: str | None = None
+
+    def qos(self, topic: str) -> TopicQoS:
+        """The QoS of ``topic`` (input, forecasts, markers, diagnostics)."""
+        return DEFAULT_QOS[topic].with_override(getattr(self, f"qos_{topic}"), topic)
 
 
-# One function holding the node's class: rclpy is imported only when a node is made (the
-# package imports without it), and the class closes over the predictor and options.
+_STRING_PARAMETERS = (
+    "topic",
+    "type",
+    "ros_fields",
+    "regions",
+    "namespace",
+    "markers",
+    "qos_input",
+    "qos_forecasts",
+    "qos_markers",
+    "qos_diagnostics",
+)
+"""Options that are ROS parameters of the same name (``regions`` a float)."""
+
+
+class NodeParts:
+    """The forecasting node's behaviour, mixed into an rclpy ``Node`` by :func:`make_node`
+    (rclpy is imported only when a node is made: the package imports without it)."""
+
+    def setup(
+        self,
+        predictor: Predictor,
+        options: NodeOptions,
+        online: bool,
+        learn: LearningOptions | None,
+    ) -> None:
+        """Parameters, session, topics and timers (after ``Node.__init__``)."""
+        node: Any = self  # an rclpy Node too
+        chosen = _chosen_options(node, options)
+        self.kind = chosen.type
+        self.fields = BagFields.parse(chosen.ros_fields) if chosen.ros_fields else None
+        self.options = chosen
+        # Online calibration and learning are ROS parameters too (flags their defaults).
+        online_on = bool(_parameter(node, "online", online))
+        learn_on = bool(_parameter(node, "learn", learn is not None))
+        chosen_learn = (learn or LearningOptions()) if learn_on else False
+        self.session = predictor.stream(
+            online_calibration=online_on, learn=chosen_learn, state=chosen.state
+        )
+        self.live = LiveForecaster(self.session, chosen.topic, chosen.fixed_frames, chosen.regions)
+        self.predictor = predictor
+        self.dt_s = predictor.config.data.dt_s
+        self.latest: tuple[Any, int] | None = None
+        self.warned: set[str] = set()
+        self.stopped = False
+        self._kept = (-1, -1)  # the learning status last kept: (rounds, accepted)
+        out = chosen.namespace.rstrip("/")
+        node.create_subscription(
+            message_class(chosen.type),
+            chosen.topic,
+            self._received,
+            chosen.qos("input").profile(),
+        )
+        self.forecasts = node.create_publisher(
+            message_class("trajectory_msgs/msg/MultiDOFJointTrajectory"),
+            f"{out}/forecasts",
+            chosen.qos("forecasts").profile(),
+        )
+        self.markers = None
+        if chosen.markers != "off":
+            self.markers = node.create_publisher(
+                message_class(MARKER_ARRAY), f"{out}/markers", chosen.qos("markers").profile()
+            )
+        self.diagnostics = node.create_publisher(
+            message_class("diagnostic_msgs/msg/DiagnosticArray"),
+            "/diagnostics",
+            chosen.qos("diagnostics").profile(),
+        )
+        # Processing waits on a guard condition the subscription triggers: the executor
+        # takes every message waiting first, so the newest is the one forecast.
+        self.ready = node.create_guard_condition(self._process)
+        node.create_timer(DIAGNOSTICS_PERIOD_S, self._say)
+        if chosen.state:
+            node.create_timer(STATE_PERIOD_S, self._keep_state)
+
+    def _received(self, message: Any, info: Any) -> None:
+        health = self.live.health
+        health.received_input(time.monotonic(), info.get("publication_sequence_number"))
+        if self.latest is not None:  # the newest input wins
+            health.replaced()
+        arrived_ns = info.get("received_timestamp") or time.time_ns()
+        self.latest = (message, int(arrived_ns))
+        self.ready.trigger()
+
+    def _process(self) -> None:
+        latest, self.latest = self.latest, None
+        if latest is None or self.stopped:
+            return
+        message, arrived_ns = latest
+        try:
+            people = tracked(message, self.kind, self.fields)
+        except GrouptronError as error:
+            self.live.refused("malformed", str(error))
+            self._warn_once(str(error))
+            self._say()
+            return
+        made = self.live.forecast(people)
+        if made is None:
+            self._warn_once(self.live.health.last_refusal)
+        else:
+            self._publish(made, _header_of(message, self.kind), arrived_ns)
+        self._say()
+
+    def _publish(self, made: Made, header: Any, arrived_ns: int) -> None:
+        stamp = header.stamp
+        self.forecasts.publish(  # serialized here: 600 transform objects cost 3 ms
+            trajectory_bytes(
+                [str(i) for i in made.forecast.ids],
+                made.forecast.point,
+                stamp.sec,
+                stamp.nanosec,
+                header.frame_id,
+                self.dt_s,
+            )
+        )
+        if self.markers is not None:
+            self.markers.publish(
+                marker_message(
+                    made.forecast,
+                    header,
+                    made.regions,
+                    self.dt_s,
+                    style=self.options.markers,
+                    now_xy=made.now_xy,
+                )
+            )
+        stamp_ns = stamp.sec * 1_000_000_000 + stamp.nanosec
+        self.live.health.published(
+            made.update_ms,
+            (time.time_ns() - arrived_ns) / 1e6,
+            (self._node().get_clock().now().nanoseconds - stamp_ns) / 1e6,
+        )
+
+    def _say(self, stopped: bool = False) -> None:
+        """Publish the status (after an input, once a second, and when stopping)."""
+        from std_msgs.msg import Header
+
+        status = self.live.health.status(time.monotonic(), stopped=stopped)
+        online_state = self.session.online
+        calibrated = "shipped or given" if self.predictor.calibration is not None else "none"
+        values = {
+            **status.values,
+            **self.live.faults(),
+            "calibration": "online" if online_state is not None else calibrated,
+            "threads": str(self.predictor.threads or "PyTorch's"),
+        }
+        header = Header(stamp=self._node().get_clock().now().to_msg())
+        said = type(status)(status.level, status.message, values)
+        self.diagnostics.publish(diagnostics_message(header, "grouptron forecasts", said))
+
+    def _keep_state(self) -> None:
+        """Keep the online radii, and the learnt weights when a round changed them."""
+        if not self.options.state:
+            return
+        learning = self.session.learning
+        kept = (-1, -1) if learning is None else (learning.rounds, learning.accepted)
+        if self.session.online is not None or kept != self._kept:
+            self.session.save_state(self.options.state)
+            self._kept = kept
+
+    def stop(self) -> None:
+        """Say on ``/diagnostics`` that the node stopped, keep its state, close its
+        session (its learning process included); once."""
+        if self.stopped:
+            return
+        self.stopped = True
+        self._say(stopped=True)
+        if self.options.state:
+            self.session.save_state(self.options.state)
+        self.session.close()
+
+    def _warn_once(self, text: str) -> None:
+        kind = text.split(":")[0]
+        if kind not in self.warned:
+            self.warned.add(kind)
+            self._node().get_logger().warning(f"skipped a message of {self.options.topic}: {text}")
+
+    def _node(self) -> Any:
+        """This object as the rclpy Node it is mixed into."""
+        return self
+
+
 def make_node(
     predictor: Predictor,
     options: NodeOptions,
@@ -63,132 +262,51 @@ def make_node(
     learn: LearningOptions | None = None,
 ) -> Any:
     """The node (rclpy must be initialised); ``predictor`` forecasts, its session adapts its
-    radii with ``online`` and learns the site with ``learn`` (``node.session.save_site``)."""
+    radii with ``online`` and learns the site with ``learn`` (``node.session.save_site``).
+    ``node.stop()`` says on ``/diagnostics`` that it stopped, keeps its state and closes the
+    session."""
     from rclpy.node import Node
-    from rclpy.qos import QoSProfile
 
-    class ForecastNode(Node):
-        """See the module: forecasts on every message of tracked people."""
+    class ForecastNode(NodeParts, Node):
+        """See the module: forecasts the newest message of tracked people."""
 
         def __init__(self) -> None:
-            super().__init__(options.name)
-            chosen = self._chosen_options(options)
-            self.kind = chosen.type
-            self.fields = BagFields.parse(chosen.ros_fields) if chosen.ros_fields else None
-            self.options = chosen
-            # Online calibration and learning are ROS parameters too (flags their defaults).
-            online_on = bool(_parameter(self, "online", online))
-            learn_on = bool(_parameter(self, "learn", learn is not None))
-            chosen_learn = (learn or LearningOptions()) if learn_on else False
-            self.session = predictor.stream(online_calibration=online_on, learn=chosen_learn)
-            self.dt_s = predictor.config.data.dt_s
-            self.latest: Any = None
-            self.counts = {"received": 0, "forecast": 0, "dropped": 0, "malformed": 0}
-            self.last_update_ms = 0.0
-            self.last_people = 0
-            self.warned: set[str] = set()
-            queue = QoSProfile(depth=10)
-            incoming = message_class(chosen.type)
-            self.create_subscription(incoming, chosen.topic, self._received, queue)
-            out = chosen.namespace.rstrip("/")
-            self.forecasts = self.create_publisher(
-                message_class("trajectory_msgs/msg/MultiDOFJointTrajectory"),
-                f"{out}/forecasts",
-                queue,
-            )
-            self.markers = self.create_publisher(
-                message_class("visualization_msgs/msg/MarkerArray"), f"{out}/markers", queue
-            )
-            self.diagnostics = self.create_publisher(
-                message_class("diagnostic_msgs/msg/DiagnosticArray"), "/diagnostics", queue
-            )
-            # Processing waits on a guard condition the subscription triggers: the executor
-            # takes every message waiting first, so the newest is the one forecast.
-            self.ready = self.create_guard_condition(self._process)
-
-        def _received(self, message: Any) -> None:
-            self.counts["received"] += 1
-            if self.latest is not None:  # the newest input wins
-                self.counts["dropped"] += 1
-            self.latest = message
-            self.ready.trigger()
-
-        def _process(self) -> None:
-            message, self.latest = self.latest, None
-            if message is None:
-                return
-            try:
-                people = tracked(message, self.kind, self.fields)
-                fixed = self.options.fixed_frames
-                check_fixed_frame(Path(self.options.topic), people.frame_id, fixed)
-                started = time.perf_counter()
-                forecast = self.session.update(people.time_s, people.ids, people.xy)
-            except GrouptronError as error:
-                self.counts["malformed"] += 1
-                self._warn_once(str(error))
-                return
-            regions = (
-                forecast.regions(options.regions) if options.regions and len(forecast) else None
-            )
-            self.last_update_ms = 1000 * (time.perf_counter() - started)
-            self.last_people = len(people.ids)
-            self.counts["forecast"] += 1
-            header = _header_of(message, self.kind)
-            stamp = header.stamp
-            self.forecasts.publish(  # serialized here: 600 transform objects cost 3 ms
-                trajectory_bytes(
-                    [str(i) for i in forecast.ids],
-                    forecast.point,
-                    stamp.sec,
-                    stamp.nanosec,
-                    header.frame_id,
-                    self.dt_s,
-                )
-            )
-            self.markers.publish(marker_message(forecast, header, regions, self.dt_s))
-            self.diagnostics.publish(self._diagnostics(header))
-
-        def _diagnostics(self, header: Any) -> Any:
-            online_state = self.session.online
-            calibrated = "shipped or given" if predictor.calibration is not None else "none"
-            values = {
-                "update time ms": f"{self.last_update_ms:.1f}",
-                "people": str(self.last_people),
-                **{f"{k} inputs": str(v) for k, v in self.counts.items()},
-                "calibration": "online" if online_state is not None else calibrated,
-                "learning": "off"
-                if self.session.learning is None
-                else self.session.learning.line(),
-            }
-            level = 0 if not self.counts["malformed"] else 1
-            return diagnostics_message(header, "grouptron forecasts", values, level)
-
-        def _warn_once(self, text: str) -> None:
-            kind = text.split(":")[0]
-            if kind not in self.warned:
-                self.warned.add(kind)
-                self.get_logger().warning(f"skipped a message of {self.options.topic}: {text}")
-
-        def _chosen_options(self, given: NodeOptions) -> NodeOptions:
-            """The options as ROS parameters (``--ros-args -p regions:=0.5``), the flags'
-            values their defaults."""
-            values = {}
-            for name in ("topic", "type", "ros_fields", "regions", "namespace"):
-                default = getattr(given, name)
-                default = "" if default is None else default
-                values[name] = _parameter(self, name, default)
-            fixed = _parameter(self, "fixed_frames", list(given.fixed_frames) or [""])
-            return NodeOptions(
-                topic=str(values["topic"]),
-                type=str(values["type"]),
-                ros_fields=str(values["ros_fields"]) or None,
-                fixed_frames=tuple(f for f in fixed if f),
-                regions=float(values["regions"]),
-                namespace=str(values["namespace"]),
-                name=given.name,
-            )
+            Node.__init__(self, options.name)
+            self.setup(predictor, options, online, learn)
 
     return ForecastNode()
+
+
+def _chosen_options(node: Any, given: NodeOptions) -> NodeOptions:
+    """The options as ROS parameters (``--ros-args -p regions:=0.5``), the flags' values
+    their defaults; refused in one line where a value is not one the node takes."""
+    values = {}
+    for name in _STRING_PARAMETERS:
+        default = getattr(given, name)
+        values[name] = _parameter(node, name, "" if default is None else default)
+    fixed = _parameter(node, "fixed_frames", list(given.fixed_frames) or [""])
+    chosen = NodeOptions(
+        topic=str(values["topic"]),
+        type=str(values["type"]),
+        ros_fields=str(values["ros_fields"]) or None,
+        fixed_frames=tuple(f for f in fixed if f),
+        regions=float(values["regions"]),
+        namespace=str(values["namespace"]),
+        name=given.name,
+        markers=str(values["markers"]),
+        qos_input=str(values["qos_input"]),
+        qos_forecasts=str(values["qos_forecasts"]),
+        qos_markers=str(values["qos_markers"]),
+        qos_diagnostics=str(values["qos_diagnostics"]),
+        state=given.state,
+    )
+    if chosen.markers not in MARKER_STYLES:
+        raise GrouptronError(
+            f"markers must be one of {', '.join(MARKER_STYLES)}, not {chosen.markers!r}"
+        )
+    for topic in DEFAULT_QOS:
+        chosen.qos(topic)  # one line now, not at the first message
+    return chosen
 
 
 def _parameter(node: Any, name: str, default: Any) -> Any:

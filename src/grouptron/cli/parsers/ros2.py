@@ -23,11 +23,12 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         help="a live ROS 2 node: tracked people in, forecasts, markers and diagnostics out",
         formatter_class=Formatter,
         description=(
-            "Join a live ROS 2 graph (pip install 'grouptron[ros2]'): forecast every message "
+            "Join a live ROS 2 graph (pip install 'grouptron[ros2]'): forecast the newest message "
             "of tracked people on --topic and publish /grouptron/forecasts "
             "(trajectory_msgs/msg/MultiDOFJointTrajectory: joint_names the person ids, points[k-1] "
-            "step k, 0.4 s apart), /grouptron/markers (visualization_msgs/msg/MarkerArray: a "
-            "line per person and the region ellipses, for RViz and Foxglove) and /diagnostics. "
+            "step k, 0.4 s apart), /grouptron/markers (visualization_msgs/msg/MarkerArray: the "
+            "paths and regions, for RViz and Foxglove) and /diagnostics (the forecasts' age, "
+            "inputs not forecast and why). Ctrl-C or SIGTERM stops it within a second. "
             "With --replay, publish a bag's people on --topic at their recorded rate instead, so "
             "that the node can be shown without a robot (docs/robots.md)."
         ),
@@ -64,13 +65,29 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     ros2.add_argument(
         "--online", action="store_true", help="adapt the regions' radii as truths arrive"
     )
+    ros2.add_argument(
+        "--markers",
+        choices=("light", "full", "off"),
+        default="light",
+        help="light: one line list of the paths and one triangle list of the horizon's "
+        "regions (at most 50 KB at 100 people); full: a line per person and an ellipse per "
+        "step (about 2.8 KB a person); off: no markers topic",
+    )
     add_learning_options(ros2, save_site=True)
+    ros2.add_argument(
+        "--state",
+        metavar="DIR",
+        help="keep the online radii and learnt weights here (every 10 s and at exit) and take "
+        "them up again when the node restarts with the same --state",
+    )
     ros2.add_argument(
         "--ros-args",
         nargs=argparse.REMAINDER,
         default=[],
         help="the rest goes to ROS: parameters that override the flags of the same names "
-        "(-p learn:=true, -p regions:=0.5, -p topic:=/people), remappings, a log level",
+        "(-p learn:=true, -p regions:=0.5, -p topic:=/people, -p markers:=off), each topic's "
+        "QoS (-p qos_input:=depth=1,reliability=best_effort; docs/robots.md), remappings, a "
+        "log level",
     )
     ros2.add_argument("--replay", metavar="BAG", help="publish this bag's --topic instead")
     ros2.add_argument(
