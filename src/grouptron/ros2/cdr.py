@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -165,3 +166,97 @@ def _marker(
     out.string("")  # mesh_file: filename, data
     out.uint32(0)
     out.boolean(False)  # mesh_use_embedded_materials
+
+
+class _Reader:
+    """CDR primitives read from serialized bytes, aligned from the end of the encapsulation;
+    a message that ends early raises ``ValueError``."""
+
+    def __init__(self, data: bytes) -> None:
+        if data[:4] != CDR_LE:
+            raise ValueError("not plain little-endian CDR")
+        self.body = memoryview(data)[4:]
+        self.at = 0
+
+    def take(self, fmt: str, size: int, align: int) -> tuple[Any, ...]:
+        self.at += -self.at % align
+        values = struct.unpack_from(fmt, self.body, self.at)
+        self.at += size
+        return values
+
+    def uint32(self) -> int:
+        return int(self.take("<I", 4, 4)[0])
+
+    def string(self) -> str:
+        length = self.uint32()  # the closing NUL included
+        if length == 0 or self.at + length > len(self.body):
+            raise ValueError("a string runs past the message")
+        text = bytes(self.body[self.at : self.at + length - 1]).decode()
+        self.at += length
+        return text
+
+    def skip(self, count: int, size: int, align: int) -> None:
+        """Skip ``count`` items of ``size`` bytes (a sequence's elements)."""
+        if count:
+            self.at += -self.at % align
+            self.at += count * size
+            if self.at > len(self.body):
+                raise ValueError("a sequence runs past the message")
+
+
+@dataclass(frozen=True)
+class MarkerPeople:
+    """What a ``MarkerArray``'s bytes say of its people: the first marker's stamp and frame,
+    and per added marker (action ADD, which MODIFY equals) its ``ns``, ``id`` and (N, 2)
+    positions."""
+
+    sec: int
+    nanosec: int
+    frame_id: str
+    ns: list[str]
+    id: list[int]
+    xy: np.ndarray
+
+
+def marker_array_people(data: bytes) -> MarkerPeople:
+    """Read the people of a serialized ``visualization_msgs/msg/MarkerArray`` (Jazzy's layout)
+    without building its Python objects, which take 7 ms at 50 markers and 12 ms at 90
+    (``benchmarks/ros2_messages.py``). Markers are records of variable length (strings and
+    sequences), so they are walked one by one; ``ValueError`` if the bytes end early."""
+    read = _Reader(data)
+    header: tuple[int, int, str] | None = None
+    ns: list[str] = []
+    ids: list[int] = []
+    xy: list[tuple[float, float]] = []
+    for _ in range(read.uint32()):
+        sec, nanosec = read.take("<iI", 8, 4)
+        frame_id = read.string()
+        header = header or (sec, nanosec, frame_id)
+        name = read.string()
+        number, _kind, action = read.take("<iii", 12, 4)
+        x, y = read.take("<dd", 16, 8)  # pose.position.x, y
+        read.skip(1, 40, 8)  # position.z, orientation
+        read.skip(1, 24, 8)  # scale
+        read.skip(1, 16, 4)  # color
+        read.skip(1, 8, 4)  # lifetime
+        read.skip(1, 1, 1)  # frame_locked
+        read.skip(read.uint32(), 24, 8)  # points
+        read.skip(read.uint32(), 16, 4)  # colors
+        read.string()  # texture_resource
+        read.skip(1, 8, 4)  # texture: header stamp, frame, format, data
+        read.string()
+        read.string()
+        read.skip(read.uint32(), 1, 1)
+        read.skip(read.uint32(), 8, 4)  # uv_coordinates
+        read.string()  # text
+        read.string()  # mesh_resource
+        read.string()  # mesh_file: filename, data
+        read.skip(read.uint32(), 1, 1)
+        read.skip(1, 1, 1)  # mesh_use_embedded_materials
+        if action == 0:  # ADD (MODIFY is the same number); DELETE and DELETEALL name nobody
+            ns.append(name)
+            ids.append(number)
+            xy.append((x, y))
+    if header is None:
+        raise ValueError("an empty MarkerArray")
+    return MarkerPeople(*header, ns, ids, np.asarray(xy, dtype=np.float64).reshape(-1, 2))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib
 import math
+import struct
 from dataclasses import dataclass
 from typing import Any
 
@@ -13,6 +14,7 @@ import numpy as np
 from grouptron.data.formats.ros_bag import KNOWN_MESSAGES, BagFields
 from grouptron.errors import GrouptronError
 from grouptron.inference.forecast import Forecast
+from grouptron.ros2.cdr import marker_array_people
 from grouptron.ros2.health import Status
 
 MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
@@ -30,6 +32,8 @@ class Tracked:
     frame_id: str
     ids: list[str]
     xy: np.ndarray
+    stamp: tuple[int, int] = (0, 0)
+    """The header stamp as given (sec, nanosec), for what is published in reply."""
 
 
 def message_class(kind: str) -> Any:
@@ -83,14 +87,39 @@ def tracked(message: Any, kind: str, fields: BagFields | None = None) -> Tracked
         except AttributeError as error:
             raise GrouptronError(f"{kind}: {error}; check --ros-fields") from None
     positions = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-    if not np.isfinite(positions).all():
+    stamp = (int(header.stamp.sec), int(header.stamp.nanosec))
+    return _checked(_stamp_s(header), str(header.frame_id), ids, positions, stamp)
+
+
+def tracked_bytes(data: bytes) -> Tracked:
+    """The people of a serialized MarkerArray, as :func:`tracked` reads its message, without
+    building its Python objects (``cdr.marker_array_people``)."""
+    if data[4:8] == bytes(4):  # no markers: the same line as tracked()'s
+        raise GrouptronError("an empty MarkerArray: no stamp, nobody to forecast")
+    try:
+        people = marker_array_people(data)
+    except (ValueError, UnicodeDecodeError, struct.error) as error:
+        raise GrouptronError(f"a MarkerArray that does not read: {error}") from None
+    ids = [
+        (ns if number == 0 else f"{ns}/{number}") if ns else str(number)
+        for ns, number in zip(people.ns, people.id, strict=True)
+    ]
+    time_s = float(people.sec) + 1e-9 * float(people.nanosec)
+    return _checked(time_s, people.frame_id, ids, people.xy, (people.sec, people.nanosec))
+
+
+def _checked(
+    time_s: float, frame_id: str, ids: list[str], xy: np.ndarray, stamp: tuple[int, int]
+) -> Tracked:
+    """The people, refused in one line where a position is not finite, an id comes twice or
+    the stamp is missing."""
+    if not np.isfinite(xy).all():
         raise GrouptronError("a position that is not a finite number")
     if len(set(ids)) != len(ids):
         raise GrouptronError("an id named twice in one message")
-    time_s = _stamp_s(header)
     if not math.isfinite(time_s) or time_s <= 0:
         raise GrouptronError("a message without a time stamp")
-    return Tracked(time_s, str(header.frame_id), ids, positions)
+    return Tracked(time_s, frame_id, ids, xy, stamp)
 
 
 def trajectory_message(forecast: Forecast, header: Any, dt_s: float) -> Any:
