@@ -6,8 +6,11 @@ Usage:
 The forecasts of the default model for the synthetic crowd of ``benchmarks/streaming.py``:
 the ``MultiDOFJointTrajectory`` built as rclpy messages (``ros2.messages.trajectory_message``)
 and serialized by rclpy, against the same bytes written directly (``ros2.cdr``); a Python
-subscriber's conversion of them back into messages; and the incoming ``MarkerArray`` of the
-tracked people, serialized by the publisher and converted by the node.
+subscriber's conversion of them back into messages; the incoming ``MarkerArray`` of the
+tracked people, serialized by the publisher, and read by the node as Python messages against
+its people read from the bytes (``ros2.messages.tracked_bytes``, what the node does); and the
+markers out: the light style as message objects and as bytes (what the node publishes), the
+full style as message objects, with each one's size.
 """
 
 from __future__ import annotations
@@ -46,7 +49,8 @@ def main() -> None:
 
     from grouptron import Predictor
     from grouptron.ros2.cdr import trajectory_bytes
-    from grouptron.ros2.messages import Tracked, marker_array, trajectory_message
+    from grouptron.ros2.markers import marker_bytes, marker_message
+    from grouptron.ros2.messages import Tracked, marker_array, tracked_bytes, trajectory_message
 
     session = Predictor.from_checkpoint().stream()
     for k, (ids, xy) in enumerate(synthetic_frames(args.people, 20)):
@@ -54,6 +58,7 @@ def main() -> None:
     header = Header(frame_id="map")
     header.stamp.sec = 1_700_000_000
     names = [str(i) for i in forecast.ids]
+    regions = forecast.regions(0.9)
     built = trajectory_message(forecast, header, 0.4)
     people = marker_array(Tracked(1.7e9, "map", names, np.asarray(xy)), header)
     incoming, outgoing = serialize_message(people), serialize_message(built)
@@ -67,11 +72,24 @@ def main() -> None:
             outgoing, MultiDOFJointTrajectory
         ),
         "MarkerArray serialized by the publisher": lambda: serialize_message(people),
-        "MarkerArray converted by the node": lambda: deserialize_message(incoming, MarkerArray),
+        "MarkerArray read as Python messages": lambda: deserialize_message(incoming, MarkerArray),
+        "its people read from the bytes (the node)": lambda: tracked_bytes(incoming),
+        "light markers as messages, serialized": lambda: serialize_message(
+            marker_message(forecast, header, regions, 0.4)
+        ),
+        "light markers as bytes (the node)": lambda: marker_bytes(
+            forecast, (1_700_000_000, 0), "map", regions, 0.4
+        ),
+        "full markers as messages, serialized": lambda: serialize_message(
+            marker_message(forecast, header, regions, 0.4, style="full")
+        ),
     }
+    light = marker_bytes(forecast, (1_700_000_000, 0), "map", regions, 0.4)
+    full = serialize_message(marker_message(forecast, header, regions, 0.4, style="full"))
     print(f"{len(forecast)} people, 12 steps; median ms per message over {args.repeats}")
     for label, work in parts.items():
         print(f"{label:>42}: {median_ms(work, args.repeats):.2f}")
+    print(f"markers message: light {len(light) / 1000:.1f} KB, full {len(full) / 1000:.1f} KB")
 
 
 if __name__ == "__main__":
