@@ -291,3 +291,57 @@ def test_no_held_out_position_was_a_training_target(checkpoint: Path, site: Path
     for train, holdout in planned:
         assert train.done_s.max() <= holdout.done_s.min() - 4.8 + 1e-6
         assert len(np.unique(holdout.done_s)) >= ROUNDS.min_holdout_steps
+
+
+def test_close_stops_a_running_round_within_a_second_and_it_is_no_failure(
+    checkpoint: Path, site: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A node told to stop while a long round runs in the learning process."""
+    long_rounds = dataclasses.replace(
+        ROUNDS, background=True, budget=FineTune(steps=100_000, batch_size=32)
+    )
+    session = Predictor.from_checkpoint(checkpoint, forecast="ml").stream(learn=long_rounds)
+    rows = _rows(site)
+    assert session.learner is not None
+    for frame in np.unique(rows[:, 0]).astype(int):
+        at = rows[:, 0] == frame
+        session.update(int(frame), rows[at, 1], rows[at, 2:4])
+        if session.learner.busy:
+            break
+    assert session.learner.busy
+    import time
+
+    time.sleep(3.0)  # the worker started and is fine-tuning
+    started = time.monotonic()
+    session.close(drop_round=True)
+    assert time.monotonic() - started < 1.0
+    assert "failed" not in caplog.text
+    assert session.learning is not None and session.learning.rounds == 0  # dropped, not run
+
+
+def test_a_kept_state_resumes_the_learnt_weights_and_status(
+    checkpoint: Path, site: Path, tmp_path: Path
+) -> None:
+    predictor = Predictor.from_checkpoint(checkpoint, forecast="ml")
+    session = predictor.stream(learn=ROUNDS, online_calibration=True)
+    rows = _rows(site)
+    for frame in np.unique(rows[:, 0]).astype(int):
+        at = rows[:, 0] == frame
+        session.update(int(frame), rows[at, 1], rows[at, 2:4])
+    assert session.learning is not None and session.learning.rounds >= 1
+    written = session.save_state(tmp_path / "state")
+    assert {p.name for p in written} == {"online.json", "best.safetensors"}
+    again = predictor.stream(learn=ROUNDS, online_calibration=True, state=tmp_path / "state")
+    assert again.learner is not None and session.learner is not None
+    for name, value in session.learner.model.state_dict().items():
+        assert torch.equal(again.learner.model.state_dict()[name], value)
+    assert dataclasses.replace(again.learning, seconds=0.0) == dataclasses.replace(
+        session.learning, seconds=0.0
+    )
+    assert again.online is not None and session.online is not None
+    np.testing.assert_array_equal(again.online.radii, session.online.radii)
+    card = tmp_path / "state" / "site" / SITE_CARD
+    edited = json.loads(card.read_text()) | {"base_weights_sha256": "0" * 64}
+    card.write_text(json.dumps(edited))
+    with pytest.raises(GrouptronError, match="learnt from other weights"):
+        predictor.stream(learn=ROUNDS, state=tmp_path / "state")

@@ -6,10 +6,7 @@ from __future__ import annotations
 
 import os
 import random
-import time
-from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
@@ -17,72 +14,15 @@ import pytest
 from grouptron.cli import main
 from grouptron.inference.learning import LearningOptions
 from grouptron.inference.predictor import Predictor
-from grouptron.ros2.messages import Tracked, marker_array
+from grouptron.ros2.messages import Tracked
 from grouptron.ros2.node import NodeOptions, make_node
 from grouptron.training.fine_tune import FineTune
 from tests.conftest import synthetic_recording
 from tests.golden.compute import synthetic_tracks
+from tests.helpers.ros2_graph import Probe
 
 rclpy = pytest.importorskip("rclpy")
-
-
-@pytest.fixture(scope="module")
-def graph() -> Iterator[None]:
-    """rclpy on a domain of its own, on this machine only."""
-    os.environ["ROS_DOMAIN_ID"] = str(random.randint(10, 99))
-    os.environ["ROS_LOCALHOST_ONLY"] = "1"
-    rclpy.init()
-    yield
-    rclpy.try_shutdown()
-
-
-class Probe:
-    """A node that publishes tracked people and keeps what the grouptron node says."""
-
-    def __init__(self) -> None:
-        from diagnostic_msgs.msg import DiagnosticArray
-        from trajectory_msgs.msg import MultiDOFJointTrajectory
-        from visualization_msgs.msg import MarkerArray
-
-        self.node = rclpy.create_node(f"probe_{random.randint(0, 10**6)}")
-        self.sent = 0
-        self.publisher = self.node.create_publisher(MarkerArray, "/tracked_people", 10)
-        self.got: dict[str, list[Any]] = {"forecasts": [], "markers": [], "diagnostics": []}
-        for name, kind, topic in (
-            ("forecasts", MultiDOFJointTrajectory, "/grouptron/forecasts"),
-            ("markers", MarkerArray, "/grouptron/markers"),
-            ("diagnostics", DiagnosticArray, "/diagnostics"),
-        ):
-            self.node.create_subscription(kind, topic, self.got[name].append, 10)
-
-    def send(self, people: Tracked, forecaster: Any, wait_s: float = 5.0) -> bool:
-        """Publish one message and spin both nodes until the forecaster accounted for it
-        (forecast or refused: its diagnostics count every input)."""
-        from std_msgs.msg import Header
-
-        header = Header(frame_id=people.frame_id)
-        header.stamp.sec, header.stamp.nanosec = (
-            int(people.time_s),
-            round((people.time_s % 1) * 1e9),
-        )
-        self.sent += 1
-        self.publisher.publish(marker_array(people, header))
-        deadline = time.monotonic() + wait_s
-        while time.monotonic() < deadline and self.accounted() < self.sent:
-            rclpy.spin_once(forecaster, timeout_sec=0.01)
-            rclpy.spin_once(self.node, timeout_sec=0.01)
-        return self.accounted() >= self.sent
-
-    def values(self) -> dict[str, str]:
-        """The last diagnostics' values."""
-        return {kv.key: kv.value for kv in self.got["diagnostics"][-1].status[0].values}
-
-    def accounted(self) -> int:
-        """Inputs the forecaster's last diagnostics account for (forecast or not)."""
-        if not self.got["diagnostics"]:
-            return 0
-        values = self.values()
-        return int(values["forecast inputs"]) + int(values["not forecast inputs"])
+pytestmark = pytest.mark.usefixtures("graph")  # rclpy on a domain of its own (conftest)
 
 
 def _people(tracks: np.ndarray, frame: int) -> Tracked:
@@ -91,7 +31,7 @@ def _people(tracks: np.ndarray, frame: int) -> Tracked:
 
 
 def test_the_node_forecasts_as_predict_does_and_says_so(
-    graph: None, tiny_checkpoints: Path, tmp_path: Path
+    tiny_checkpoints: Path, tmp_path: Path
 ) -> None:
     checkpoint = tiny_checkpoints / "grouptron-eth-backward" / "best.safetensors"
     forecaster = make_node(Predictor.from_checkpoint(checkpoint), NodeOptions(name="gt_a"))
@@ -122,9 +62,7 @@ def test_the_node_forecasts_as_predict_does_and_says_so(
     probe.node.destroy_node()
 
 
-def test_malformed_inputs_are_survived_and_a_moving_frame_refused(
-    graph: None, tiny_checkpoints: Path
-) -> None:
+def test_malformed_inputs_are_survived_and_a_moving_frame_refused(tiny_checkpoints: Path) -> None:
     checkpoint = tiny_checkpoints / "grouptron-eth-backward" / "best.safetensors"
     forecaster = make_node(Predictor.from_checkpoint(checkpoint), NodeOptions(name="gt_b"))
     probe = Probe()
@@ -144,7 +82,7 @@ def test_malformed_inputs_are_survived_and_a_moving_frame_refused(
 
 
 def test_a_node_that_learns_says_what_its_rounds_did(
-    graph: None, tiny_checkpoints: Path, tmp_path: Path
+    tiny_checkpoints: Path, tmp_path: Path
 ) -> None:
     checkpoint = tiny_checkpoints / "grouptron-eth-backward" / "best.safetensors"
     rounds = LearningOptions(

@@ -20,10 +20,10 @@ from grouptron.inference.predictor import Predictor
 from grouptron.ros2.health import ERROR, OK, STALE
 from grouptron.ros2.messages import Tracked
 from grouptron.ros2.node import NodeOptions, make_node
-from tests.ros2.test_node import Probe, graph  # noqa: F401 - the graph fixture
+from tests.helpers.ros2_graph import Probe
 
 rclpy = pytest.importorskip("rclpy")
-pytestmark = pytest.mark.usefixtures("graph")  # rclpy on a domain of its own
+pytestmark = pytest.mark.usefixtures("graph")  # rclpy on a domain of its own (conftest)
 
 START_S = 1_700_000_000.0
 
@@ -126,8 +126,9 @@ def test_a_restart_with_state_resumes_the_same_radii(tmp_path: Path) -> None:
     probe.node.destroy_node()
 
 
-def test_sigint_stops_the_command_within_a_second_and_says_so(
-    tiny_checkpoints: Path,
+@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_stops_the_command_within_a_second_and_it_says_so(
+    stop: signal.Signals, tiny_checkpoints: Path
 ) -> None:
     from diagnostic_msgs.msg import DiagnosticArray
 
@@ -146,7 +147,7 @@ def test_sigint_stops_the_command_within_a_second_and_says_so(
             rclpy.spin_once(watcher, timeout_sec=0.1)  # the node runs: it says so each second
         assert said, process.stderr.read() if process.poll() is not None else "no diagnostics"
         sent = time.monotonic()
-        process.send_signal(signal.SIGINT)
+        process.send_signal(stop)
         code = process.wait(timeout=10)
         took_s = time.monotonic() - sent
         end = time.monotonic() + 2

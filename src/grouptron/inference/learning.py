@@ -41,7 +41,7 @@ from grouptron.errors import GrouptronError
 from grouptron.evaluation.uncertainty import Interval
 from grouptron.inference.inputs import MAX_MISSED_STEPS
 from grouptron.inference.learning_round import RoundJob, RoundResult, RoundSettings, seeded_round
-from grouptron.inference.round_worker import RoundWorker
+from grouptron.inference.round_worker import FINISH_WAIT_S, STOP_WAIT_S, RoundWorker
 from grouptron.inference.site_samples import Completed, SiteLog, joined
 from grouptron.model.cvae import TrajectronCVAE
 from grouptron.point_forecast import PointForecast
@@ -263,13 +263,14 @@ class SiteLearner:
         pool.fresh = []
         return _newest(train, options.buffer_samples), _subset(fresh, held)
 
-    def close(self) -> None:
-        """Stop the learning process (if one started; a round still running there is
-        dropped) and the thread waiting on it; a later round starts another process."""
+    def close(self, drop_round: bool = False) -> None:
+        """Stop the learning process (if one started) and the thread waiting on it; a later
+        round starts another process. A round still running there gets ``FINISH_WAIT_S`` to
+        finish, or (``drop_round``: a node that stops within a second) is dropped at once."""
         self._closing = True
         worker, self._worker = self._worker, None
         if worker is not None:
-            worker.close()
+            worker.close(STOP_WAIT_S if drop_round else FINISH_WAIT_S)
         self.wait()
         self._closing = False
 

@@ -252,6 +252,28 @@ class OnlineCalibration:
             return state
 
 
+def online_state(
+    chosen: bool | str | Path | OnlineCalibration,
+    horizon: int,
+    calibration: RegionCalibration | None,
+) -> OnlineCalibration | None:
+    """A session's online calibration as ``Predictor(online_calibration=...)`` names it: True
+    starts one from ``calibration`` (else the Gaussian radii), a saved state's file or an
+    ``OnlineCalibration`` resumes it, False is none."""
+    if isinstance(chosen, OnlineCalibration):
+        return chosen
+    if isinstance(chosen, str | Path):
+        return OnlineCalibration.load(chosen)
+    if chosen is True:
+        return OnlineCalibration.start(horizon, calibration)
+    if chosen is False:
+        return None
+    raise GrouptronError(
+        f"online_calibration must be True, False, a saved state's file or an "
+        f"OnlineCalibration, not {chosen!r}"
+    )
+
+
 @dataclass(frozen=True, eq=False)
 class ForecastRadii:
     """Per forecast, the radii in force when it was made (a replay's): what regions take.

@@ -47,7 +47,7 @@ from grouptron.inference.inputs import (
     refuse_future_neighbours,
 )
 from grouptron.inference.learning import LearningOptions, SiteLearner
-from grouptron.inference.online import OnlineCalibration
+from grouptron.inference.online import OnlineCalibration, online_state
 from grouptron.inference.stream import StreamSession
 from grouptron.model.checkpoint import load_trained_model
 from grouptron.model.cvae import TrajectronCVAE
@@ -61,13 +61,7 @@ log = logging.getLogger(__name__)
 MAX_SAMPLES = 10_000
 """Sampled futures per agent at most: more only fill memory (1.9 MB an agent)."""
 
-LIVE_THREADS = 1
-"""PyTorch threads a predictor's forecasts run on by default. A robot's CPU is shared, and
-PyTorch's default of one thread per core spins at every parallel region until all its threads
-arrive: beside other busy processes one of them is descheduled and the update collapses
-(2.6x slower at 50 people beside another PyTorch process, and 802 ms once in four runs), while
-one thread holds within 1.1x. On a quiet machine two threads save nothing at 50 people and
-about a quarter at 300 (``benchmarks/streaming.py --stress``, benchmarks/RESULTS.md)."""
+LIVE_THREADS = 1  # more collapse on a shared CPU: docs/robots.md, "Threads"
 
 
 class Predictor:
@@ -103,9 +97,8 @@ class Predictor:
         learn: live sessions (``stream``) learn their site: each fine-tunes its own copy of
             the weights in rounds on the people it saw walk, guarded (``inference.learning``;
             True: the default ``LearningOptions``, or one's own).
-        threads: PyTorch threads its forecasts run on (set for each forecast and restored
-            after, the rest of the process untouched); default ``LIVE_THREADS`` (1), which
-            holds on a shared CPU; None: whatever PyTorch is set to.
+        threads: PyTorch threads of its forecasts, set around each and restored (default
+            ``LIVE_THREADS``, 1: holds on a shared CPU; None: PyTorch's own setting).
 
     Attributes:
         group_rule: the rule behind ``Forecast.group``: the model's own for one that reads
@@ -277,33 +270,20 @@ class Predictor:
         chosen = self.online_calibration if online_calibration is None else online_calibration
         options = self.learn if learn is None else _learning_options(learn)
         if options is None:
-            session = StreamSession(self, self._online_state(chosen))
+            session = StreamSession(
+                self, online_state(chosen, self.config.data.horizon_steps, self.calibration)
+            )
         else:
             own = copy.copy(self)  # the session's weights change; this predictor's do not
             learner = SiteLearner(
                 self.model, self.config, self.forecast, options, self.max_missed_steps
             )
-            session = StreamSession(own, self._online_state(chosen), learner)
+            session = StreamSession(
+                own, online_state(chosen, self.config.data.horizon_steps, self.calibration), learner
+            )
         if state is not None:
-            resumed = session.resume_state(state)
-            log.info("resumed %s from %s", ", ".join(resumed) or "nothing", state)
+            log.info("resumed %s from %s", session.resume_state(state) or "nothing", state)
         return session
-
-    def _online_state(
-        self, chosen: bool | str | Path | OnlineCalibration
-    ) -> OnlineCalibration | None:
-        if isinstance(chosen, OnlineCalibration):
-            return chosen
-        if isinstance(chosen, str | Path):
-            return OnlineCalibration.load(chosen)
-        if chosen is True:
-            return OnlineCalibration.start(self.config.data.horizon_steps, self.calibration)
-        if chosen is False:
-            return None
-        raise GrouptronError(
-            f"online_calibration must be True, False, a saved state's file or an "
-            f"OnlineCalibration, not {chosen!r}"
-        )
 
     def forecast_window(
         self,

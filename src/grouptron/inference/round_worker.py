@@ -40,6 +40,12 @@ from grouptron.model.factory import build_model
 from grouptron.point_forecast import PointForecast
 from grouptron.training.fine_tune import FineTune
 
+STOP_WAIT_S = 0.3
+"""How long a worker gets to read the end of its input and return before it is terminated
+when a round it runs is to be dropped: a node stops within a second."""
+FINISH_WAIT_S = 5.0
+"""How long a worker gets to finish a round it runs when a session closes."""
+
 
 class RoundWorker:
     """Rounds in a process of its own (started at the first round; one per session).
@@ -87,22 +93,19 @@ class RoundWorker:
         difference = Interval(*answer["difference"])
         return RoundResult(answer["rolled_back"], accepted, difference, answer["iteration"])
 
-    def close(self) -> None:
-        """Stop the process."""
-        self._stop()
+    def close(self, wait_s: float = STOP_WAIT_S) -> None:
+        """Stop the process: it gets ``wait_s`` to finish a round and read the end of its
+        input, then is terminated."""
+        self._stop.detach()
+        _stop(self._process, wait_s)
 
 
-STOP_WAIT_S = 0.3
-"""How long a worker between rounds gets to read the end of its input and return before it is
-terminated (a round it is running is dropped): a node stops within a second."""
-
-
-def _stop(process: subprocess.Popen[bytes]) -> None:
+def _stop(process: subprocess.Popen[bytes], wait_s: float = STOP_WAIT_S) -> None:
     if process.stdin is not None:
         with contextlib.suppress(OSError):  # it is gone already
             process.stdin.close()  # a worker between rounds reads the end and returns
     try:
-        process.wait(timeout=STOP_WAIT_S)
+        process.wait(timeout=wait_s)
     except subprocess.TimeoutExpired:
         process.terminate()
         try:

@@ -126,11 +126,12 @@ class StreamSession:
         paired FDE difference); None without learning."""
         return None if self.learner is None else self.learner.status
 
-    def close(self) -> None:
-        """Finish a learning round still running and stop the learning process (a session
+    def close(self, drop_round: bool = False) -> None:
+        """Finish a learning round still running (up to 5 s; ``drop_round``: drop it at once,
+        as a node that stops within a second does) and stop the learning process (a session
         that does not learn has nothing to close)."""
         if self.learner is not None:
-            self.learner.close()
+            self.learner.close(drop_round)
 
     def save_site(self, path: str | Path) -> Path:
         """Keep the weights in use and their card in the folder ``path`` (``best.safetensors``,

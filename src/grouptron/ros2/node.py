@@ -35,6 +35,8 @@ from grouptron.ros2.qos import DEFAULT_QOS, TopicQoS
 DIAGNOSTICS_PERIOD_S = 1.0
 """``/diagnostics`` also leaves this often without input, so that a silent or refusing node is
 seen."""
+STOP_ACK_S = 0.2
+"""How long a stopping node waits for its last status to be received."""
 STATE_PERIOD_S = 10.0
 """With a state folder, the online radii (and learnt weights, when a round changed them) are
 kept this often, and when the node stops."""
@@ -259,9 +261,13 @@ class NodeParts:
             return
         self.stopped = True
         self._say(stopped=True)
+        from rclpy.duration import Duration
+
+        # The last status reaches its subscribers before the process ends.
+        self.diagnostics.wait_for_all_acked(Duration(seconds=STOP_ACK_S))
         if self.options.state:
             self.session.save_state(self.options.state)
-        self.session.close()
+        self.session.close(drop_round=True)
 
     def _warn_once(self, text: str) -> None:
         kind = text.split(":")[0]
