@@ -75,3 +75,29 @@ def test_rotation_by_90_degrees() -> None:
         [0.0, 1.0, -2.0, 0.0],
         atol=1e-12,
     )
+
+
+def test_poses_between_odometry_messages_by_name() -> None:
+    from grouptron.geometry import poses_at
+
+    times = np.array([0.0, 1.0, 3.0])
+    poses = np.array([[0.0, 0.0, 3.0], [1.0, 2.0, -3.0], [5.0, 5.0, 0.0]])  # +3 -> -3 rad
+    query = np.array([0.5, 1.0, 2.0, -0.1, 3.5])
+    out, found = poses_at(times, poses, query, max_gap_s=1.5)
+    assert found.tolist() == [True, True, False, False, False]  # a 2 s gap, before, after
+    np.testing.assert_allclose(out[0, :2], [0.5, 1.0])
+    # The shorter turn: from 3 rad to -3 rad is 0.28 rad through pi, not 6 rad back.
+    assert abs(abs(out[0, 2]) - (3.0 + (2 * np.pi - 6.0) / 2)) < 1e-9
+    np.testing.assert_allclose(out[1], poses[1])
+
+
+def test_a_sensor_on_a_base_places_points_as_composed_transforms() -> None:
+    from grouptron.geometry import compose_poses, fixed_from_body
+
+    base = np.array([2.0, 1.0, np.pi / 2])  # facing +y
+    mount = np.array([0.5, 0.0, np.pi])  # half a metre ahead, looking back
+    point = np.array([[1.0, 0.0]])  # a metre in front of the sensor
+    np.testing.assert_allclose(fixed_from_body(point, compose_poses(base, mount)), [[2.0, 0.5]])
+    np.testing.assert_allclose(
+        fixed_from_body(fixed_from_body(point, mount), base), [[2.0, 0.5]], atol=1e-12
+    )

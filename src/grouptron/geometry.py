@@ -117,3 +117,72 @@ def rotate_xy_pairs(values: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     pairs = values.reshape(*values.shape[:-1], -1, 2)  # (..., P, 2)
     rotated = np.einsum("...ij,...pj->...pi", rotation, pairs)
     return rotated.reshape(values.shape)
+
+
+def fixed_from_body(xy_body_m: np.ndarray, pose_fixed: np.ndarray) -> np.ndarray:
+    """Points given in a moving body's frame, in the fixed frame where the body is.
+
+    Args:
+        xy_body_m: (N, 2) points in the body's frame (x forward, y left), metres.
+        pose_fixed: (3,) the body's pose in the fixed frame: x, y (metres), yaw (radians,
+            counter-clockwise from the fixed x axis).
+
+    Returns:
+        (N, 2) the points in the fixed frame.
+    """
+    rotation = rotation_matrix(np.asarray(pose_fixed[2]))  # (2, 2)
+    placed: np.ndarray = xy_body_m @ rotation.T + pose_fixed[:2]
+    return placed
+
+
+def compose_poses(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """(3,) the pose ``inner`` (given in the frame whose pose is ``outer``) in ``outer``'s
+    parent frame: a sensor mounted at ``inner`` on a base at ``outer``."""
+    x, y = fixed_from_body(np.asarray(inner[None, :2], dtype=np.float64), outer)[0]
+    return np.array([x, y, wrap_angle(outer[2] + inner[2])])
+
+
+def wrap_angle(angle_rad: np.ndarray | float) -> np.ndarray:
+    """Angles wrapped into [-pi, pi)."""
+    wrapped: np.ndarray = (np.asarray(angle_rad) + np.pi) % (2 * np.pi) - np.pi
+    return wrapped
+
+
+def yaw_of_quaternion(x: float, y: float, z: float, w: float) -> float:
+    """The rotation about z (radians) of a unit quaternion (x, y, z, w), as a planar robot's
+    odometry gives its heading."""
+    return float(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
+
+
+def poses_at(
+    times_s: np.ndarray, poses: np.ndarray, query_s: np.ndarray, max_gap_s: float = 1.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """A body's poses interpolated at ``query_s`` between the recorded ones around each time.
+
+    Args:
+        times_s: (P,) increasing times of the recorded poses (odometry messages).
+        poses: (P, 3) x, y, yaw at those times.
+        query_s: (Q,) times wanted.
+        max_gap_s: recorded poses further apart than this are not interpolated between.
+
+    Returns:
+        (Q, 3) poses (positions linear, yaw along the shorter turn) and (Q,) whether each time
+        lay within the record (an exact time counts; outside it, or across a longer gap, the
+        pose is unknown and left zero).
+    """
+    out = np.zeros((len(query_s), 3))
+    if not len(times_s):
+        return out, np.zeros(len(query_s), dtype=bool)
+    after = np.searchsorted(times_s, query_s, side="left")  # (Q,) first time >= query
+    safe = np.minimum(after, len(times_s) - 1)
+    before = np.maximum(safe - 1, 0)
+    exact = (after < len(times_s)) & (times_s[safe] == query_s)
+    bracket = (after < len(times_s)) & (after > 0) & ~exact
+    bracket &= times_s[safe] - times_s[before] <= max_gap_s
+    out[exact] = poses[safe[exact]]
+    b, a = before[bracket], safe[bracket]
+    share = (query_s[bracket] - times_s[b]) / (times_s[a] - times_s[b])  # (B,)
+    out[bracket, :2] = poses[b, :2] + share[:, None] * (poses[a, :2] - poses[b, :2])
+    turn = wrap_angle(poses[a, 2] - poses[b, 2])
+    out[bracket, 2] = wrap_angle(poses[b, 2] + share * turn)
+    return out, exact | bracket

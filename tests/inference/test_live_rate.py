@@ -102,3 +102,20 @@ def test_frame_numbers_with_string_names_keep_the_names(tmp_path: Path) -> None:
         now = scene[scene[:, 0] == frame]
         forecast = session.update(int(frame), [f"p{int(i)}" for i in now[:, 1]], now[:, 2:4])
     assert all(isinstance(i, str) and i.startswith("p") for i in forecast.ids)
+
+
+def test_people_given_from_a_moving_robot_with_its_pose_forecast_as_in_the_fixed_frame() -> None:
+    from grouptron.geometry import rotation_matrix
+
+    predictor = Predictor.from_checkpoint()
+    robot, fixed = predictor.stream(), predictor.stream()
+    for k in range(12):
+        t = 1_700_000_000.0 + 0.4 * k
+        pose = np.array([0.4 * k, 0.1 * k, 0.15 * k])  # driving and turning
+        xy = np.array([[1.2 * 0.4 * k, 3.0], [5.0, 5.0]])  # a walker, someone standing
+        in_robot = (xy - pose[:2]) @ rotation_matrix(np.asarray(pose[2]))
+        seen = robot.update(t, ["w", "s"], in_robot, pose=pose)
+        expected = fixed.update(t, ["w", "s"], xy)
+    np.testing.assert_allclose(seen.point, expected.point, atol=1e-6)
+    with pytest.raises(GrouptronError, match="pose must be"):
+        robot.update(t + 0.4, ["w"], [[0.0, 0.0]], pose=[0.0, np.nan, 0.0])

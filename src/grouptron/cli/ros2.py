@@ -127,6 +127,8 @@ def _node(args: argparse.Namespace) -> Any:
         regions=args.regions or 0.0,
         markers=args.markers,
         state=args.state,
+        odom=args.odom or "",
+        sensor_pose=args.sensor_pose or "",
     )
     print(f"forecasting {args.topic} ({args.type}) on /grouptron/forecasts", flush=True)
     return make_node(predictor, options, online=args.online, learn=learning_options(args))

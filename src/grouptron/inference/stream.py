@@ -13,6 +13,7 @@ import numpy as np
 import torch
 
 from grouptron.errors import GrouptronError, LateUpdateError
+from grouptron.geometry import fixed_from_body
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.inputs import (
     MAX_MISSED_STEPS,
@@ -183,7 +184,14 @@ class StreamSession:
         return self.predictor.window_frames
 
     def update(
-        self, frame: int | float, ids: Any, xy: Any, num_samples: int = 0, *, seed: int = 0
+        self,
+        frame: int | float,
+        ids: Any,
+        xy: Any,
+        num_samples: int = 0,
+        *,
+        seed: int = 0,
+        pose: Any = None,
     ) -> Forecast:
         """Add the agents observed at ``frame`` ((N,) ids, (N, 2) positions in metres) and
         forecast every agent with enough history.
@@ -191,8 +199,14 @@ class StreamSession:
         ``frame``: a time in seconds (a float: a tracker's stamp, at any rate and regularity;
         the history is resampled onto the model's step at every update, ``inference.live``),
         or a frame number (an int, 10 per 0.4 s step as in ETH/UCY). Ids: any hashable
-        values (numbers, strings); a forecast's ``ids`` are the ones given.
+        values (numbers, strings); a forecast's ``ids`` are the ones given. ``pose``: where
+        ``xy`` are given in a moving robot's frame (x forward, y left), the robot's (3,) pose
+        in the fixed frame at this time, x, y (metres) and yaw (radians): the people are put
+        into the fixed frame first, and forecast there (the robot's motion never becomes
+        theirs).
         """
+        if pose is not None:
+            xy = _in_fixed_frame(xy, pose, f"frame {frame}")
         if isinstance(frame, float | np.floating):
             return self._update_seconds(float(frame), ids, xy, num_samples, seed)
         if self._live is not None:
@@ -425,6 +439,20 @@ def _positions(xy: Any, count: int, where: str) -> np.ndarray:
             f"{where}: positions must be (N, 2) = ({count}, 2) finite numbers, one row per id"
         )
     return xy_arr
+
+
+def _in_fixed_frame(xy: Any, pose: Any, where: str) -> np.ndarray:
+    """(N, 2) positions given in a body's frame, in the fixed frame where ``pose`` puts it."""
+    try:
+        pose_arr = np.asarray(pose, dtype=np.float64).reshape(3)
+        xy_arr = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    except (TypeError, ValueError):
+        raise GrouptronError(
+            f"{where}: pose must be (x, y, yaw) numbers and positions (N, 2) numbers"
+        ) from None
+    if not np.isfinite(pose_arr).all():
+        raise GrouptronError(f"{where}: pose must be finite numbers, not {pose_arr.tolist()}")
+    return fixed_from_body(xy_arr, pose_arr)
 
 
 def _named(forecast: Forecast, book: IdBook) -> Forecast:

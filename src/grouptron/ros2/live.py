@@ -17,6 +17,7 @@ from grouptron.inference.stream import StreamSession
 from grouptron.model.regions import Regions
 from grouptron.ros2.health import Health
 from grouptron.ros2.messages import Tracked
+from grouptron.ros2.odometry import OdometryTrack, Placement
 
 
 @dataclass(frozen=True)
@@ -28,12 +29,14 @@ class Made:
         regions: its q-regions (None: none asked for, or nobody forecast).
         now_xy: (N, 2) where each forecast person is in the input (where their path starts).
         update_ms: the update's own time (regions included).
+        frame_id: the frame it is in (the odometry's, for people seen from a moving base).
     """
 
     forecast: Forecast
     regions: Regions | None
     now_xy: np.ndarray
     update_ms: float
+    frame_id: str
 
 
 class LiveForecaster:
@@ -45,6 +48,8 @@ class LiveForecaster:
         fixed_frames: frames of one's own fixed to the world.
         regions_q: the q of the regions drawn (0: none).
         clock_s: the monotonic clock the health counts use.
+        odometry: the base's poses, which put people seen from it into its fixed frame
+            (``ros2.odometry``), or None: people come in a fixed frame.
     """
 
     def __init__(
@@ -54,19 +59,31 @@ class LiveForecaster:
         fixed_frames: tuple[str, ...] = (),
         regions_q: float = 0.9,
         clock_s: Callable[[], float] = time.monotonic,
+        odometry: OdometryTrack | None = None,
     ) -> None:
         self.session = session
+        self.odometry = odometry
         self.topic = topic
         self.fixed_frames = fixed_frames
         self.regions_q = regions_q
         self.clock_s = clock_s
         self.health = Health()
 
-    def forecast(self, people: Tracked) -> Made | None:
-        """The forecast of ``people``, or None when the message is refused (counted by kind
-        in ``health``: ``late``, or ``malformed`` for anything else the session or the frame
-        check refuses, with the reason)."""
+    def forecast(self, people: Tracked) -> Made | Placement | None:
+        """The forecast of ``people``; ``Placement.WAIT`` while the odometry has not reached
+        their stamp; None when the message is refused (counted by kind in ``health``: ``late``,
+        ``no odometry``, or ``malformed`` for anything else the session or the frame check
+        refuses, with the reason)."""
         started = time.perf_counter()
+        if self.odometry is not None and self.odometry.moves(people.frame_id):
+            try:
+                placed = self.odometry.place(people)
+            except GrouptronError as error:
+                self.refused("no odometry", str(error))
+                return None
+            if placed is Placement.WAIT:
+                return placed
+            people = placed
         try:
             check_fixed_frame(Path(self.topic), people.frame_id, self.fixed_frames)
             forecast = self.session.update(people.time_s, people.ids, people.xy)
@@ -80,7 +97,7 @@ class LiveForecaster:
         update_ms = 1000 * (time.perf_counter() - started)
         index = {name: i for i, name in enumerate(people.ids)}
         now_xy = people.xy[[index[str(i)] for i in forecast.ids]].reshape(-1, 2)
-        return Made(forecast, regions, now_xy, update_ms)
+        return Made(forecast, regions, now_xy, update_ms, people.frame_id)
 
     def refused(self, kind: str, reason: str) -> None:
         """Count an input refused before or by the session (``kind``: malformed, late)."""

@@ -15,8 +15,11 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from grouptron.data.formats.ros_bag import BagFields
 from grouptron.errors import GrouptronError
+from grouptron.geometry import yaw_of_quaternion
 from grouptron.inference.learning import LearningOptions
 from grouptron.inference.predictor import Predictor
 from grouptron.ros2.cdr import trajectory_bytes
@@ -30,11 +33,15 @@ from grouptron.ros2.messages import (
     tracked,
     tracked_bytes,
 )
+from grouptron.ros2.odometry import WAIT_S as ODOMETRY_WAIT_S
+from grouptron.ros2.odometry import OdometryTrack, Placement, parse_pose
 from grouptron.ros2.qos import DEFAULT_QOS, TopicQoS
 
 DIAGNOSTICS_PERIOD_S = 1.0
 """``/diagnostics`` also leaves this often without input, so that a silent or refusing node is
 seen."""
+ODOMETRY = "nav_msgs/msg/Odometry"
+"""The type of ``--odom``."""
 STOP_ACK_S = 0.2
 """How long a stopping node waits for its last status to be received."""
 STATE_PERIOD_S = 10.0
@@ -60,6 +67,10 @@ class NodeOptions:
             QoS (``depth=N,reliability=reliable|best_effort``; ``ros2.qos``).
         state: a folder where the online radii and learnt weights are kept and taken up
             again after a restart (None: none).
+        odom: a ``nav_msgs/msg/Odometry`` topic: people in its child frame (or, with
+            ``sensor_pose``, in a sensor's frame) are put into its fixed frame
+            (``ros2.odometry``); empty: none.
+        sensor_pose: ``x,y,yaw`` of the sensor whose frame the people come in, on the base.
     """
 
     topic: str = "/tracked_people"
@@ -74,7 +85,10 @@ class NodeOptions:
     qos_forecasts: str = ""
     qos_markers: str = ""
     qos_diagnostics: str = ""
+    qos_odom: str = ""
     state: str | None = None
+    odom: str = ""
+    sensor_pose: str = ""
 
     def qos(self, topic: str) -> TopicQoS:
         """The QoS of ``topic`` (input, forecasts, markers, diagnostics)."""
@@ -92,6 +106,9 @@ _STRING_PARAMETERS = (
     "qos_forecasts",
     "qos_markers",
     "qos_diagnostics",
+    "qos_odom",
+    "odom",
+    "sensor_pose",
 )
 """Options that are ROS parameters of the same name (``regions`` a float)."""
 
@@ -120,10 +137,23 @@ class NodeParts:
         self.session = predictor.stream(
             online_calibration=online_on, learn=chosen_learn, state=chosen.state
         )
-        self.live = LiveForecaster(self.session, chosen.topic, chosen.fixed_frames, chosen.regions)
+        self.odometry: OdometryTrack | None = (
+            OdometryTrack(parse_pose(chosen.sensor_pose) if chosen.sensor_pose else None)
+            if chosen.odom
+            else None
+        )
+        self.live = LiveForecaster(
+            self.session,
+            chosen.topic,
+            chosen.fixed_frames,
+            chosen.regions,
+            odometry=self.odometry,
+        )
         self.predictor = predictor
         self.dt_s = predictor.config.data.dt_s
         self.latest: tuple[Any, int] | None = None
+        # A message waiting for odometry: (message, arrival ns, since when, monotonic s).
+        self.waiting: tuple[Any, int, float] | None = None
         self.warned: set[str] = set()
         self.stopped = False
         self._kept = (-1, -1)  # the learning status last kept: (rounds, accepted)
@@ -156,14 +186,20 @@ class NodeParts:
         # takes every message waiting first, so the newest is the one forecast.
         self.ready = node.create_guard_condition(self._process)
         node.create_timer(DIAGNOSTICS_PERIOD_S, self._say)
+        if self.odometry is not None:
+            node.create_subscription(
+                message_class(ODOMETRY), chosen.odom, self._odometry, chosen.qos("odom").profile()
+            )
+            node.create_timer(ODOMETRY_WAIT_S / 2, self._retry_waiting)
         if chosen.state:
             node.create_timer(STATE_PERIOD_S, self._keep_state)
 
     def _received(self, message: Any, info: Any) -> None:
         health = self.live.health
         health.received_input(time.monotonic(), info.get("publication_sequence_number"))
-        if self.latest is not None:  # the newest input wins
+        if self.latest is not None or self.waiting is not None:  # the newest input wins
             health.replaced()
+        self.waiting = None
         arrived_ns = info.get("received_timestamp") or time.time_ns()
         self.latest = (message, int(arrived_ns))
         self.ready.trigger()
@@ -183,14 +219,52 @@ class NodeParts:
             self._say()
             return
         made = self.live.forecast(people)
+        if made is Placement.WAIT:
+            self._wait_for_odometry(message, arrived_ns)
+            return
+        self.waiting = None
         if made is None:
             self._warn_once(self.live.health.last_refusal)
         else:
             self._publish(made, people, arrived_ns)
         self._say()
 
+    def _wait_for_odometry(self, message: Any, arrived_ns: int) -> None:
+        """Keep a message stamped after the newest odometry until odometry reaches it, or
+        refuse it after ``odometry.WAIT_S``."""
+        since = self.waiting[2] if self.waiting is not None else time.monotonic()
+        if time.monotonic() - since > ODOMETRY_WAIT_S:
+            self.waiting = None
+            reason = f"no odometry: none reached its stamp within {ODOMETRY_WAIT_S} s"
+            self.live.refused("no odometry", reason)
+            self._warn_once(reason)
+            self._say()
+            return
+        self.waiting = (message, arrived_ns, since)
+
+    def _odometry(self, message: Any) -> None:
+        """An odometry message: the base's pose at its stamp; a waiting message is tried
+        again."""
+        pose = message.pose.pose
+        yaw = yaw_of_quaternion(
+            pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w
+        )
+        stamp = message.header.stamp
+        t_s = float(stamp.sec) + 1e-9 * float(stamp.nanosec)
+        xyyaw = np.array([pose.position.x, pose.position.y, yaw])
+        assert self.odometry is not None  # subscribed only with one
+        self.odometry.add(t_s, xyyaw, message.header.frame_id, message.child_frame_id)
+        self._retry_waiting()
+
+    def _retry_waiting(self) -> None:
+        """Hand a waiting message to processing again (odometry came, or its wait is up)."""
+        if self.waiting is not None and self.latest is None:
+            self.latest = (self.waiting[0], self.waiting[1])
+            self.ready.trigger()
+
     def _publish(self, made: Made, people: Tracked, arrived_ns: int) -> None:
-        """The forecast, then its markers, stamped and framed as the input."""
+        """The forecast, then its markers, stamped as the input and in its frame (the
+        odometry's for people seen from a moving base)."""
         sec, nanosec = people.stamp
         self.forecasts.publish(  # serialized here: 600 transform objects cost 3 ms
             trajectory_bytes(
@@ -198,7 +272,7 @@ class NodeParts:
                 made.forecast.point,
                 sec,
                 nanosec,
-                people.frame_id,
+                made.frame_id,
                 self.dt_s,
             )
         )
@@ -207,7 +281,7 @@ class NodeParts:
                 marker_bytes(
                     made.forecast,
                     people.stamp,
-                    people.frame_id,
+                    made.frame_id,
                     made.regions,
                     self.dt_s,
                     made.now_xy,
@@ -216,7 +290,7 @@ class NodeParts:
         elif self.markers is not None:
             from std_msgs.msg import Header
 
-            header = Header(frame_id=people.frame_id)
+            header = Header(frame_id=made.frame_id)
             header.stamp.sec, header.stamp.nanosec = sec, nanosec
             self.markers.publish(
                 marker_message(made.forecast, header, made.regions, self.dt_s, style="full")
@@ -324,7 +398,10 @@ def _chosen_options(node: Any, given: NodeOptions) -> NodeOptions:
         qos_forecasts=str(values["qos_forecasts"]),
         qos_markers=str(values["qos_markers"]),
         qos_diagnostics=str(values["qos_diagnostics"]),
+        qos_odom=str(values["qos_odom"]),
         state=given.state,
+        odom=str(values["odom"]),
+        sensor_pose=str(values["sensor_pose"]),
     )
     if chosen.markers not in MARKER_STYLES:
         raise GrouptronError(
@@ -332,6 +409,8 @@ def _chosen_options(node: Any, given: NodeOptions) -> NodeOptions:
         )
     for topic in DEFAULT_QOS:
         chosen.qos(topic)  # one line now, not at the first message
+    if chosen.sensor_pose and not chosen.odom:
+        raise GrouptronError("--sensor-pose places a sensor on the base: add --odom TOPIC")
     return chosen
 
 

@@ -7,13 +7,15 @@ Defaults, and why:
 - ``forecasts`` and ``markers``: keep last 1, reliable. A planner wants the newest forecast,
   not a backlog.
 - ``/diagnostics``: keep last 10, reliable. A monitor should see every status.
+- the odometry (``--odom``): keep last 50, reliable. Every pose between two messages of
+  people is needed to place them.
 
 All are volatile (no late-joiner gets an old forecast). A tracker that publishes best effort
 (``SensorDataQoS``) is not heard by a reliable subscription: set ``qos_input`` to
 ``reliability=best_effort``. Overrides are ROS parameters ``qos_input``, ``qos_forecasts``,
-``qos_markers``, ``qos_diagnostics`` (``--ros-args -p qos_input:=depth=1,reliability=best_effort``)
-or the same keys of a parameters file, each a comma-separated ``depth=N`` and/or
-``reliability=reliable|best_effort``.
+``qos_markers``, ``qos_diagnostics`` and ``qos_odom``
+(``--ros-args -p qos_input:=depth=1,reliability=best_effort``) or the same keys of a
+parameters file, each a comma-separated ``depth=N`` and/or ``reliability=reliable|best_effort``.
 """
 
 from __future__ import annotations
@@ -72,5 +74,6 @@ DEFAULT_QOS = {
     "forecasts": TopicQoS(depth=1),
     "markers": TopicQoS(depth=1),
     "diagnostics": TopicQoS(depth=10),
+    "odom": TopicQoS(depth=50),
 }
 """Each topic's QoS unless a ``qos_<topic>`` parameter overrides it (module docstring)."""

@@ -49,6 +49,18 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     ros2.add_argument(
         "--fixed-frame", action="append", help="a frame of one's own fixed to the world"
     )
+    ros2.add_argument(
+        "--odom",
+        metavar="TOPIC",
+        help="a nav_msgs/msg/Odometry topic: people in its child frame (base_link) are put "
+        "into its fixed frame (odom) at each message's stamp, forecast and published there",
+    )
+    ros2.add_argument(
+        "--sensor-pose",
+        metavar="X,Y,YAW",
+        help="with --odom: people come in a sensor's frame mounted at this pose on the base "
+        "(metres, radians)",
+    )
     add_forecast_option(ros2, "the point forecast (default: the model's own)", samples=False)
     ros2.add_argument(
         "--regions",

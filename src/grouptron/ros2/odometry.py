@@ -1,0 +1,102 @@
+"""People seen from a moving base, put into the odometry's fixed frame (no graph here).
+
+A tracker on a robot publishes people in ``base_link`` (the odometry's child frame) or in a
+sensor's frame mounted on it at a fixed pose. With ``nav_msgs/msg/Odometry`` the node knows
+where the base was at each message's stamp (interpolated between odometry messages: positions
+linearly, the heading along the shorter turn) and places the people in the odometry's own
+frame (``odom``), where they are forecast and published: the robot's motion never becomes the
+people's. A stamp later than the newest odometry waits for it (at most ``WAIT_S``); one that
+the odometry kept does not cover (older than ``KEEP_S``, or across a gap) is refused and
+counted.
+"""
+
+from __future__ import annotations
+
+import enum
+
+import numpy as np
+
+from grouptron.errors import GrouptronError
+from grouptron.geometry import compose_poses, fixed_from_body, poses_at
+from grouptron.ros2.messages import Tracked
+
+KEEP_S = 10.0
+"""Odometry older than this (behind its newest message) is dropped."""
+WAIT_S = 0.2
+"""A message stamped after the newest odometry waits this long for it (wall clock)."""
+MAX_GAP_S = 0.5
+"""Odometry messages further apart than this are not interpolated between."""
+
+
+class Placement(enum.Enum):
+    """A message that cannot be placed yet."""
+
+    WAIT = "wait"  # stamped after the newest odometry: it may come
+
+
+class OdometryTrack:
+    """The base's poses from odometry messages: the last ``KEEP_S`` seconds of them.
+
+    Attributes:
+        fixed_frame: the odometry's frame (``header.frame_id``, e.g. ``odom``).
+        base_frame: the frame it moves (``child_frame_id``, e.g. ``base_link``).
+        sensor_pose: (3,) where people given in another moving frame are seen from on the
+            base (x, y, yaw), or None: only ``base_frame`` is placed.
+    """
+
+    def __init__(self, sensor_pose: np.ndarray | None = None) -> None:
+        self.fixed_frame = ""
+        self.base_frame = ""
+        self.sensor_pose = sensor_pose
+        self.times_s = np.zeros(0)
+        self.poses = np.zeros((0, 3))
+
+    def add(self, t_s: float, pose: np.ndarray, fixed_frame: str, base_frame: str) -> None:
+        """One odometry message: the base's (3,) pose at ``t_s``. A time not after the newest
+        is a clock that went back (a bag looping): the record starts again."""
+        if len(self.times_s) and t_s <= self.times_s[-1]:
+            self.times_s, self.poses = np.zeros(0), np.zeros((0, 3))
+        keep = self.times_s >= t_s - KEEP_S
+        self.times_s = np.append(self.times_s[keep], t_s)
+        self.poses = np.vstack([self.poses[keep], pose[None]])
+        self.fixed_frame, self.base_frame = fixed_frame.strip("/"), base_frame.strip("/")
+
+    def moves(self, frame_id: str) -> bool:
+        """Whether people in ``frame_id`` are placed through the odometry: the base's frame,
+        or with a sensor pose any frame but the fixed one."""
+        name = frame_id.strip("/")
+        if not self.base_frame or name == self.fixed_frame:
+            return False
+        return name == self.base_frame or self.sensor_pose is not None
+
+    def place(self, people: Tracked) -> Tracked | Placement:
+        """``people`` in the fixed frame at their stamp, or ``Placement.WAIT`` while the
+        odometry has not reached it; refused in one line where it does not cover it."""
+        if len(self.times_s) and people.time_s > self.times_s[-1]:
+            return Placement.WAIT
+        pose, found = poses_at(self.times_s, self.poses, np.array([people.time_s]), MAX_GAP_S)
+        if not found[0]:
+            raise GrouptronError(
+                f"no odometry at {people.time_s:.3f} s: the kept odometry covers "
+                + (
+                    f"{self.times_s[0]:.3f}-{self.times_s[-1]:.3f} s with gaps up to {MAX_GAP_S} s"
+                    if len(self.times_s)
+                    else "nothing yet"
+                )
+            )
+        base = pose[0]
+        if people.frame_id.strip("/") != self.base_frame and self.sensor_pose is not None:
+            base = compose_poses(base, self.sensor_pose)
+        xy = fixed_from_body(people.xy, base)
+        return Tracked(people.time_s, self.fixed_frame, people.ids, xy, people.stamp)
+
+
+def parse_pose(text: str) -> np.ndarray:
+    """(3,) a mounting pose ``x,y,yaw`` (metres, radians); one line if it is not one."""
+    try:
+        values = np.array([float(v) for v in text.split(",")])
+    except ValueError:
+        values = np.zeros(0)
+    if values.shape != (3,) or not np.isfinite(values).all():
+        raise GrouptronError(f"--sensor-pose must be x,y,yaw (metres, radians), not {text!r}")
+    return values
