@@ -10,7 +10,9 @@ subscriber's conversion of them back into messages; the incoming ``MarkerArray``
 tracked people, serialized by the publisher, and read by the node as Python messages against
 its people read from the bytes (``ros2.messages.tracked_bytes``, what the node does); and the
 markers out: the light style as message objects and as bytes (what the node publishes), the
-full style as message objects, with each one's size.
+full style as message objects, with each one's size; and the costmap of the forecasts'
+90% regions (``ros2.costmap``: a 20 m x 20 m window at 0.1 m centred on the crowd, its
+grid drawn and its ``OccupancyGrid`` written).
 """
 
 from __future__ import annotations
@@ -49,6 +51,7 @@ def main() -> None:
 
     from grouptron import Predictor
     from grouptron.ros2.cdr import trajectory_bytes
+    from grouptron.ros2.costmap import CostmapWindow, occupancy_grid_bytes, region_costmap
     from grouptron.ros2.markers import marker_bytes, marker_message
     from grouptron.ros2.messages import Tracked, marker_array, tracked_bytes, trajectory_message
 
@@ -84,6 +87,14 @@ def main() -> None:
             marker_message(forecast, header, regions, 0.4, style="full")
         ),
     }
+    window = CostmapWindow(size_m=20.0, resolution_m=0.1)
+    corner = window.corner(forecast.point[:, 0].mean(axis=0))
+
+    def costmap() -> bytes:
+        grid = region_costmap(regions, window, corner)
+        return occupancy_grid_bytes(grid, (1_700_000_000, 0), "map", corner, 0.1)
+
+    parts["costmap, 20 m at 0.1 m (the node)"] = costmap
     light = marker_bytes(forecast, (1_700_000_000, 0), "map", regions, 0.4)
     full = serialize_message(marker_message(forecast, header, regions, 0.4, style="full"))
     print(f"{len(forecast)} people, 12 steps; median ms per message over {args.repeats}")

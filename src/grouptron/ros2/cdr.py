@@ -26,24 +26,28 @@ CDR_LE = b"\x00\x01\x00\x00"
 """The encapsulation header: plain CDR, little-endian."""
 
 
-class _Writer:
+class CdrWriter:
     """CDR primitives appended to a buffer, aligned from the end of the encapsulation."""
 
     def __init__(self) -> None:
         self.body = bytearray()
 
     def align(self, size: int) -> None:
+        """Pad to a multiple of ``size`` bytes."""
         self.body += bytes(-len(self.body) % size)
 
     def uint32(self, value: int) -> None:
+        """An unsigned 32-bit integer (a sequence's length, too)."""
         self.align(4)
         self.body += struct.pack("<I", value)
 
     def stamp(self, sec: int, nanosec: int) -> None:
+        """A ``builtin_interfaces`` Time or Duration."""
         self.align(4)
         self.body += struct.pack("<iI", sec, nanosec)
 
     def int32(self, value: int) -> None:
+        """A signed 32-bit integer."""
         self.align(4)
         self.body += struct.pack("<i", value)
 
@@ -53,13 +57,16 @@ class _Writer:
         self.body += np.ascontiguousarray(values, dtype="<f8").tobytes()
 
     def float32s(self, values: tuple[float, ...]) -> None:
+        """Float32 values in a row."""
         self.align(4)
         self.body += struct.pack(f"<{len(values)}f", *values)
 
     def boolean(self, value: bool) -> None:
+        """One byte, 0 or 1."""
         self.body += b"\x01" if value else b"\x00"
 
     def string(self, text: str) -> None:
+        """A length (with the closing NUL), the UTF-8 bytes and a NUL."""
         data = text.encode()
         self.uint32(len(data) + 1)  # the length counts the closing NUL
         self.body += data + b"\x00"
@@ -72,7 +79,7 @@ def trajectory_bytes(
     ``nanosec``, ``frame_id``), ``joint_names`` the N ``ids``, and for each step k = 1..H of
     the (N, H, 2) ``point`` forecast a point of N transforms (translation x, y, 0; rotation
     the identity) at ``time_from_start`` k x ``dt_s``."""
-    out = _Writer()
+    out = CdrWriter()
     out.stamp(sec, nanosec)
     out.string(frame_id)
     out.uint32(len(ids))
@@ -125,7 +132,7 @@ def marker_array_bytes(
     """The serialized ``MarkerArray`` of ``markers.marker_message`` (light): a DELETEALL, then
     ``shapes`` (id 0, action ADD, the identity pose, ``lifetime_s``), all stamped ``sec``,
     ``nanosec`` in ``frame_id``."""
-    out = _Writer()
+    out = CdrWriter()
     out.uint32(1 + len(shapes))
     _marker(out, (sec, nanosec, frame_id), None, 0.0)
     for shape in shapes:
@@ -134,7 +141,7 @@ def marker_array_bytes(
 
 
 def _marker(
-    out: _Writer, header: tuple[int, int, str], shape: MarkerShape | None, lifetime_s: float
+    out: CdrWriter, header: tuple[int, int, str], shape: MarkerShape | None, lifetime_s: float
 ) -> None:
     """One ``Marker``: ``shape``'s, or (None) a DELETEALL with every other field its default."""
     out.stamp(header[0], header[1])
