@@ -112,3 +112,48 @@ def test_people_from_a_moving_base_are_forecast_as_in_the_fixed_frame() -> None:
     assert np.abs(standing - STANDING[:, None]).max() < 0.05  # the robot turned; they did not
     for node in (base, fixed, probe):
         node.destroy_node()
+
+
+def test_the_costmap_is_stamped_as_the_input_and_free_away_from_every_forecast() -> None:
+    from nav_msgs.msg import OccupancyGrid
+    from trajectory_msgs.msg import MultiDOFJointTrajectory
+    from visualization_msgs.msg import MarkerArray
+
+    forecaster = make_node(
+        Predictor.from_checkpoint(),
+        NodeOptions(name="gt_costmap", topic="/people_cm", namespace="/gt_cm", costmap=True),
+    )
+    probe = rclpy.create_node(f"planner_{random.randint(0, 10**6)}")
+    people = probe.create_publisher(MarkerArray, "/people_cm", 10)
+    got: dict[str, list[Any]] = {"forecasts": [], "costmap": []}
+    probe.create_subscription(
+        MultiDOFJointTrajectory, "/gt_cm/forecasts", got["forecasts"].append, 10
+    )
+    probe.create_subscription(OccupancyGrid, "/gt_cm/costmap", got["costmap"].append, 10)
+    ids = [str(i) for i in range(4)]
+    for k in range(10):
+        t = START_S + 0.4 * k
+        people.publish(marker_array(Tracked(t, "odom", ids, people_in_odom(t)), _header(t, "odom")))
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and len(got["costmap"]) <= k:
+            for node in (forecaster, probe):
+                rclpy.spin_once(node, timeout_sec=0.005)
+        assert len(got["costmap"]) > k
+    grid, last = got["costmap"][-1], got["forecasts"][-1]
+    assert grid.header.frame_id == "odom" and grid.header.stamp == last.header.stamp
+    assert (grid.info.width, grid.info.height) == (200, 200)
+    assert grid.info.resolution == pytest.approx(0.1)
+    cost = np.array(grid.data, dtype=np.int8).reshape(200, 200)
+    centres = (np.arange(200) + 0.5) * 0.1
+    x, y = np.meshgrid(grid.info.origin.position.x + centres, grid.info.origin.position.y + centres)
+    points = np.array(
+        [[t.translation.x, t.translation.y] for p in last.points for t in p.transforms]
+    )  # (12 N, 2) every step's point forecast
+    nearest = np.min(np.hypot(x[..., None] - points[:, 0], y[..., None] - points[:, 1]), axis=-1)
+    assert (cost[nearest > 3.0] == 0).all() and (cost >= 0).all()
+    first_steps = np.array([[t.translation.x, t.translation.y] for t in last.points[0].transforms])
+    at = np.floor((first_steps - [grid.info.origin.position.x, grid.info.origin.position.y]) / 0.1)
+    inside = (at >= 0).all(axis=1) & (at < 200).all(axis=1)
+    assert inside.any() and (cost[at[inside, 1].astype(int), at[inside, 0].astype(int)] > 0).all()
+    for node in (forecaster, probe):
+        node.destroy_node()

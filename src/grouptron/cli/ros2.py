@@ -129,6 +129,7 @@ def _node(args: argparse.Namespace) -> Any:
         state=args.state,
         odom=args.odom or "",
         sensor_pose=args.sensor_pose or "",
+        costmap=args.costmap,
     )
     print(f"forecasting {args.topic} ({args.type}) on /grouptron/forecasts", flush=True)
     return make_node(predictor, options, online=args.online, learn=learning_options(args))

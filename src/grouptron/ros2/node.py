@@ -12,7 +12,6 @@ are counted. The work between a message and what leaves is ``ros2.live`` (no gra
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -23,8 +22,9 @@ from grouptron.geometry import yaw_of_quaternion
 from grouptron.inference.learning import LearningOptions
 from grouptron.inference.predictor import Predictor
 from grouptron.ros2.cdr import trajectory_bytes
+from grouptron.ros2.costmap import occupancy_grid_bytes, region_costmap
 from grouptron.ros2.live import LiveForecaster, Made
-from grouptron.ros2.markers import MARKER_STYLES, marker_bytes, marker_message
+from grouptron.ros2.markers import marker_bytes, marker_message
 from grouptron.ros2.messages import (
     MARKER_ARRAY,
     Tracked,
@@ -35,82 +35,20 @@ from grouptron.ros2.messages import (
 )
 from grouptron.ros2.odometry import WAIT_S as ODOMETRY_WAIT_S
 from grouptron.ros2.odometry import OdometryTrack, Placement, parse_pose
-from grouptron.ros2.qos import DEFAULT_QOS, TopicQoS
+from grouptron.ros2.options import NodeOptions, chosen_options, parameter
 
 DIAGNOSTICS_PERIOD_S = 1.0
 """``/diagnostics`` also leaves this often without input, so that a silent or refusing node is
 seen."""
 ODOMETRY = "nav_msgs/msg/Odometry"
 """The type of ``--odom``."""
+OCCUPANCY_GRID = "nav_msgs/msg/OccupancyGrid"
+"""The type of ``--costmap``'s topic."""
 STOP_ACK_S = 0.2
 """How long a stopping node waits for its last status to be received."""
 STATE_PERIOD_S = 10.0
 """With a state folder, the online radii (and learnt weights, when a round changed them) are
 kept this often, and when the node stops."""
-
-
-@dataclass(frozen=True)
-class NodeOptions:
-    """The node's settings: flags of ``grouptron ros2``, and ROS parameters of the same names
-    (``fixed_frames`` a list) that override them.
-
-    Attributes:
-        topic: the tracked people's topic.
-        type: its message type, ``pkg/msg/Type``.
-        ros_fields: where another type holds its people (``people=PATH,id=PATH,x=..,y=..``).
-        fixed_frames: frames of one's own fixed to the world (besides map, odom, world, ...).
-        regions: the q of the regions drawn on the markers topic (0: none).
-        namespace: of the output topics (``/grouptron/forecasts``, ``/grouptron/markers``).
-        name: the node's name.
-        markers: ``light``, ``full`` or ``off`` (``ros2.markers``).
-        qos_input, qos_forecasts, qos_markers, qos_diagnostics: overrides of each topic's
-            QoS (``depth=N,reliability=reliable|best_effort``; ``ros2.qos``).
-        state: a folder where the online radii and learnt weights are kept and taken up
-            again after a restart (None: none).
-        odom: a ``nav_msgs/msg/Odometry`` topic: people in its child frame (or, with
-            ``sensor_pose``, in a sensor's frame) are put into its fixed frame
-            (``ros2.odometry``); empty: none.
-        sensor_pose: ``x,y,yaw`` of the sensor whose frame the people come in, on the base.
-    """
-
-    topic: str = "/tracked_people"
-    type: str = MARKER_ARRAY
-    ros_fields: str | None = None
-    fixed_frames: tuple[str, ...] = ()
-    regions: float = 0.9
-    namespace: str = "/grouptron"
-    name: str = "grouptron"
-    markers: str = "light"
-    qos_input: str = ""
-    qos_forecasts: str = ""
-    qos_markers: str = ""
-    qos_diagnostics: str = ""
-    qos_odom: str = ""
-    state: str | None = None
-    odom: str = ""
-    sensor_pose: str = ""
-
-    def qos(self, topic: str) -> TopicQoS:
-        """The QoS of ``topic`` (input, forecasts, markers, diagnostics)."""
-        return DEFAULT_QOS[topic].with_override(getattr(self, f"qos_{topic}"), topic)
-
-
-_STRING_PARAMETERS = (
-    "topic",
-    "type",
-    "ros_fields",
-    "regions",
-    "namespace",
-    "markers",
-    "qos_input",
-    "qos_forecasts",
-    "qos_markers",
-    "qos_diagnostics",
-    "qos_odom",
-    "odom",
-    "sensor_pose",
-)
-"""Options that are ROS parameters of the same name (``regions`` a float)."""
 
 
 class NodeParts:
@@ -126,13 +64,13 @@ class NodeParts:
     ) -> None:
         """Parameters, session, topics and timers (after ``Node.__init__``)."""
         node: Any = self  # an rclpy Node too
-        chosen = _chosen_options(node, options)
+        chosen = chosen_options(node, options)
         self.kind = chosen.type
         self.fields = BagFields.parse(chosen.ros_fields) if chosen.ros_fields else None
         self.options = chosen
         # Online calibration and learning are ROS parameters too (flags their defaults).
-        online_on = bool(_parameter(node, "online", online))
-        learn_on = bool(_parameter(node, "learn", learn is not None))
+        online_on = bool(parameter(node, "online", online))
+        learn_on = bool(parameter(node, "learn", learn is not None))
         chosen_learn = (learn or LearningOptions()) if learn_on else False
         self.session = predictor.stream(
             online_calibration=online_on, learn=chosen_learn, state=chosen.state
@@ -185,6 +123,12 @@ class NodeParts:
         # Processing waits on a guard condition the subscription triggers: the executor
         # takes every message waiting first, so the newest is the one forecast.
         self.ready = node.create_guard_condition(self._process)
+        self.costmap = None
+        if chosen.costmap:
+            self.costmap = node.create_publisher(
+                message_class(OCCUPANCY_GRID), f"{out}/costmap", chosen.qos("costmap").profile()
+            )
+        self.costmap_ms: float | None = None
         node.create_timer(DIAGNOSTICS_PERIOD_S, self._say)
         if self.odometry is not None:
             node.create_subscription(
@@ -295,11 +239,38 @@ class NodeParts:
             self.markers.publish(
                 marker_message(made.forecast, header, made.regions, self.dt_s, style="full")
             )
+        if self.costmap is not None:
+            self._publish_costmap(made, people)
         self.live.health.published(
             made.update_ms,
             (time.time_ns() - arrived_ns) / 1e6,
             (self._node().get_clock().now().nanoseconds - (sec * 1_000_000_000 + nanosec)) / 1e6,
         )
+
+    def _publish_costmap(self, made: Made, people: Tracked) -> None:
+        """The forecasts' regions as an OccupancyGrid around the robot (or a fixed centre)."""
+        started = time.perf_counter()
+        options = self.options
+        centre = options.costmap_centre_xy()
+        if centre is None:  # around the robot: where the odometry has it at the stamp
+            assert self.odometry is not None
+            centre = self.odometry.position_at(people.time_s)
+        window = options.costmap_window()
+        corner = window.corner(centre)
+        q = options.costmap_q
+        regions = made.regions if made.regions is not None and made.regions.q == q else None
+        if regions is None and len(made.forecast):
+            regions = made.forecast.regions(q)
+        grid = (
+            region_costmap(regions, window, corner)
+            if regions is not None
+            else np.zeros((window.cells, window.cells), dtype=np.int8)
+        )
+        assert self.costmap is not None
+        self.costmap.publish(
+            occupancy_grid_bytes(grid, people.stamp, made.frame_id, corner, window.resolution_m)
+        )
+        self.costmap_ms = 1000 * (time.perf_counter() - started)
 
     def _say(self, stopped: bool = False) -> None:
         """Publish the status (after an input, once a second, and when stopping)."""
@@ -313,6 +284,7 @@ class NodeParts:
             **self.live.faults(),
             "calibration": "online" if online_state is not None else calibrated,
             "threads": str(self.predictor.threads or "PyTorch's"),
+            "costmap time ms": "" if self.costmap_ms is None else f"{self.costmap_ms:.1f}",
         }
         header = Header(stamp=self._node().get_clock().now().to_msg())
         said = type(status)(status.level, status.message, values)
@@ -375,51 +347,3 @@ def make_node(
             self.setup(predictor, options, online, learn)
 
     return ForecastNode()
-
-
-def _chosen_options(node: Any, given: NodeOptions) -> NodeOptions:
-    """The options as ROS parameters (``--ros-args -p regions:=0.5``), the flags' values
-    their defaults; refused in one line where a value is not one the node takes."""
-    values = {}
-    for name in _STRING_PARAMETERS:
-        default = getattr(given, name)
-        values[name] = _parameter(node, name, "" if default is None else default)
-    fixed = _parameter(node, "fixed_frames", list(given.fixed_frames) or [""])
-    chosen = NodeOptions(
-        topic=str(values["topic"]),
-        type=str(values["type"]),
-        ros_fields=str(values["ros_fields"]) or None,
-        fixed_frames=tuple(f for f in fixed if f),
-        regions=float(values["regions"]),
-        namespace=str(values["namespace"]),
-        name=given.name,
-        markers=str(values["markers"]),
-        qos_input=str(values["qos_input"]),
-        qos_forecasts=str(values["qos_forecasts"]),
-        qos_markers=str(values["qos_markers"]),
-        qos_diagnostics=str(values["qos_diagnostics"]),
-        qos_odom=str(values["qos_odom"]),
-        state=given.state,
-        odom=str(values["odom"]),
-        sensor_pose=str(values["sensor_pose"]),
-    )
-    if chosen.markers not in MARKER_STYLES:
-        raise GrouptronError(
-            f"markers must be one of {', '.join(MARKER_STYLES)}, not {chosen.markers!r}"
-        )
-    for topic in DEFAULT_QOS:
-        chosen.qos(topic)  # one line now, not at the first message
-    if chosen.sensor_pose and not chosen.odom:
-        raise GrouptronError("--sensor-pose places a sensor on the base: add --odom TOPIC")
-    return chosen
-
-
-def _parameter(node: Any, name: str, default: Any) -> Any:
-    """A ROS parameter's value (``default`` unless ``-p name:=value`` was given); a value of
-    another type than the default's is one line, not rclpy's traceback."""
-    from rclpy.exceptions import ParameterException
-
-    try:
-        return node.declare_parameter(name, default).value
-    except ParameterException as error:
-        raise GrouptronError(f"ROS parameter {name}: {error}") from None

@@ -69,6 +69,18 @@ class OdometryTrack:
             return False
         return name == self.base_frame or self.sensor_pose is not None
 
+    def position_at(self, t_s: float) -> np.ndarray:
+        """(2,) the base's position at ``t_s`` (the nearest kept pose outside the record;
+        the origin before any odometry)."""
+        if not len(self.times_s):
+            return np.zeros(2)
+        pose, found = poses_at(self.times_s, self.poses, np.array([t_s]), MAX_GAP_S)
+        if found[0]:
+            return pose[0, :2]
+        nearest = int(np.argmin(np.abs(self.times_s - t_s)))
+        position: np.ndarray = self.poses[nearest, :2]
+        return position
+
     def place(self, people: Tracked) -> Tracked | Placement:
         """``people`` in the fixed frame at their stamp, or ``Placement.WAIT`` while the
         odometry has not reached it; refused in one line where it does not cover it."""

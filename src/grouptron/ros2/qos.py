@@ -9,11 +9,14 @@ Defaults, and why:
 - ``/diagnostics``: keep last 10, reliable. A monitor should see every status.
 - the odometry (``--odom``): keep last 50, reliable. Every pose between two messages of
   people is needed to place them.
+- ``costmap`` (``--costmap``): keep last 1, reliable, transient local: a Nav2 costmap layer
+  subscribes to its map topic transient local by default, which a volatile publisher does not
+  serve; a transient-local one serves both kinds.
 
-All are volatile (no late-joiner gets an old forecast). A tracker that publishes best effort
+All others are volatile (no late-joiner gets an old forecast). A tracker that publishes best effort
 (``SensorDataQoS``) is not heard by a reliable subscription: set ``qos_input`` to
 ``reliability=best_effort``. Overrides are ROS parameters ``qos_input``, ``qos_forecasts``,
-``qos_markers``, ``qos_diagnostics`` and ``qos_odom``
+``qos_markers``, ``qos_diagnostics``, ``qos_odom`` and ``qos_costmap``
 (``--ros-args -p qos_input:=depth=1,reliability=best_effort``) or the same keys of a
 parameters file, each a comma-separated ``depth=N`` and/or ``reliability=reliable|best_effort``.
 """
@@ -29,10 +32,11 @@ from grouptron.errors import GrouptronError
 @dataclass(frozen=True)
 class TopicQoS:
     """A topic's quality of service: keep the last ``depth`` messages, reliable or best
-    effort, volatile."""
+    effort, volatile or (``transient_local``) kept for subscribers that join later."""
 
     depth: int = 1
     reliable: bool = True
+    transient_local: bool = False
 
     def with_override(self, text: str, name: str) -> TopicQoS:
         """This QoS with ``text`` (``depth=N,reliability=reliable|best_effort``, either part
@@ -61,7 +65,9 @@ class TopicQoS:
             reliability=ReliabilityPolicy.RELIABLE
             if self.reliable
             else ReliabilityPolicy.BEST_EFFORT,
-            durability=DurabilityPolicy.VOLATILE,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL
+            if self.transient_local
+            else DurabilityPolicy.VOLATILE,
         )
 
     def describe(self) -> str:
@@ -75,5 +81,6 @@ DEFAULT_QOS = {
     "markers": TopicQoS(depth=1),
     "diagnostics": TopicQoS(depth=10),
     "odom": TopicQoS(depth=50),
+    "costmap": TopicQoS(depth=1, transient_local=True),
 }
 """Each topic's QoS unless a ``qos_<topic>`` parameter overrides it (module docstring)."""
