@@ -20,10 +20,16 @@ class Probe:
         self.node = _rclpy().create_node(f"probe_{random.randint(0, 10**6)}")
         self.sent = 0
         self.publisher = self.node.create_publisher(MarkerArray, "/tracked_people", 10)
-        self.got: dict[str, list[Any]] = {"forecasts": [], "markers": [], "diagnostics": []}
+        self.got: dict[str, list[Any]] = {
+            "forecasts": [],
+            "markers": [],
+            "groups": [],
+            "diagnostics": [],
+        }
         for name, kind, topic in (
             ("forecasts", MultiDOFJointTrajectory, "/grouptron/forecasts"),
             ("markers", MarkerArray, "/grouptron/markers"),
+            ("groups", MarkerArray, "/grouptron/groups"),
             ("diagnostics", DiagnosticArray, "/diagnostics"),
         ):
             self.node.create_subscription(kind, topic, self.got[name].append, 10)

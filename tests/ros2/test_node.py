@@ -58,6 +58,20 @@ def test_the_node_forecasts_as_predict_does_and_says_so(
     assert any(m.ns == "region" for m in probe.got["markers"][-1].markers)
     values = {kv.key: kv.value for kv in probe.got["diagnostics"][-1].status[0].values}
     assert values["forecast inputs"] == str(len(np.unique(tracks[:, 0])))
+    # The groups on the graph are Forecast.group of the same update, fed the same messages.
+    session = Predictor.from_checkpoint(checkpoint).stream()
+    for frame in np.unique(tracks[:, 0]):
+        people = _people(tracks, int(frame))
+        forecast = session.update(people.time_s, people.ids, people.xy)
+    assert forecast.group is not None
+    expected = {
+        frozenset(str(i) for i in forecast.ids[forecast.group == g])
+        for g in np.unique(forecast.group)
+        if (forecast.group == g).sum() >= 2
+    }
+    sent = {frozenset(m.text.split(",")) for m in probe.got["groups"][-1].markers[1:]}
+    assert expected and sent == expected
+    assert probe.got["groups"][-1].markers[0].header.stamp == last.header.stamp
     forecaster.destroy_node()
     probe.node.destroy_node()
 

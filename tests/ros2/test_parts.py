@@ -61,6 +61,7 @@ def _forecast(people: int) -> tuple[Forecast, Regions]:
         frames=np.zeros(people, dtype=np.int64),
         ids=np.arange(people).astype(np.float64),
         point=point,
+        group=np.arange(people) // 2,  # pairs: as many groups as a crowd has
     )
     regions = Regions(
         q=0.9,
@@ -85,12 +86,14 @@ def test_light_markers_at_100_people_fit_in_50_kb() -> None:
     full = marker_message(forecast, header, regions, 0.4, style="full")
     assert len(serialize_message(light)) <= 50_000
     assert len(serialize_message(full)) > 200_000  # what the light style saves
-    paths, shapes = light.markers[1], light.markers[2]
-    assert len(paths.points) == 100 * 12  # 6 segments a person: now, 0.8 s, ..., 4.8 s
-    assert (paths.points[0].x, paths.points[11].x) == (
+    by_ns = {m.ns: m for m in light.markers[1:]}
+    paths, shapes, groups = by_ns["forecast"], by_ns["region"], by_ns["group"]
+    assert len(paths.points) == 100 * 8  # 4 segments a person: now, 1.2 s, ..., 4.8 s
+    assert (paths.points[0].x, paths.points[7].x) == (
         pytest.approx(forecast.point[0, 0, 0] - 0.5),
         pytest.approx(forecast.point[0, -1, 0]),
     )
+    assert len(groups.points) == 50 * 8  # a square around each pair
     # The diamond's corners are the horizon's ellipse's axis ends.
     corners = np.array([[p.x, p.y] for p in shapes.points[:6]])
     distance = np.linalg.norm(corners - forecast.point[0, -1], axis=1)
@@ -121,3 +124,24 @@ def test_light_marker_bytes_are_what_rclpy_serializes(people: int) -> None:
         read = deserialize_message(written, MarkerArray)
         assert read == deserialize_message(serialized, MarkerArray)
         assert len(written) == len(serialized)
+
+
+def test_the_groups_topic_names_each_groups_members() -> None:
+    pytest.importorskip("rclpy")
+    from rclpy.serialization import deserialize_message
+    from visualization_msgs.msg import MarkerArray
+
+    from grouptron.ros2.markers import group_bytes
+
+    forecast, _ = _forecast(5)
+    forecast = dataclasses.replace(forecast, group=np.array([0, 2, 0, 1, 2]))
+    read = deserialize_message(group_bytes(forecast, (5, 6), "map", 0.4), MarkerArray)
+    assert read.markers[0].action == 3  # DELETEALL
+    assert {m.id: m.text for m in read.markers[1:]} == {0: "0.0,2.0", 2: "1.0,4.0"}
+    assert {m.ns for m in read.markers[1:]} == {"group"}
+    for marker in read.markers[1:]:  # a closed outline around its members
+        outline = np.array([[p.x, p.y] for p in marker.points])
+        members = [int(float(i)) for i in marker.text.split(",")]
+        centre = forecast.point[members, 0].mean(axis=0)
+        assert np.allclose(outline[0], outline[-1])
+        assert (np.linalg.norm(outline - centre, axis=1) > 0.5).all()

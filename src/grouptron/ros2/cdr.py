@@ -117,6 +117,8 @@ class MarkerShape:
         scale: x, y, z.
         rgba: its colour.
         xy: (P, 2) its points, metres.
+        id: its number within the namespace.
+        text: its text (``TEXT_VIEW_FACING`` shows it; other types carry it).
     """
 
     ns: str
@@ -124,13 +126,15 @@ class MarkerShape:
     scale: tuple[float, float, float]
     rgba: tuple[float, float, float, float]
     xy: np.ndarray
+    id: int = 0
+    text: str = ""
 
 
 def marker_array_bytes(
     sec: int, nanosec: int, frame_id: str, lifetime_s: float, shapes: list[MarkerShape]
 ) -> bytes:
     """The serialized ``MarkerArray`` of ``markers.marker_message`` (light): a DELETEALL, then
-    ``shapes`` (id 0, action ADD, the identity pose, ``lifetime_s``), all stamped ``sec``,
+    ``shapes`` (action ADD, the identity pose, ``lifetime_s``), all stamped ``sec``,
     ``nanosec`` in ``frame_id``."""
     out = CdrWriter()
     out.uint32(1 + len(shapes))
@@ -147,7 +151,7 @@ def _marker(
     out.stamp(header[0], header[1])
     out.string(header[2])
     out.string("" if shape is None else shape.ns)
-    out.int32(0)  # id
+    out.int32(0 if shape is None else shape.id)
     out.int32(0 if shape is None else shape.type)
     out.int32(MARKER_DELETEALL if shape is None else 0)  # action: ADD
     out.float64s(np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]))  # pose: the identity
@@ -168,7 +172,7 @@ def _marker(
     out.string("")
     out.uint32(0)
     out.uint32(0)  # uv_coordinates
-    out.string("")  # text
+    out.string("" if shape is None else shape.text)  # text
     out.string("")  # mesh_resource
     out.string("")  # mesh_file: filename, data
     out.uint32(0)

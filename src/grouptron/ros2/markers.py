@@ -3,12 +3,14 @@
 Three choices (``--markers``):
 
 - ``light`` (the default), sized for a robot's network: a DELETEALL, then one ``LINE_LIST``
-  of every person's path (namespace ``forecast``: from where they are now through every second
-  step, 0.8 s apart, to the horizon) and one ``TRIANGLE_LIST`` of the regions (namespace
+  of every person's path (namespace ``forecast``: from where they are now through every third
+  step, 1.2 s apart, to the horizon), one ``TRIANGLE_LIST`` of the regions (namespace
   ``region``: per person the horizon's ellipse as the diamond of its axes' ends, two
-  triangles). About 430 bytes a person: at most 50 KB at 100 people (a test measures it).
-  The node writes it from arrays (``marker_bytes``): as rclpy message objects it took 16 ms
-  at 90 people.
+  triangles) and one ``LINE_LIST`` of a square around each group of two or more at the
+  forecast time (namespace ``group``; the groups topic has them as circles, with members).
+  About 340 bytes a person and 190 a group: at most 50 KB at 100 people in 50 pairs (a test
+  measures it). The node writes it from arrays (``marker_bytes``): as rclpy message objects
+  it took 16 ms at 90 people.
 - ``full``: a DELETEALL, a ``LINE_STRIP`` per person through every step and a flat cylinder per
   person and step for its region: exact ellipses, about 3 KB a person (265 KB at 95 people),
   built as message objects (over 100 ms at 90 people): for a desktop, not a robot.
@@ -29,11 +31,11 @@ from grouptron.ros2.cdr import MarkerShape, marker_array_bytes
 MARKER_STYLES = ("light", "full", "off")
 """The ``--markers`` choices."""
 
-PATH_EVERY_STEPS = 2
-"""A light path's vertices are this many steps apart (0.8 s: forecasts bend slowly)."""
+PATH_EVERY_STEPS = 3
+"""A light path's vertices are this many steps apart (1.2 s: forecasts bend slowly)."""
 
 
-LINE_LIST, TRIANGLE_LIST = 5, 11
+LINE_STRIP, LINE_LIST, TRIANGLE_LIST = 4, 5, 11
 """``visualization_msgs/msg/Marker`` types."""
 COLOUR = (0.9, 0.3, 0.1)
 
@@ -57,12 +59,85 @@ def light_shapes(
             "forecast", LINE_LIST, (0.05, 0.0, 0.0), (*COLOUR, 1.0), segments.reshape(-1, 2)
         )
     ]
+    outlines = _group_squares(forecast, now_xy)
+    if len(outlines):
+        shapes.append(MarkerShape("group", LINE_LIST, (0.05, 0.0, 0.0), GROUP_COLOUR, outlines))
     if regions is not None:
         diamonds = _diamonds(regions).reshape(-1, 2)
         shapes.append(
             MarkerShape("region", TRIANGLE_LIST, (1.0, 1.0, 1.0), (*COLOUR, 0.25), diamonds)
         )
     return shapes
+
+
+GROUP_MARGIN_M = 0.5
+"""A group's outline passes this far outside its farthest member."""
+GROUP_OUTLINE_VERTICES = 16
+"""The groups topic's outlines: circles of this many segments."""
+GROUP_COLOUR = (0.1, 0.4, 0.9, 1.0)
+
+
+def _groups(
+    forecast: Forecast, now_xy: np.ndarray | None
+) -> list[tuple[int, np.ndarray, np.ndarray, float]]:
+    """Per group of two or more at the forecast time: its number, members (a mask), centre
+    and the radius of its outline (``GROUP_MARGIN_M`` outside the farthest member)."""
+    if forecast.group is None or not len(forecast):
+        return []
+    where = forecast.point[:, 0] if now_xy is None else now_xy
+    labels, sizes = np.unique(forecast.group, return_counts=True)
+    out = []
+    for label in labels[sizes >= 2]:  # one outline per group: a few per crowd
+        members = forecast.group == label
+        centre = where[members].mean(axis=0)
+        radius = float(np.linalg.norm(where[members] - centre, axis=1).max()) + GROUP_MARGIN_M
+        out.append((int(label), members, centre, radius))
+    return out
+
+
+def _group_squares(forecast: Forecast, now_xy: np.ndarray | None) -> np.ndarray:
+    """(8 G, 2) the light markers' group outlines as one line list: a square around each
+    group (its corners on the outline's circle: four segments, 192 bytes)."""
+    corners = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0], [1.0, 0.0]])
+    squares = [
+        centre + radius * np.stack([corners[:-1], corners[1:]], axis=1).reshape(-1, 2)
+        for _, _, centre, radius in _groups(forecast, now_xy)
+    ]
+    return np.concatenate(squares) if squares else np.zeros((0, 2))
+
+
+def group_shapes(forecast: Forecast, now_xy: np.ndarray | None = None) -> list[MarkerShape]:
+    """One closed ``LINE_STRIP`` per group of two or more people at the forecast time
+    (``Forecast.group``; namespace ``group``, ``id`` the group's number, ``text`` its members'
+    ids comma-separated in the forecast's order): a circle around the members' ``now_xy``
+    ((N, 2); None: their first step), ``GROUP_MARGIN_M`` outside the farthest."""
+    turn = np.linspace(0.0, 2 * np.pi, GROUP_OUTLINE_VERTICES + 1)  # closed: last = first
+    circle = np.stack([np.cos(turn), np.sin(turn)], axis=-1)  # (V + 1, 2)
+    return [
+        MarkerShape(
+            "group",
+            LINE_STRIP,
+            (0.05, 0.0, 0.0),
+            GROUP_COLOUR,
+            centre + radius * circle,
+            id=label,
+            text=",".join(str(i) for i in forecast.ids[members]),
+        )
+        for label, members, centre, radius in _groups(forecast, now_xy)
+    ]
+
+
+def group_bytes(
+    forecast: Forecast,
+    stamp: tuple[int, int],
+    frame_id: str,
+    lifetime_s: float,
+    now_xy: np.ndarray | None = None,
+) -> bytes:
+    """The groups' MarkerArray (a DELETEALL, then :func:`group_shapes`), serialized: what the
+    node publishes on ``<namespace>/groups``."""
+    shapes = group_shapes(forecast, now_xy)
+    return marker_array_bytes(stamp[0], stamp[1], frame_id, lifetime_s, shapes)
 
 
 def marker_bytes(
@@ -97,7 +172,8 @@ def marker_message(
     lifetime = _duration(lifetime_s)
     out = MarkerArray(markers=[Marker(header=header, action=Marker.DELETEALL)])
     for shape in light_shapes(forecast, regions, now_xy):
-        marker = Marker(header=header, ns=shape.ns, id=0, type=shape.type, lifetime=lifetime)
+        marker = Marker(header=header, ns=shape.ns, id=shape.id, type=shape.type, lifetime=lifetime)
+        marker.text = shape.text
         marker.scale.x, marker.scale.y, marker.scale.z = shape.scale
         marker.color.r, marker.color.g, marker.color.b, marker.color.a = shape.rgba
         marker.pose.orientation.w = 1.0

@@ -24,7 +24,7 @@ from grouptron.inference.predictor import Predictor
 from grouptron.ros2.cdr import trajectory_bytes
 from grouptron.ros2.costmap import occupancy_grid_bytes, region_costmap
 from grouptron.ros2.live import LiveForecaster, Made
-from grouptron.ros2.markers import marker_bytes, marker_message
+from grouptron.ros2.markers import group_bytes, marker_bytes, marker_message
 from grouptron.ros2.messages import (
     MARKER_ARRAY,
     Tracked,
@@ -123,6 +123,9 @@ class NodeParts:
         # Processing waits on a guard condition the subscription triggers: the executor
         # takes every message waiting first, so the newest is the one forecast.
         self.ready = node.create_guard_condition(self._process)
+        self.groups = node.create_publisher(
+            message_class(MARKER_ARRAY), f"{out}/groups", chosen.qos("groups").profile()
+        )
         self.costmap = None
         if chosen.costmap:
             self.costmap = node.create_publisher(
@@ -239,6 +242,9 @@ class NodeParts:
             self.markers.publish(
                 marker_message(made.forecast, header, made.regions, self.dt_s, style="full")
             )
+        self.groups.publish(  # who walks with whom at the forecast time
+            group_bytes(made.forecast, people.stamp, made.frame_id, self.dt_s, made.now_xy)
+        )
         if self.costmap is not None:
             self._publish_costmap(made, people)
         self.live.health.published(

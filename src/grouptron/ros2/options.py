@@ -30,7 +30,8 @@ class NodeOptions:
         namespace: of the output topics (``/grouptron/forecasts``, ``/grouptron/markers``).
         name: the node's name.
         markers: ``light``, ``full`` or ``off`` (``ros2.markers``).
-        qos_input, qos_forecasts, qos_markers, qos_diagnostics, qos_odom, qos_costmap:
+        qos_input, qos_forecasts, qos_markers, qos_groups, qos_diagnostics, qos_odom,
+            qos_costmap:
             overrides of each topic's QoS (``depth=N,reliability=reliable|best_effort``;
             ``ros2.qos``).
         state: a folder where the online radii and learnt weights are kept and taken up
@@ -56,6 +57,7 @@ class NodeOptions:
     qos_input: str = ""
     qos_forecasts: str = ""
     qos_markers: str = ""
+    qos_groups: str = ""
     qos_diagnostics: str = ""
     qos_odom: str = ""
     qos_costmap: str = ""

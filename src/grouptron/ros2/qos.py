@@ -4,8 +4,8 @@ Defaults, and why:
 
 - the input (tracked people): keep last 1, reliable. Only the newest message is ever
   forecast: a queue would hand the node messages it has no time for, oldest first.
-- ``forecasts`` and ``markers``: keep last 1, reliable. A planner wants the newest forecast,
-  not a backlog.
+- ``forecasts``, ``markers`` and ``groups``: keep last 1, reliable. A planner wants the
+  newest forecast, not a backlog.
 - ``/diagnostics``: keep last 10, reliable. A monitor should see every status.
 - the odometry (``--odom``): keep last 50, reliable. Every pose between two messages of
   people is needed to place them.
@@ -16,7 +16,7 @@ Defaults, and why:
 All others are volatile (no late-joiner gets an old forecast). A tracker that publishes best effort
 (``SensorDataQoS``) is not heard by a reliable subscription: set ``qos_input`` to
 ``reliability=best_effort``. Overrides are ROS parameters ``qos_input``, ``qos_forecasts``,
-``qos_markers``, ``qos_diagnostics``, ``qos_odom`` and ``qos_costmap``
+``qos_markers``, ``qos_groups``, ``qos_diagnostics``, ``qos_odom`` and ``qos_costmap``
 (``--ros-args -p qos_input:=depth=1,reliability=best_effort``) or the same keys of a
 parameters file, each a comma-separated ``depth=N`` and/or ``reliability=reliable|best_effort``.
 """
@@ -79,6 +79,7 @@ DEFAULT_QOS = {
     "input": TopicQoS(depth=1),
     "forecasts": TopicQoS(depth=1),
     "markers": TopicQoS(depth=1),
+    "groups": TopicQoS(depth=1),
     "diagnostics": TopicQoS(depth=10),
     "odom": TopicQoS(depth=50),
     "costmap": TopicQoS(depth=1, transient_local=True),
