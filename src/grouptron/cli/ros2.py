@@ -54,14 +54,15 @@ def _run_node(args: argparse.Namespace, stop: threading.Event) -> int:
     """The node, until ``stop`` (a signal), ROS shuts down or ``--seconds``; then its last
     status, its state and ``--save-site`` kept."""
     node = _node(args)
-    if args.save_site and node.session.learning is None:
+    if args.save_site and not args.lifecycle and node.session.learning is None:
         raise GrouptronError("--save-site keeps what the node learns: add --learn")
     try:
         _spin(node, args.seconds, stop)
     finally:
         node.stop()  # the last diagnostics, the state kept, the learning process stopped
-        if args.save_site:  # what the node learnt, kept however it stopped
-            weights = node.session.save_site(args.save_site)
+        session = getattr(node, "session", None)  # a lifecycle node's, while configured
+        if args.save_site and session is not None and session.learning is not None:
+            weights = session.save_site(args.save_site)  # kept however the node stopped
             print(f"kept the site's weights in {weights}", flush=True)
         node.destroy_node()
     return 0
@@ -116,9 +117,14 @@ def _node(args: argparse.Namespace) -> Any:
     from grouptron.inference.predictor import Predictor
     from grouptron.ros2.node import NodeOptions, make_node
 
-    predictor = Predictor.from_checkpoint(
-        args.checkpoint, forecast=args.forecast, calibration=args.calibration, threads=args.threads
-    )
+    def predictor() -> Predictor:  # a lifecycle node loads it when configured
+        return Predictor.from_checkpoint(
+            args.checkpoint,
+            forecast=args.forecast,
+            calibration=args.calibration,
+            threads=args.threads,
+        )
+
     options = NodeOptions(
         topic=args.topic,
         type=args.type,
@@ -132,7 +138,13 @@ def _node(args: argparse.Namespace) -> Any:
         costmap=args.costmap,
     )
     print(f"forecasting {args.topic} ({args.type}) on /grouptron/forecasts", flush=True)
-    return make_node(predictor, options, online=args.online, learn=learning_options(args))
+    return make_node(
+        predictor if args.lifecycle else predictor(),
+        options,
+        online=args.online,
+        learn=learning_options(args),
+        lifecycle=args.lifecycle,
+    )
 
 
 def _spin(node: Any, seconds: float | None, stop: threading.Event) -> None:

@@ -80,6 +80,11 @@ class Health:
         """An input taken but replaced by a newer one before it was forecast."""
         self.skipped += 1
 
+    def set_aside(self, kind: str) -> None:
+        """An input not forecast by choice (``kind``: ``inactive``, a lifecycle node's), counted
+        without making the status an error."""
+        self.refused[kind] = self.refused.get(kind, 0) + 1
+
     def refused_input(self, kind: str, reason: str, now_s: float) -> None:
         """An input refused (``kind``: malformed, late, ...; ``reason``: one line)."""
         self.refused[kind] = self.refused.get(kind, 0) + 1

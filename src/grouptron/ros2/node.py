@@ -12,6 +12,7 @@ are counted. The work between a message and what leaves is ``ros2.live`` (no gra
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -62,8 +63,11 @@ class NodeParts:
         online: bool,
         learn: LearningOptions | None,
     ) -> None:
-        """Parameters, session, topics and timers (after ``Node.__init__``)."""
+        """Parameters, session, topics and timers (after ``Node.__init__``, or a lifecycle
+        node's configure)."""
         node: Any = self  # an rclpy Node too
+        before = _entities(node)
+        self.active = True  # a lifecycle node's until activated: False
         chosen = chosen_options(node, options)
         self.kind = chosen.type
         self.fields = BagFields.parse(chosen.ros_fields) if chosen.ros_fields else None
@@ -140,6 +144,16 @@ class NodeParts:
             node.create_timer(ODOMETRY_WAIT_S / 2, self._retry_waiting)
         if chosen.state:
             node.create_timer(STATE_PERIOD_S, self._keep_state)
+        self._created = _entities(node) - before
+
+    def teardown(self) -> None:
+        """Undo ``setup``: the node's topics and timers destroyed, its session closed (a
+        lifecycle node's cleanup)."""
+        node = self._node()
+        for kind, entity in self._created:
+            getattr(node, f"destroy_{kind}")(entity)
+        self._created = set()
+        self.session.close(drop_round=True)
 
     def _received(self, message: Any, info: Any) -> None:
         health = self.live.health
@@ -154,6 +168,9 @@ class NodeParts:
     def _process(self) -> None:
         latest, self.latest = self.latest, None
         if latest is None or self.stopped:
+            return
+        if not self.active:  # a lifecycle node's inputs while inactive: counted, not forecast
+            self.live.health.set_aside("inactive")
             return
         message, arrived_ns = latest
         try:
@@ -279,9 +296,12 @@ class NodeParts:
         self.costmap_ms = 1000 * (time.perf_counter() - started)
 
     def _say(self, stopped: bool = False) -> None:
-        """Publish the status (after an input, once a second, and when stopping)."""
+        """Publish the status (after an input, once a second, and when stopping); an
+        inactive lifecycle node publishes nothing."""
         from std_msgs.msg import Header
 
+        if not self.active and not stopped:
+            return
         status = self.live.health.status(time.monotonic(), stopped=stopped)
         online_state = self.session.online
         calibrated = "shipped or given" if self.predictor.calibration is not None else "none"
@@ -333,16 +353,25 @@ class NodeParts:
 
 
 def make_node(
-    predictor: Predictor,
+    predictor: Predictor | Callable[[], Predictor],
     options: NodeOptions,
     *,
     online: bool = False,
     learn: LearningOptions | None = None,
+    lifecycle: bool = False,
 ) -> Any:
-    """The node (rclpy must be initialised); ``predictor`` forecasts, its session adapts its
-    radii with ``online`` and learns the site with ``learn`` (``node.session.save_site``).
-    ``node.stop()`` says on ``/diagnostics`` that it stopped, keeps its state and closes the
-    session."""
+    """The node (rclpy must be initialised); ``predictor`` forecasts (or, a function, loads
+    the one that does), its session adapts its radii with ``online`` and learns the site with
+    ``learn`` (``node.session.save_site``). ``node.stop()`` says on ``/diagnostics`` that it
+    stopped, keeps its state and closes the session.
+
+    With ``lifecycle``, a ROS 2 lifecycle node (``lifecycle_msgs`` services): configure loads
+    the model and makes the topics, activate starts forecasting and publishing, deactivate
+    stops both (an inactive node publishes nothing), cleanup frees the model and topics."""
+    if lifecycle:
+        from grouptron.ros2.lifecycle import lifecycle_node  # it builds on this module
+
+        return lifecycle_node(predictor, options, online=online, learn=learn)
     from rclpy.node import Node
 
     class ForecastNode(NodeParts, Node):
@@ -350,6 +379,21 @@ def make_node(
 
         def __init__(self) -> None:
             Node.__init__(self, options.name)
-            self.setup(predictor, options, online, learn)
+            self.setup(loaded(predictor), options, online, learn)
 
     return ForecastNode()
+
+
+def loaded(predictor: Predictor | Callable[[], Predictor]) -> Predictor:
+    """The predictor, loaded now if given as a function that loads it."""
+    return predictor if isinstance(predictor, Predictor) else predictor()
+
+
+def _entities(node: Any) -> set[tuple[str, Any]]:
+    """The node's topics, timers and guard conditions, by the kind ``destroy_<kind>`` takes."""
+    return {
+        *(("subscription", s) for s in node.subscriptions),
+        *(("publisher", p) for p in node.publishers),
+        *(("timer", t) for t in node.timers),
+        *(("guard_condition", g) for g in node.guards),
+    }

@@ -138,6 +138,8 @@ def parameter(node: Any, name: str, default: Any) -> Any:
     from rclpy.exceptions import ParameterException
 
     try:
+        if node.has_parameter(name):  # a lifecycle node configured again after a cleanup
+            return node.get_parameter(name).value
         return node.declare_parameter(name, default).value
     except ParameterException as error:
         raise GrouptronError(f"ROS parameter {name}: {error}") from None

@@ -109,6 +109,12 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "QoS (-p qos_input:=depth=1,reliability=best_effort; docs/robots.md), remappings, a "
         "log level",
     )
+    ros2.add_argument(
+        "--lifecycle",
+        action="store_true",
+        help="run as a ROS 2 lifecycle node: configure loads the model, activate publishes, "
+        "deactivate stops publishing, cleanup frees it (lifecycle_msgs services)",
+    )
     ros2.add_argument("--replay", metavar="BAG", help="publish this bag's --topic instead")
     ros2.add_argument(
         "--out-topic", default="/tracked_people", help="with --replay: where its people go"
