@@ -92,6 +92,8 @@ def documented_options() -> list[tuple[str, Command | None, str, str]]:
                 if command is None and not words[0].startswith("--"):
                     continue  # another program: git, pip, python, make, a script
                 path = command[0] if command else None
+                if "--ros-args" in words:  # what follows is ROS's: --params-file, -p
+                    words = words[: words.index("--ros-args") + 1]
                 for option in OPTION.findall(" ".join(words)):
                     found.append((doc.name, path, option, part))
     return found
