@@ -118,12 +118,8 @@ def _node(args: argparse.Namespace) -> Any:
     from grouptron.ros2.node import NodeOptions, make_node
 
     def predictor() -> Predictor:  # a lifecycle node loads it when configured
-        return Predictor.from_checkpoint(
-            args.checkpoint,
-            forecast=args.forecast,
-            calibration=args.calibration,
-            threads=args.threads,
-        )
+        chosen = {"forecast": args.forecast, "calibration": args.calibration}
+        return Predictor.from_checkpoint(args.checkpoint, threads=args.threads, **chosen)
 
     options = NodeOptions(
         topic=args.topic,
@@ -138,13 +134,9 @@ def _node(args: argparse.Namespace) -> Any:
         costmap=args.costmap,
     )
     print(f"forecasting {args.topic} ({args.type}) on /grouptron/forecasts", flush=True)
-    return make_node(
-        predictor if args.lifecycle else predictor(),
-        options,
-        online=args.online,
-        learn=learning_options(args),
-        lifecycle=args.lifecycle,
-    )
+    learn, lifecycle = learning_options(args), args.lifecycle
+    loaded = predictor if lifecycle else predictor()
+    return make_node(loaded, options, online=args.online, learn=learn, lifecycle=lifecycle)
 
 
 def _spin(node: Any, seconds: float | None, stop: threading.Event) -> None:

@@ -267,10 +267,12 @@ class SiteLearner:
         """Stop the learning process (if one started) and the thread waiting on it; a later
         round starts another process. A round still running there gets ``FINISH_WAIT_S`` to
         finish, or (``drop_round``: a node that stops within a second) is dropped at once."""
+        if not drop_round and self._thread is not None:
+            self._thread.join(timeout=FINISH_WAIT_S)  # the round sends, trains and answers
         self._closing = True
         worker, self._worker = self._worker, None
         if worker is not None:
-            worker.close(STOP_WAIT_S if drop_round else FINISH_WAIT_S)
+            worker.close(STOP_WAIT_S)
         self.wait()
         self._closing = False
 

@@ -43,8 +43,9 @@ from grouptron.training.fine_tune import FineTune
 STOP_WAIT_S = 0.3
 """How long a worker gets to read the end of its input and return before it is terminated
 when a round it runs is to be dropped: a node stops within a second."""
-FINISH_WAIT_S = 5.0
-"""How long a worker gets to finish a round it runs when a session closes."""
+FINISH_WAIT_S = 10.0
+"""How long a round running when a session closes gets to finish (its worker's start
+included)."""
 
 
 class RoundWorker:

@@ -30,7 +30,7 @@ from grouptron.inference.track_faults import (
     Clock,
     StreamFaults,
     clock_step,
-    unreachable,
+    unreachable_rows,
 )
 from grouptron.model.regions import region_shapes
 
@@ -128,7 +128,7 @@ class StreamSession:
         return None if self.learner is None else self.learner.status
 
     def close(self, drop_round: bool = False) -> None:
-        """Finish a learning round still running (up to 5 s; ``drop_round``: drop it at once,
+        """Finish a learning round still running (up to 10 s; ``drop_round``: drop it at once,
         as a node that stops within a second does) and stop the learning process (a session
         that does not learn has nothing to close)."""
         if self.learner is not None:
@@ -382,29 +382,12 @@ class StreamSession:
 
     def _restart_jumped(self, rows: np.ndarray, new: np.ndarray, frame: int) -> np.ndarray:
         """The (R, 4) window ``rows`` without the history of every person in ``new`` ((N, 4)
-        rows at ``frame``) seen last where no walker gets to by ``frame``
-        (``track_faults.unreachable``), with a warning; unchanged when the speed check is off
-        (runners, vehicles)."""
-        if not self.predictor.check_speed or not len(rows) or not len(new):
+        rows at ``frame``) who reappeared where no walker gets to, with a warning; unchanged
+        when the speed check is off (runners, vehicles)."""
+        if not self.predictor.check_speed:
             return rows
-        order = np.lexsort((rows[:, 0], rows[:, 1]))
-        by_id = rows[order]
-        is_last = np.append(by_id[1:, 1] != by_id[:-1, 1], True)
-        last = by_id[is_last]  # (P, 4) last sighting
-        # The sighting before it, where it is the same person's, one step earlier.
-        before = by_id[np.maximum(np.flatnonzero(is_last) - 1, 0)]
-        step_frames = self.predictor.frames_per_step
-        seconds_per_frame = self.predictor.config.data.dt_s / step_frames
-        base = (before[:, 1] == last[:, 1]) & (last[:, 0] - before[:, 0] == step_frames)
-        velocity = (last[:, 2:4] - before[:, 2:4]) / (step_frames * seconds_per_frame)
-        velocity[~base] = np.nan
-        at = np.searchsorted(last[:, 1], new[:, 1])
-        seen = at < len(last)
-        seen[seen] = last[at[seen], 1] == new[seen, 1]
-        previous = last[at[seen]]
-        gap_s = (frame - previous[:, 0]) * seconds_per_frame
-        far = unreachable(gap_s, previous[:, 2:4], velocity[at[seen]], new[seen, 2:4])
-        jumped = new[seen][far, 1]
+        step = self.predictor.frames_per_step
+        jumped = unreachable_rows(rows, new, step, self.predictor.config.data.dt_s / step)
         if not jumped.size:
             return rows
         self.faults.id_restarts += int(jumped.size)

@@ -90,6 +90,31 @@ def unreachable(
     return result
 
 
+def unreachable_rows(
+    rows: np.ndarray, new: np.ndarray, step_frames: int, seconds_per_frame: float
+) -> np.ndarray:
+    """(J,) ids among the (N, 4) ``new`` rows (``frame, id, x, y``, one frame) whose last
+    sighting in the (R, 4) window ``rows`` is one no walker gets to from (``unreachable``; the
+    velocity from the sighting one step before it, where there is one)."""
+    if not len(rows) or not len(new):
+        return np.zeros(0)
+    by_id = rows[np.lexsort((rows[:, 0], rows[:, 1]))]
+    is_last = np.append(by_id[1:, 1] != by_id[:-1, 1], True)
+    last = by_id[is_last]  # (P, 4) each person's last sighting
+    before = by_id[np.maximum(np.flatnonzero(is_last) - 1, 0)]  # the one before it
+    base = (before[:, 1] == last[:, 1]) & (last[:, 0] - before[:, 0] == step_frames)
+    velocity = (last[:, 2:4] - before[:, 2:4]) / (step_frames * seconds_per_frame)
+    velocity[~base] = np.nan
+    at = np.searchsorted(last[:, 1], new[:, 1])
+    seen = at < len(last)
+    seen[seen] = last[at[seen], 1] == new[seen, 1]
+    previous = last[at[seen]]
+    gap_s = (new[seen, 0] - previous[:, 0]) * seconds_per_frame
+    far = unreachable(gap_s, previous[:, 2:4], velocity[at[seen]], new[seen, 2:4])
+    jumped: np.ndarray = new[seen][far, 1]
+    return jumped
+
+
 @dataclass
 class StreamFaults:
     """What a live session has survived so far.

@@ -99,6 +99,12 @@ class NodeParts:
         self.warned: set[str] = set()
         self.stopped = False
         self._kept = (-1, -1)  # the learning status last kept: (rounds, accepted)
+        self.costmap_ms: float | None = None
+        self._make_topics(node, chosen)
+        self._created = _entities(node) - before
+
+    def _make_topics(self, node: Any, chosen: NodeOptions) -> None:
+        """The subscriptions, publishers, timers and guard condition of ``setup``."""
         out = chosen.namespace.rstrip("/")
         # A MarkerArray is read from its bytes (ros2.cdr): its Python objects cost 7 ms at 50.
         self.raw = chosen.type == MARKER_ARRAY
@@ -135,7 +141,6 @@ class NodeParts:
             self.costmap = node.create_publisher(
                 message_class(OCCUPANCY_GRID), f"{out}/costmap", chosen.qos("costmap").profile()
             )
-        self.costmap_ms: float | None = None
         node.create_timer(DIAGNOSTICS_PERIOD_S, self._say)
         if self.odometry is not None:
             node.create_subscription(
@@ -144,7 +149,6 @@ class NodeParts:
             node.create_timer(ODOMETRY_WAIT_S / 2, self._retry_waiting)
         if chosen.state:
             node.create_timer(STATE_PERIOD_S, self._keep_state)
-        self._created = _entities(node) - before
 
     def teardown(self) -> None:
         """Undo ``setup``: the node's topics and timers destroyed, its session closed (a
