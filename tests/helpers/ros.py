@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -31,18 +32,106 @@ float64 y
 float64 z"""
 START_S = 1_700_000_000.0  # a robot's clock: Unix time
 
+ODOMETRY_MSGDEF = """std_msgs/Header header
+string child_frame_id
+geometry_msgs/PoseWithCovariance pose
+geometry_msgs/TwistWithCovariance twist
+================================================================================
+MSG: std_msgs/Header
+builtin_interfaces/Time stamp
+string frame_id
+================================================================================
+MSG: builtin_interfaces/Time
+int32 sec
+uint32 nanosec
+================================================================================
+MSG: geometry_msgs/PoseWithCovariance
+geometry_msgs/Pose pose
+float64[36] covariance
+================================================================================
+MSG: geometry_msgs/Pose
+geometry_msgs/Point position
+geometry_msgs/Quaternion orientation
+================================================================================
+MSG: geometry_msgs/Point
+float64 x
+float64 y
+float64 z
+================================================================================
+MSG: geometry_msgs/Quaternion
+float64 x
+float64 y
+float64 z
+float64 w
+================================================================================
+MSG: geometry_msgs/TwistWithCovariance
+geometry_msgs/Twist twist
+float64[36] covariance
+================================================================================
+MSG: geometry_msgs/Twist
+geometry_msgs/Vector3 linear
+geometry_msgs/Vector3 angular
+================================================================================
+MSG: geometry_msgs/Vector3
+float64 x
+float64 y
+float64 z"""
 
-def write_people_bag(path: Path, rows: np.ndarray, frame_id: str = "map", prefix: str = "") -> None:
+
+def _odometry(time_s: float, pose: np.ndarray) -> dict:
+    sec = int(time_s)
+    zero = {"x": 0.0, "y": 0.0, "z": 0.0}
+    return {
+        "header": {
+            "stamp": {"sec": sec, "nanosec": round((time_s - sec) * 1e9)},
+            "frame_id": "odom",
+        },
+        "child_frame_id": "base_link",
+        "pose": {
+            "pose": {
+                "position": {"x": float(pose[0]), "y": float(pose[1]), "z": 0.0},
+                "orientation": {
+                    "x": 0.0,
+                    "y": 0.0,
+                    "z": float(np.sin(pose[2] / 2)),
+                    "w": float(np.cos(pose[2] / 2)),
+                },
+            },
+            "covariance": [0.0] * 36,
+        },
+        "twist": {"twist": {"linear": zero, "angular": zero}, "covariance": [0.0] * 36},
+    }
+
+
+def write_people_bag(
+    path: Path,
+    rows: np.ndarray,
+    frame_id: str = "map",
+    prefix: str = "",
+    robot: Callable[[float], np.ndarray] | None = None,
+) -> None:
     """One People message per frame of the (R, 4) ``frame, id, x, y`` rows (25 fps frames),
-    each person named ``prefix`` and their id."""
+    each person named ``prefix`` and their id. With ``robot`` (a time's (3,) pose x, y, yaw in
+    ``odom``), the people are written in ``base_link`` of a robot there, and its odometry on
+    ``/odom`` at every frame's stamp and between them."""
     from mcap_ros2.writer import Writer
 
     with path.open("wb") as handle:
         writer = Writer(handle)
         schema = writer.register_msgdef("people_msgs/msg/People", PEOPLE_MSGDEF)
+        odometry = writer.register_msgdef("nav_msgs/msg/Odometry", ODOMETRY_MSGDEF)
         for frame in np.unique(rows[:, 0]):
-            now = rows[rows[:, 0] == frame]
+            now = rows[rows[:, 0] == frame].copy()
             time_s = START_S + frame / 25.0
+            if robot is not None:
+                for t in (time_s - 0.2, time_s):
+                    message = _odometry(t, robot(t))
+                    writer.write_message("/odom", odometry, message, log_time=round(t * 1e9))
+                pose = robot(time_s)
+                cos, sin = np.cos(pose[2]), np.sin(pose[2])
+                dx, dy = now[:, 2] - pose[0], now[:, 3] - pose[1]
+                now[:, 2], now[:, 3] = cos * dx + sin * dy, -sin * dx + cos * dy
+                frame_id = "base_link"
             sec = int(time_s)
             message = {
                 "header": {

@@ -135,3 +135,35 @@ def test_a_bags_names_are_kept_in_the_csv(
     assert lines[0].startswith("frame,id,step") and len(lines) > 100
     names = {line.split(",")[1] for line in lines[1:]}
     assert names <= {f"walker-{int(i)}" for i in recording[:, 1]} and len(names) > 3
+
+
+def test_a_bag_of_people_seen_from_a_moving_robot_with_its_odometry_predicts_as_in_odom(
+    recording: np.ndarray,
+    tiny_checkpoints: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """The recording in ``odom``, and the same people in ``base_link`` of a robot driving a
+    circle with its odometry on ``/odom``: ``--odom-topic`` gives the same forecasts."""
+
+    def robot(t_s: float) -> np.ndarray:
+        turn = 0.2 * (t_s - START_S)  # 1 m/s on a 5 m circle
+        return np.array([5.0 * np.sin(turn), 5.0 - 5.0 * np.cos(turn), turn])
+
+    fixed, moving = tmp_path / "odom.mcap", tmp_path / "base.mcap"
+    write_people_bag(fixed, recording, frame_id="odom")
+    write_people_bag(moving, recording, robot=robot)
+    checkpoint = str(tiny_checkpoints / "grouptron-eth-backward")
+    out = {}
+    for name, bag, extra in (("fixed", fixed, []), ("moving", moving, ["--odom-topic", "/odom"])):
+        out[name] = tmp_path / f"{name}.csv"
+        argv = ["predict", "--checkpoint", checkpoint, "--tracks", str(bag), "--topic", "/people"]
+        assert main([*argv, *extra, "--out", str(out[name]), "--quiet"]) == 0
+    expected = np.loadtxt(out["fixed"], delimiter=",", skiprows=1)
+    got = np.loadtxt(out["moving"], delimiter=",", skiprows=1)
+    assert len(expected) > 100
+    np.testing.assert_allclose(got, expected, atol=1e-6)
+    refused = ["predict", "--checkpoint", checkpoint, "--tracks", str(moving), "--topic"]
+    refused += ["/people", "--out", str(tmp_path / "x.csv"), "--quiet"]
+    assert main(refused) == 2  # without odometry: base_link moves with the robot
+    assert "moves with the robot" in capsys.readouterr().err

@@ -21,7 +21,8 @@ def show_progress(args: argparse.Namespace) -> bool:
 def track_file(args: argparse.Namespace, path: str | Path | None = None) -> TrackFile:
     """The ``--tracks`` file as its recording options describe it (``--columns``, ``--fps``,
     ``--units``, ``--max-gap``, ``--no-speed-check``, ``--on-gap``, ``--frames-per-step``;
-    a bag's ``--topic``, ``--ros-fields``, ``--fixed-frame``), its messages naming the flags;
+    a bag's ``--topic``, ``--ros-fields``, ``--fixed-frame``, ``--odom-topic``), its messages
+    naming the flags;
     ``path`` instead of ``--tracks`` where that names several files."""
     return TrackFile(
         args.tracks if path is None else path,
@@ -35,6 +36,7 @@ def track_file(args: argparse.Namespace, path: str | Path | None = None) -> Trac
         topic=getattr(args, "topic", None),
         bag_fields=getattr(args, "ros_fields", None),
         fixed_frames=tuple(getattr(args, "fixed_frame", None) or ()),
+        odom_topic=getattr(args, "odom_topic", None),
         spelling=FLAGS,
     )
 

@@ -325,6 +325,11 @@ def add_recording_options(parser: argparse.ArgumentParser) -> None:
         "one person to the id and the x and y position",
     )
     parser.add_argument(
+        "--odom-topic",
+        help="for a ROS 2 bag: a nav_msgs/msg/Odometry topic; tracks in its child frame "
+        "(base_link) are put into its frame (odom) at their stamps (docs/robots.md)",
+    )
+    parser.add_argument(
         "--fixed-frame",
         action="append",
         default=[],

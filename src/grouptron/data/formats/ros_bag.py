@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
+import logging
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,8 +26,11 @@ from grouptron.data.formats.plausibility import check_plausible
 from grouptron.data.formats.reader import GapPolicy, TrackTable
 from grouptron.data.formats.recording import resample
 from grouptron.errors import GrouptronError
+from grouptron.geometry import poses_at, rotation_matrix, yaw_of_quaternion
 
 EXTRA = "pip install 'grouptron[ros]'"
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -142,10 +146,16 @@ def check_fixed_frame(path: Path, frame_id: str, fixed: tuple[str, ...] = ()) ->
 
 
 def read_bag(
-    path: Path, topic: str, fields: BagFields | None = None, fixed: tuple[str, ...] = ()
+    path: Path,
+    topic: str,
+    fields: BagFields | None = None,
+    fixed: tuple[str, ...] = (),
+    odom_topic: str | None = None,
 ) -> BagTracks:
     """Every person of every message on ``topic``; ids that are not whole numbers are
-    numbered in order of first appearance (``names`` maps back)."""
+    numbered in order of first appearance (``names`` maps back). With ``odom_topic`` (a
+    ``nav_msgs/msg/Odometry`` topic of the bag), people in its child frame are put into its
+    frame at their stamps (``odometry_poses``, ``place_rows``)."""
     available = topics_of(path)
     if topic not in available:
         listed = ", ".join(f"{t} ({m})" for t, m in sorted(available.items())) or "none"
@@ -176,8 +186,10 @@ def read_bag(
     if len(frame_ids) > 1:
         raise GrouptronError(f"{path}: {topic} mixes frames {sorted(frame_ids)}; use one")
     frame_id = frame_ids.pop()
-    check_fixed_frame(path, frame_id, fixed)
     table = np.array(rows, dtype=np.float64)
+    if odom_topic:
+        table, frame_id = place_rows(path, table, frame_id, odometry_poses(path, odom_topic))
+    check_fixed_frame(path, frame_id, fixed)
     labels = tuple(names)
     numeric = all(_whole_number(label) for label in labels)
     if numeric:  # numeric ids keep their numbers
@@ -189,16 +201,80 @@ def read_bag(
     )
 
 
+@dataclass(frozen=True)
+class Odometry:
+    """A bag's odometry: (P,) increasing times, (P, 3) poses x, y, yaw of the base, the fixed
+    frame they are in and the base's frame."""
+
+    time_s: np.ndarray
+    poses: np.ndarray
+    frame_id: str
+    child_frame_id: str
+
+
+def odometry_poses(path: Path, topic: str) -> Odometry:
+    """The ``nav_msgs/msg/Odometry`` messages of ``topic``, in time order."""
+    available = topics_of(path)
+    if available.get(topic) != "nav_msgs/msg/Odometry":
+        found = available.get(topic, "no such topic")
+        raise GrouptronError(f"{path}: {topic} is not nav_msgs/msg/Odometry ({found})")
+    rows, frames = [], set()
+    for _, message in _messages(path, topic):
+        stamp, pose = message.header.stamp, message.pose.pose
+        q = pose.orientation
+        yaw = yaw_of_quaternion(q.x, q.y, q.z, q.w)
+        rows.append((stamp.sec + 1e-9 * stamp.nanosec, pose.position.x, pose.position.y, yaw))
+        frames.add((message.header.frame_id.strip("/"), message.child_frame_id.strip("/")))
+    if len(frames) != 1:
+        raise GrouptronError(f"{path}: {topic} holds no odometry, or mixes frames {frames}")
+    table = np.array(rows, dtype=np.float64)
+    table = table[np.argsort(table[:, 0], kind="stable")]
+    ((frame_id, child),) = frames
+    return Odometry(table[:, 0], table[:, 1:4], frame_id, child)
+
+
+ODOMETRY_MAX_GAP_S = 0.5
+"""Odometry messages further apart than this are not interpolated between."""
+
+
+def place_rows(
+    path: Path, table: np.ndarray, frame_id: str, odometry: Odometry
+) -> tuple[np.ndarray, str]:
+    """(R, 5) rows (id, t, x, y, message) of people in the odometry's child frame put into its
+    frame at their stamps, and that frame; rows the odometry does not cover are dropped with a
+    warning. Rows already in the odometry's frame are returned as they are."""
+    if frame_id.strip("/") == odometry.frame_id:
+        return table, frame_id
+    if frame_id.strip("/") != odometry.child_frame_id:
+        raise GrouptronError(
+            f"{path}: the tracks are in frame {frame_id!r}, the odometry moves "
+            f"{odometry.child_frame_id!r} in {odometry.frame_id!r}: tracks must be in one of them"
+        )
+    pose, found = poses_at(odometry.time_s, odometry.poses, table[:, 1], ODOMETRY_MAX_GAP_S)
+    if not found.any():
+        raise GrouptronError(f"{path}: the odometry covers none of the tracks' stamps")
+    if not found.all():
+        log.warning(
+            "%s: %d of %d people's sightings have no odometry at their stamp: left out",
+            *(path, int((~found).sum()), len(found)),
+        )
+    placed = table[found].copy()
+    rotation = rotation_matrix(pose[found, 2])  # (R, 2, 2)
+    placed[:, 2:4] = np.einsum("rij,rj->ri", rotation, placed[:, 2:4]) + pose[found, :2]
+    return placed, odometry.frame_id
+
+
 BAG_FORMAT = RecordingFormat(columns=("t", "id", "x", "y"))
 """How a bag's rows are read: seconds (header stamps), ids and positions in metres."""
 
 
-def read_bag_table(
+def read_bag_table(  # noqa: PLR0913 - a bag and how to read it, keyword-only past four
     path: Path,
     topic: str,
     fields: BagFields | None = None,
     fixed: tuple[str, ...] = (),
     *,
+    odom_topic: str | None = None,
     max_gap_s: float | None = None,
     check_speed: bool = True,
     on_gap: GapPolicy = "split",
@@ -206,7 +282,7 @@ def read_bag_table(
 ) -> tuple[TrackTable, BagTracks]:
     """A bag topic's people on the ``dt_s`` grid from its first stamp (``TrackTable.frame``
     counts grid steps; ``first_frame`` 0), as a ``t,id,x,y`` file of the same rows would be."""
-    bag = read_bag(path, topic, fields, fixed)
+    bag = read_bag(path, topic, fields, fixed, odom_topic)
     fmt = dataclasses.replace(
         BAG_FORMAT,
         check_speed=check_speed,

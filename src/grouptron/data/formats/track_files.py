@@ -45,6 +45,8 @@ class TrackSource:
         bag_fields: where another message type holds its people,
             ``people=PATH,id=PATH,x=PATH,y=PATH`` (:class:`BagFields`).
         fixed_frames: frame ids of one's own fixed to the world.
+        odom_topic: a bag's ``nav_msgs/msg/Odometry`` topic: tracks in its child frame
+            (``base_link``) are put into its frame (``odom``) at their stamps.
         spelling: how messages name these options (the command line's flags, or keywords).
     """
 
@@ -59,6 +61,7 @@ class TrackSource:
     topic: str | None = None
     bag_fields: str | None = None
     fixed_frames: tuple[str, ...] = ()
+    odom_topic: str | None = None
     spelling: OptionSpelling = field(default=KEYWORDS, compare=False, repr=False)
 
     @property
@@ -174,6 +177,7 @@ def _read_bag(
         source.topic,
         fields,
         source.fixed_frames,
+        odom_topic=source.odom_topic,
         max_gap_s=source.max_gap_s,
         check_speed=source.check_speed,
         on_gap=source.on_gap,
