@@ -121,9 +121,10 @@ def chosen_forecast(args: argparse.Namespace) -> PointForecast | None:
 def load_predictor(args: argparse.Namespace, forecast: str | None = None) -> Predictor:
     """The predictor the options describe, or (``forecast``) a yardstick of the same
     checkpoint with that point forecast and no calibration."""
+    threads = {} if args.threads is None else {"threads": args.threads}
     return Predictor.from_checkpoint(
         args.checkpoint,
-        threads=args.threads,
+        **threads,
         forecast=forecast or chosen_forecast(args),
         mixture=args.mixture,
         min_points=args.min_points,

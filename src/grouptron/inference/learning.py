@@ -214,6 +214,12 @@ class SiteLearner:
         """Whether a background round is running."""
         return self._thread is not None and self._thread.is_alive()
 
+    def snapshot(self) -> tuple[TrajectronCVAE, LearningStatus]:
+        """The weights in use and the status that describes them, taken together (a round
+        replaces both)."""
+        with self._lock:
+            return self.model, self.status
+
     def resume(self, model: TrajectronCVAE, status: LearningStatus) -> None:
         """Start from weights a session of this site learnt before (a kept state) and its
         status; the shipped weights stay the yardstick a rollback returns to."""
@@ -269,11 +275,13 @@ class SiteLearner:
         finish, or (``drop_round``: a node that stops within a second) is dropped at once."""
         if not drop_round and self._thread is not None:
             self._thread.join(timeout=FINISH_WAIT_S)  # the round sends, trains and answers
-        self._closing = True
-        worker, self._worker = self._worker, None
+        with self._lock:
+            self._closing = True
+            worker, self._worker = self._worker, None
         if worker is not None:
             worker.close(STOP_WAIT_S)
-        self.wait()
+        if self._thread is not None:  # its process is gone: the thread ends at once
+            self._thread.join(timeout=FINISH_WAIT_S)
         self._closing = False
 
     def _run_round(self, train: Completed, holdout: Completed) -> None:
@@ -304,9 +312,20 @@ class SiteLearner:
     def _result(self, job: RoundJob) -> RoundResult:
         """The round, in line (this thread, ``options.threads`` threads) or in the worker."""
         if self.options.background:
-            if self._worker is None:
-                self._worker = RoundWorker(self.shipped, self._settings, self.options.threads)
             worker = self._worker
+            if worker is None:
+                worker = RoundWorker(self._settings, self.options.threads)
+                with self._lock:  # close() sees the process from now on, or it is closing
+                    if self._closing:
+                        worker.close()
+                        raise GrouptronError("the session is closing")
+                    self._worker = worker
+                try:
+                    worker.start(self.shipped)
+                except GrouptronError:
+                    worker.close()
+                    self._worker = None  # the next round starts a fresh one
+                    raise
             try:
                 result = worker.run(job)
             except (GrouptronError, OSError):

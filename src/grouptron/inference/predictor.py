@@ -151,7 +151,7 @@ class Predictor:
         cls,
         name_or_path: str | Path = DEFAULT_CHECKPOINT,
         checkpoints_dir: str | Path | None = None,
-        threads: int | None = None,
+        threads: int | None = LIVE_THREADS,
         forecast: PointForecast | str | None = None,
         **options: Any,
     ) -> Predictor:
@@ -161,7 +161,6 @@ class Predictor:
             threads = integer_argument(threads, "threads", 1)
         path = resolve_checkpoint(name_or_path, checkpoints_dir)
         model, config = load_trained_model(path)
-        threads = LIVE_THREADS if threads is None else threads
         return cls(model, config, str(path), forecast, threads=threads, **options)
 
     @property

@@ -56,7 +56,8 @@ class RoundWorker:
     an ``if __name__ == "__main__"`` guard would start itself again.
     """
 
-    def __init__(self, shipped: TrajectronCVAE, settings: RoundSettings, threads: int) -> None:
+    def __init__(self, settings: RoundSettings, threads: int) -> None:
+        """Start the process (it reads its settings from ``start``: until then it waits)."""
         package_root = str(Path(grouptron.__file__).resolve().parents[1])
         paths = [package_root, *os.environ.get("PYTHONPATH", "").split(os.pathsep)]
         env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in paths if p)}
@@ -76,8 +77,16 @@ class RoundWorker:
             "min_gain": settings.min_gain,
             "seed": settings.seed,
         }
+        self._start = start
         self._pipes = _Pipes(self._process.stdout, self._process.stdin)
-        self._pipes.send(start, [_weights_bytes(shipped)])
+
+    def start(self, shipped: TrajectronCVAE) -> None:
+        """Send the settings and the shipped weights (blocks until the process reads them:
+        it imports PyTorch first; ``close`` from another thread ends the wait)."""
+        try:
+            self._pipes.send(self._start, [_weights_bytes(shipped)])
+        except (OSError, ValueError):
+            raise GrouptronError("the learning process stopped") from None
 
     def run(self, job: RoundJob) -> RoundResult:
         """The round's result, computed in the worker process."""

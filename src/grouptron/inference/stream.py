@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -26,6 +27,7 @@ from grouptron.inference.live import IdBook, LiveTracks
 from grouptron.inference.online import OnlineCalibration
 from grouptron.inference.site_model import load_site, save_site
 from grouptron.inference.track_faults import (
+    JUMP_FORWARD_S,
     LATE_TOLERANCE_S,
     Clock,
     StreamFaults,
@@ -145,23 +147,23 @@ class StreamSession:
         config = self.predictor.config
         return save_site(path, self.learner.model, config, self.learner.status, source)
 
-    def save_state(self, folder: str | Path) -> list[Path]:
+    def save_state(self, folder: str | Path, *, site: bool = True) -> list[Path]:
         """Keep what this session adapted to its site, for a session started after a restart
-        with ``Predictor.stream(state=folder)``: the online radii (``online.json``) and the
-        learnt weights in use with their card (``site/``), whichever are on. Does not wait
-        for a running round (its weights are not in use yet); returns the files written."""
+        with ``Predictor.stream(state=folder)``: the online radii (``online.json``) and, with
+        ``site``, the learnt weights in use with their card (``site/``), whichever are on.
+        Does not wait for a running round (its weights are not in use yet); returns the files
+        written."""
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
         written = []
         if self.online is not None:
             self.online.save(folder / ONLINE_STATE)
             written.append(folder / ONLINE_STATE)
-        if self.learner is not None:
-            learner, source = self.learner, getattr(self.predictor, "source", "")
-            site = folder / SITE_FOLDER
-            written.append(
-                save_site(site, learner.model, self.predictor.config, learner.status, source)
-            )
+        if self.learner is not None and site:
+            model, status = self.learner.snapshot()
+            source = getattr(self.predictor, "source", "")
+            config = self.predictor.config
+            written.append(save_site(folder / SITE_FOLDER, model, config, status, source))
         return written
 
     def resume_state(self, folder: str | Path) -> list[str]:
@@ -169,7 +171,13 @@ class StreamSession:
         returns what was resumed, by name."""
         folder, resumed = Path(folder), []
         if self.online is not None and (folder / ONLINE_STATE).is_file():
-            self.online = OnlineCalibration.load(folder / ONLINE_STATE)
+            online = OnlineCalibration.load(folder / ONLINE_STATE)
+            if online.horizon != self.online.horizon:
+                raise GrouptronError(
+                    f"{folder / ONLINE_STATE}: radii for {online.horizon} steps, the model "
+                    f"forecasts {self.online.horizon}: not this model's state"
+                )
+            self.online = online
             resumed.append("online radii")
         if self.learner is not None and (folder / SITE_FOLDER).is_dir():
             source = getattr(self.predictor, "source", "")
@@ -271,6 +279,8 @@ class StreamSession:
         """An update at a time in seconds: the history resampled onto the step, ending at
         ``t_s``; answered at every update."""
         where = f"time {t_s} s"
+        if not math.isfinite(t_s):
+            raise GrouptronError(f"{where}: a time must be a finite number of seconds")
         if self._last_frame is not None:
             raise GrouptronError(f"{where}: this session was fed frame numbers; keep to ints")
         xy_arr = _positions(xy, len(ids) if hasattr(ids, "__len__") else -1, where)
@@ -281,10 +291,10 @@ class StreamSession:
             self._live = LiveTracks(window, gap, predictor.check_speed)
             self._book = IdBook()
         assert self._book is not None
-        codes = self._book.encode(list(ids) if not isinstance(ids, np.ndarray) else ids, where)
-        clock = clock_step(self._live.last_s, t_s)
+        clock = clock_step(self._live.last_s, t_s)  # judged first: a late update changes nothing
         if clock is Clock.LATE:
             self._late(where, f"the previous update's {self._live.last_s} s")
+        codes = self._book.encode(list(ids) if not isinstance(ids, np.ndarray) else ids, where)
         if clock is not Clock.NEXT:
             self._restart_clock(where, clock)
         since = self._live.last_s
@@ -327,7 +337,12 @@ class StreamSession:
         """The clock jumped: forget every history (the new times do not follow the old ones)
         and the forecasts awaiting truths; forecasts resume once people have two steps."""
         self.faults.clock_resets += 1
-        log.warning("%s: the clock %s; every track restarts from this update", where, clock.value)
+        what = (
+            "jumped back"
+            if clock is Clock.JUMPED_BACK
+            else f"jumped forward (or no update came for over {JUMP_FORWARD_S:g} s)"
+        )
+        log.warning("%s: the clock %s; every track restarts from this update", where, what)
         self._rows = np.zeros((0, 4))
         self._last_frame = None
         if self._live is not None:

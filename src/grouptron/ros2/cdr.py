@@ -184,7 +184,8 @@ class _Reader:
     a message that ends early raises ``ValueError``."""
 
     def __init__(self, data: bytes) -> None:
-        if data[:4] != CDR_LE:
+        # The last two bytes are options (XTypes puts the closing padding there): not read.
+        if data[:2] != CDR_LE[:2]:
             raise ValueError("not plain little-endian CDR")
         self.body = memoryview(data)[4:]
         self.at = 0

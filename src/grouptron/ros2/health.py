@@ -63,6 +63,7 @@ class Health:
     last_input_s: float | None = None
     refusing_since_s: float | None = None
     last_refusal: str = ""
+    last_kind: str = ""
     _sequence: int | None = None
 
     def received_input(self, now_s: float, sequence: int | None = None) -> None:
@@ -88,7 +89,7 @@ class Health:
     def refused_input(self, kind: str, reason: str, now_s: float) -> None:
         """An input refused (``kind``: malformed, late, ...; ``reason``: one line)."""
         self.refused[kind] = self.refused.get(kind, 0) + 1
-        self.last_refusal = reason
+        self.last_refusal, self.last_kind = reason, kind
         if self.refusing_since_s is None:
             self.refusing_since_s = now_s
 

@@ -63,8 +63,9 @@ def lifecycle_node(
                 super().stop()
 
         def _free(self) -> None:
-            """The topics, timers, session and model let go."""
+            """The state kept, then the topics, timers, session and model let go."""
             if self.configured:
+                self._keep_state(final=True)
                 self.teardown()
                 self.configured = False
                 del self.session, self.live, self.predictor

@@ -75,7 +75,7 @@ class LiveForecaster:
         ``no odometry``, or ``malformed`` for anything else the session or the frame check
         refuses, with the reason)."""
         started = time.perf_counter()
-        if self.odometry is not None and self.odometry.moves(people.frame_id):
+        if self.odometry is not None and self.odometry.moves(people.frame_id, self.fixed_frames):
             try:
                 placed = self.odometry.place(people)
             except GrouptronError as error:

@@ -23,6 +23,11 @@ MARKER_ADD = 0
 markers name nobody."""
 
 
+class NobodyError(GrouptronError):
+    """A message that names nobody and has no stamp (an empty MarkerArray: what some trackers
+    send when no one is in view): nothing to forecast, nothing wrong."""
+
+
 @dataclass(frozen=True)
 class Tracked:
     """The people of one message: when (seconds of its header stamp), in which frame, who
@@ -68,7 +73,7 @@ def tracked(message: Any, kind: str, fields: BagFields | None = None) -> Tracked
     if kind == MARKER_ARRAY:
         shown = [m for m in message.markers if m.action == MARKER_ADD]
         if not message.markers:
-            raise GrouptronError("an empty MarkerArray: no stamp, nobody to forecast")
+            raise NobodyError("an empty MarkerArray: no stamp, nobody to forecast")
         header = message.markers[0].header
         ids = [(m.ns if m.id == 0 else f"{m.ns}/{m.id}") if m.ns else str(m.id) for m in shown]
         xy = [(m.pose.position.x, m.pose.position.y) for m in shown]
@@ -95,7 +100,7 @@ def tracked_bytes(data: bytes) -> Tracked:
     """The people of a serialized MarkerArray, as :func:`tracked` reads its message, without
     building its Python objects (``cdr.marker_array_people``)."""
     if data[4:8] == bytes(4):  # no markers: the same line as tracked()'s
-        raise GrouptronError("an empty MarkerArray: no stamp, nobody to forecast")
+        raise NobodyError("an empty MarkerArray: no stamp, nobody to forecast")
     try:
         people = marker_array_people(data)
     except (ValueError, UnicodeDecodeError, struct.error) as error:

@@ -11,6 +11,7 @@ are counted. The work between a message and what leaves is ``ros2.live`` (no gra
 
 from __future__ import annotations
 
+import re
 import time
 from collections.abc import Callable
 from typing import Any
@@ -28,6 +29,7 @@ from grouptron.ros2.live import LiveForecaster, Made
 from grouptron.ros2.markers import group_bytes, marker_bytes, marker_message
 from grouptron.ros2.messages import (
     MARKER_ARRAY,
+    NobodyError,
     Tracked,
     diagnostics_message,
     message_class,
@@ -67,6 +69,25 @@ class NodeParts:
         node's configure)."""
         node: Any = self  # an rclpy Node too
         before = _entities(node)
+        try:
+            self._setup(node, predictor, options, online, learn)
+        except Exception:
+            for kind, entity in _entities(node) - before:  # nothing half made stays
+                getattr(node, f"destroy_{kind}")(entity)
+            if hasattr(self, "session"):
+                self.session.close(drop_round=True)
+            raise
+        self._created = _entities(node) - before
+
+    def _setup(
+        self,
+        node: Any,
+        predictor: Predictor,
+        options: NodeOptions,
+        online: bool,
+        learn: LearningOptions | None,
+    ) -> None:
+        """``setup``'s work: what a failure undoes."""
         self.active = True  # a lifecycle node's until activated: False
         chosen = chosen_options(node, options)
         self.kind = chosen.type
@@ -98,10 +119,9 @@ class NodeParts:
         self.waiting: tuple[Any, int, float] | None = None
         self.warned: set[str] = set()
         self.stopped = False
-        self._kept = (-1, -1)  # the learning status last kept: (rounds, accepted)
+        self._kept: tuple[int, int] | None = None  # the learning (rounds, accepted) last kept
         self.costmap_ms: float | None = None
         self._make_topics(node, chosen)
-        self._created = _entities(node) - before
 
     def _make_topics(self, node: Any, chosen: NodeOptions) -> None:
         """The subscriptions, publishers, timers and guard condition of ``setup``."""
@@ -181,9 +201,13 @@ class NodeParts:
             people = (
                 tracked_bytes(message) if self.raw else tracked(message, self.kind, self.fields)
             )
+        except NobodyError:
+            self.live.health.set_aside("empty")  # nobody in view: nothing wrong
+            self._say()
+            return
         except GrouptronError as error:
             self.live.refused("malformed", str(error))
-            self._warn_once(str(error))
+            self._warn_once("malformed", str(error))
             self._say()
             return
         made = self.live.forecast(people)
@@ -192,7 +216,7 @@ class NodeParts:
             return
         self.waiting = None
         if made is None:
-            self._warn_once(self.live.health.last_refusal)
+            self._warn_once(self.live.health.last_kind, self.live.health.last_refusal)
         else:
             self._publish(made, people, arrived_ns)
         self._say()
@@ -205,7 +229,7 @@ class NodeParts:
             self.waiting = None
             reason = f"no odometry: none reached its stamp within {ODOMETRY_WAIT_S} s"
             self.live.refused("no odometry", reason)
-            self._warn_once(reason)
+            self._warn_once("no odometry", reason)
             self._say()
             return
         self.waiting = (message, arrived_ns, since)
@@ -320,14 +344,21 @@ class NodeParts:
         said = type(status)(status.level, status.message, values)
         self.diagnostics.publish(diagnostics_message(header, "grouptron forecasts", said))
 
-    def _keep_state(self) -> None:
-        """Keep the online radii, and the learnt weights when a round changed them."""
+    def _keep_state(self, final: bool = False) -> None:
+        """Keep the online radii, and the learnt weights when a round changed them (every
+        ``STATE_PERIOD_S`` and when stopping); a state that cannot be written is a warning,
+        never the end of forecasting."""
         if not self.options.state:
             return
         learning = self.session.learning
-        kept = (-1, -1) if learning is None else (learning.rounds, learning.accepted)
-        if self.session.online is not None or kept != self._kept:
-            self.session.save_state(self.options.state)
+        kept = None if learning is None else (learning.rounds, learning.accepted)
+        site = kept is not None and (final or kept != self._kept)
+        try:
+            self.session.save_state(self.options.state, site=site)
+        except (OSError, GrouptronError) as error:
+            self._node().get_logger().warning(f"could not keep the state: {error}")
+            return
+        if site:
             self._kept = kept
 
     def stop(self) -> None:
@@ -341,12 +372,16 @@ class NodeParts:
 
         # The last status reaches its subscribers before the process ends.
         self.diagnostics.wait_for_all_acked(Duration(seconds=STOP_ACK_S))
-        if self.options.state:
-            self.session.save_state(self.options.state)
-        self.session.close(drop_round=True)
+        try:
+            self._keep_state(final=True)
+        finally:
+            self.session.close(drop_round=True)
 
-    def _warn_once(self, text: str) -> None:
-        kind = text.split(":")[0]
+    def _warn_once(self, kind: str, text: str) -> None:
+        """One warning per kind of refusal (``late``, ``no odometry``, or for anything
+        malformed its reason without numbers), then only the counts."""
+        if kind == "malformed":
+            kind = re.sub(r"[-+\d.e]+", "#", text.split(":")[0])[:80]
         if kind not in self.warned:
             self.warned.add(kind)
             self._node().get_logger().warning(f"skipped a message of {self.options.topic}: {text}")

@@ -13,11 +13,14 @@ counted.
 from __future__ import annotations
 
 import enum
+from pathlib import Path
 
 import numpy as np
 
+from grouptron.data.formats.ros_bag import check_fixed_frame
 from grouptron.errors import GrouptronError
 from grouptron.geometry import compose_poses, fixed_from_body, poses_at
+from grouptron.inference.track_faults import LATE_TOLERANCE_S
 from grouptron.ros2.messages import Tracked
 
 KEEP_S = 10.0
@@ -52,21 +55,33 @@ class OdometryTrack:
         self.poses = np.zeros((0, 3))
 
     def add(self, t_s: float, pose: np.ndarray, fixed_frame: str, base_frame: str) -> None:
-        """One odometry message: the base's (3,) pose at ``t_s``. A time not after the newest
-        is a clock that went back (a bag looping): the record starts again."""
+        """One odometry message: the base's (3,) pose at ``t_s``. A time at most
+        ``LATE_TOLERANCE_S`` before the newest is dropped; one further back is a clock that
+        went back (a bag looping): the record starts again."""
         if len(self.times_s) and t_s <= self.times_s[-1]:
+            if self.times_s[-1] - t_s <= LATE_TOLERANCE_S:
+                return  # a repeated or slightly late stamp: the record has it or around it
             self.times_s, self.poses = np.zeros(0), np.zeros((0, 3))
         keep = self.times_s >= t_s - KEEP_S
         self.times_s = np.append(self.times_s[keep], t_s)
         self.poses = np.vstack([self.poses[keep], pose[None]])
         self.fixed_frame, self.base_frame = fixed_frame.strip("/"), base_frame.strip("/")
 
-    def moves(self, frame_id: str) -> bool:
+    def moves(self, frame_id: str, fixed: tuple[str, ...] = ()) -> bool:
         """Whether people in ``frame_id`` are placed through the odometry: the base's frame,
-        or with a sensor pose any frame but the fixed one."""
+        or with a sensor pose any frame but a fixed one (the odometry's, a known one, or one
+        of ``fixed``). Before the first odometry, every frame not fixed is (and waits for
+        it, or is refused for want of it)."""
         name = frame_id.strip("/")
-        if not self.base_frame or name == self.fixed_frame:
+        if name == self.fixed_frame:
             return False
+        try:
+            check_fixed_frame(Path("odometry"), name, fixed)
+            return False
+        except GrouptronError:
+            pass  # a frame that moves, or one grouptron does not know to be fixed
+        if not self.base_frame:
+            return True
         return name == self.base_frame or self.sensor_pose is not None
 
     def position_at(self, t_s: float) -> np.ndarray:

@@ -92,6 +92,9 @@ class NodeOptions:
         return centre
 
 
+MAX_CELLS = 4000
+"""A costmap's cells a side at most (16 million cells, 16 MB a message)."""
+
 _CLI_ONLY = ("name", "state", "fixed_frames")
 """Options that are not ROS parameters (``fixed_frames`` is one, as a list)."""
 
@@ -125,9 +128,12 @@ def _check(chosen: NodeOptions) -> None:
     if chosen.costmap:
         if not 0 < chosen.costmap_q < 1 or chosen.costmap_steps < 1:
             raise GrouptronError("costmap_q must be in (0, 1) and costmap_steps at least 1")
-        if not 0 < chosen.costmap_resolution_m <= chosen.costmap_size_m <= 1000:
+        cells = chosen.costmap_size_m / max(chosen.costmap_resolution_m, 1e-9)
+        if not 0 < chosen.costmap_resolution_m <= chosen.costmap_size_m or cells > MAX_CELLS:
             raise GrouptronError(
-                "costmap_resolution_m and costmap_size_m must be 0 < resolution <= size <= 1000"
+                "costmap_size_m / costmap_resolution_m must be 1 to "
+                f"{MAX_CELLS} cells a side, not {chosen.costmap_size_m} / "
+                f"{chosen.costmap_resolution_m}"
             )
         chosen.costmap_centre_xy()
 
