@@ -25,7 +25,8 @@ from grouptron.inference.inputs import (
 from grouptron.inference.learning import LearningStatus, SiteLearner
 from grouptron.inference.live import IdBook, LiveTracks
 from grouptron.inference.online import OnlineCalibration
-from grouptron.inference.site_model import load_site, save_site
+from grouptron.inference.session_state import resume_session_state, save_session_state
+from grouptron.inference.site_model import save_site
 from grouptron.inference.track_faults import (
     JUMP_FORWARD_S,
     LATE_TOLERANCE_S,
@@ -70,11 +71,6 @@ class WindowForecaster(Protocol):
 
 
 log = logging.getLogger(__name__)
-
-ONLINE_STATE = "online.json"
-"""A kept state's online radii (``StreamSession.save_state``)."""
-SITE_FOLDER = "site"
-"""A kept state's learnt weights and their card (``site_model.save_site``)."""
 
 CLOCK_RESET_GAP_S = 60.0
 """After a clock jump the learner's time goes on this much later than the last update's, so
@@ -148,43 +144,15 @@ class StreamSession:
         return save_site(path, self.learner.model, config, self.learner.status, source)
 
     def save_state(self, folder: str | Path, *, site: bool = True) -> list[Path]:
-        """Keep what this session adapted to its site, for a session started after a restart
-        with ``Predictor.stream(state=folder)``: the online radii (``online.json``) and, with
-        ``site``, the learnt weights in use with their card (``site/``), whichever are on.
-        Does not wait for a running round (its weights are not in use yet); returns the files
-        written."""
-        folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
-        written = []
-        if self.online is not None:
-            self.online.save(folder / ONLINE_STATE)
-            written.append(folder / ONLINE_STATE)
-        if self.learner is not None and site:
-            model, status = self.learner.snapshot()
-            source = getattr(self.predictor, "source", "")
-            config = self.predictor.config
-            written.append(save_site(folder / SITE_FOLDER, model, config, status, source))
-        return written
+        """Keep what this session adapted to its site in ``folder``, for a session started
+        after a restart with ``Predictor.stream(state=folder)`` (``session_state``): the
+        online radii and, with ``site``, the learnt weights in use; returns the files."""
+        return save_session_state(self, Path(folder), site)
 
     def resume_state(self, folder: str | Path) -> list[str]:
         """Take up what ``save_state`` kept in ``folder`` (nothing there yet: a first start);
         returns what was resumed, by name."""
-        folder, resumed = Path(folder), []
-        if self.online is not None and (folder / ONLINE_STATE).is_file():
-            online = OnlineCalibration.load(folder / ONLINE_STATE)
-            if online.horizon != self.online.horizon:
-                raise GrouptronError(
-                    f"{folder / ONLINE_STATE}: radii for {online.horizon} steps, the model "
-                    f"forecasts {self.online.horizon}: not this model's state"
-                )
-            self.online = online
-            resumed.append("online radii")
-        if self.learner is not None and (folder / SITE_FOLDER).is_dir():
-            source = getattr(self.predictor, "source", "")
-            model, status = load_site(folder / SITE_FOLDER, source)
-            self.learner.resume(model, status)
-            resumed.append("learnt weights" if status.adapted else "learning status")
-        return resumed
+        return resume_session_state(self, Path(folder))
 
     @property
     def window_frames(self) -> int:
