@@ -82,9 +82,11 @@ def region_costmap(regions: Regions, window: CostmapWindow, corner_xy: np.ndarra
     )
     step = (step // people).astype(np.uint8)  # (P,) the step of each run's ellipse
     width = stop - start
-    # (T,) the flat index of every covered cell: its run's first cell, counted on from there.
-    base = row * cells + start - (np.cumsum(width) - width)
-    covered = np.repeat(base, width) + np.arange(width.sum())
+    # (T,) the flat index of every covered cell: its run's first cell, counted on from there
+    # (int32: a window has at most 4000 x 4000 cells, and half the bytes to move).
+    base = (row * cells + start - (np.cumsum(width) - width)).astype(np.int32)
+    covered = np.repeat(base, width)
+    covered += np.arange(len(covered), dtype=np.int32)
     first = np.full(cells * cells, steps, dtype=np.uint8)  # steps: no step covers the cell
     np.minimum.at(first, covered, np.repeat(step, width))
     costs = np.append(step_costs(steps), np.int8(0))

@@ -79,31 +79,31 @@ GROUP_COLOUR = (0.1, 0.4, 0.9, 1.0)
 
 def _groups(
     forecast: Forecast, now_xy: np.ndarray | None
-) -> list[tuple[int, np.ndarray, np.ndarray, float]]:
-    """Per group of two or more at the forecast time: its number, members (a mask), centre
-    and the radius of its outline (``GROUP_MARGIN_M`` outside the farthest member)."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Of every group of two or more at the forecast time: (G,) its number, (N,) which of
+    them each person is in (-1: alone), (G, 2) the centre and (G,) the radius of its outline
+    (``GROUP_MARGIN_M`` outside the farthest member); all groups in one pass."""
     if forecast.group is None or not len(forecast):
-        return []
+        return np.zeros(0, np.int64), np.full(len(forecast), -1), np.zeros((0, 2)), np.zeros(0)
     where = forecast.point[:, 0] if now_xy is None else now_xy
-    labels, sizes = np.unique(forecast.group, return_counts=True)
-    out = []
-    for label in labels[sizes >= 2]:  # one outline per group: a few per crowd
-        members = forecast.group == label
-        centre = where[members].mean(axis=0)
-        radius = float(np.linalg.norm(where[members] - centre, axis=1).max()) + GROUP_MARGIN_M
-        out.append((int(label), members, centre, radius))
-    return out
+    labels, inverse, sizes = np.unique(forecast.group, return_inverse=True, return_counts=True)
+    centre = np.stack([np.bincount(inverse, where[:, d]) / sizes for d in (0, 1)], axis=-1)
+    radius = np.zeros(len(labels))
+    np.maximum.at(radius, inverse, np.linalg.norm(where - centre[inverse], axis=1))
+    kept = sizes >= 2
+    index = np.full(len(labels), -1)
+    index[kept] = np.arange(kept.sum())
+    return labels[kept], index[inverse], centre[kept], radius[kept] + GROUP_MARGIN_M
 
 
 def _group_squares(forecast: Forecast, now_xy: np.ndarray | None) -> np.ndarray:
     """(8 G, 2) the light markers' group outlines as one line list: a square around each
     group (its corners on the outline's circle: four segments, 192 bytes)."""
+    _, _, centre, radius = _groups(forecast, now_xy)
     corners = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0], [1.0, 0.0]])
-    squares = [
-        centre + radius * np.stack([corners[:-1], corners[1:]], axis=1).reshape(-1, 2)
-        for _, _, centre, radius in _groups(forecast, now_xy)
-    ]
-    return np.concatenate(squares) if squares else np.zeros((0, 2))
+    segments = np.stack([corners[:-1], corners[1:]], axis=1).reshape(-1, 2)  # (8, 2)
+    squares: np.ndarray = centre[:, None] + radius[:, None, None] * segments  # (G, 8, 2)
+    return squares.reshape(-1, 2)
 
 
 def group_shapes(forecast: Forecast, now_xy: np.ndarray | None = None) -> list[MarkerShape]:
@@ -111,19 +111,20 @@ def group_shapes(forecast: Forecast, now_xy: np.ndarray | None = None) -> list[M
     (``Forecast.group``; namespace ``group``, ``id`` the group's number, ``text`` its members'
     ids comma-separated in the forecast's order): a circle around the members' ``now_xy``
     ((N, 2); None: their first step), ``GROUP_MARGIN_M`` outside the farthest."""
+    labels, member_of, centre, radius = _groups(forecast, now_xy)
     turn = np.linspace(0.0, 2 * np.pi, GROUP_OUTLINE_VERTICES + 1)  # closed: last = first
     circle = np.stack([np.cos(turn), np.sin(turn)], axis=-1)  # (V + 1, 2)
-    return [
+    return [  # a marker per group: its members named in its text
         MarkerShape(
             "group",
             LINE_STRIP,
             (0.05, 0.0, 0.0),
             GROUP_COLOUR,
-            centre + radius * circle,
-            id=label,
-            text=",".join(str(i) for i in forecast.ids[members]),
+            centre[g] + radius[g] * circle,
+            id=int(labels[g]),
+            text=",".join(str(i) for i in forecast.ids[member_of == g]),
         )
-        for label, members, centre, radius in _groups(forecast, now_xy)
+        for g in range(len(labels))
     ]
 
 
