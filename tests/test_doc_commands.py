@@ -19,7 +19,7 @@ from grouptron.cli import main
 from grouptron.constants import DEFAULT_CHECKPOINT, SPLITS
 from tests.conftest import REPO, synthetic_recording
 from tests.helpers.docs import shell_commands
-from tests.helpers.ros import PEOPLE_MSGDEF
+from tests.helpers.ros import ODOMETRY_MSGDEF, PEOPLE_MSGDEF, odometry_message
 
 pytest.importorskip("mcap_ros2")  # the docs' ROS 2 bag commands need the ros extra
 
@@ -123,7 +123,8 @@ def _toml_block(name: str) -> str:
 
 def write_bag(path: Path, rows: np.ndarray) -> None:
     """People on /people and, on /tracks, a message type grouptron does not know (docs/robots.md's
-    TrackArray), one message per frame (25 fps) of (R, 4) ``frame, id, x, y`` rows."""
+    TrackArray), one message per frame (25 fps) of (R, 4) ``frame, id, x, y`` rows; a robot's
+    odometry on /odom."""
     from mcap_ros2.writer import Writer
 
     msgdef = (
@@ -141,6 +142,7 @@ def write_bag(path: Path, rows: np.ndarray) -> None:
         kinds = {
             "/people": writer.register_msgdef("people_msgs/msg/People", PEOPLE_MSGDEF),
             "/tracks": writer.register_msgdef("my_msgs/msg/TrackArray", msgdef),
+            "/odom": writer.register_msgdef("nav_msgs/msg/Odometry", ODOMETRY_MSGDEF),
         }
         for frame in np.unique(rows[:, 0]):
             now = rows[rows[:, 0] == frame]
@@ -158,6 +160,8 @@ def write_bag(path: Path, rows: np.ndarray) -> None:
             stamp = round(frame / 25 * 1e9)
             writer.write_message("/people", kinds["/people"], people_message, log_time=stamp)
             writer.write_message("/tracks", kinds["/tracks"], tracks, log_time=stamp)
+            robot = odometry_message(frame / 25, np.zeros(3))  # a robot standing at the origin
+            writer.write_message("/odom", kinds["/odom"], robot, log_time=stamp)
         writer.finish()
 
 

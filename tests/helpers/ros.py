@@ -78,7 +78,8 @@ float64 y
 float64 z"""
 
 
-def _odometry(time_s: float, pose: np.ndarray) -> dict:
+def odometry_message(time_s: float, pose: np.ndarray) -> dict:
+    """A ``nav_msgs/msg/Odometry`` of a robot at (3,) ``pose`` in ``odom`` (mcap_ros2's form)."""
     sec = int(time_s)
     zero = {"x": 0.0, "y": 0.0, "z": 0.0}
     return {
@@ -125,7 +126,7 @@ def write_people_bag(
             time_s = START_S + frame / 25.0
             if robot is not None:
                 for t in (time_s - 0.2, time_s):
-                    message = _odometry(t, robot(t))
+                    message = odometry_message(t, robot(t))
                     writer.write_message("/odom", odometry, message, log_time=round(t * 1e9))
                 pose = robot(time_s)
                 cos, sin = np.cos(pose[2]), np.sin(pose[2])

@@ -130,12 +130,18 @@ def topics_of(path: Path) -> dict[str, str]:
     }
 
 
+def is_fixed_frame(frame_id: str, fixed: tuple[str, ...] = ()) -> bool:
+    """Whether a frame id names a frame fixed to the world (a known one, or one of
+    ``fixed``)."""
+    name = frame_id.strip("/")
+    return name in (*FIXED_FRAMES, *fixed) or any(name.startswith(f"{f}_") for f in FIXED_FRAMES)
+
+
 def check_fixed_frame(path: Path, frame_id: str, fixed: tuple[str, ...] = ()) -> None:
     """Refuse a frame id that is not fixed to the world, in one line."""
-    name = frame_id.strip("/")
-    known = (*FIXED_FRAMES, *fixed)
-    if name in known or any(name.startswith(f"{f}_") for f in FIXED_FRAMES):
+    if is_fixed_frame(frame_id, fixed):
         return
+    name = frame_id.strip("/")
     moving = any(hint in name.lower() for hint in ROBOT_FRAME_HINTS)
     what = "moves with the robot" if moving else "is not a frame grouptron knows to be fixed"
     raise GrouptronError(
@@ -242,8 +248,9 @@ def place_rows(
 ) -> tuple[np.ndarray, str]:
     """(R, 5) rows (id, t, x, y, message) of people in the odometry's child frame put into its
     frame at their stamps, and that frame; rows the odometry does not cover are dropped with a
-    warning. Rows already in the odometry's frame are returned as they are."""
-    if frame_id.strip("/") == odometry.frame_id:
+    warning. Rows already in a fixed frame (the odometry's, or a known one) are returned as
+    they are."""
+    if frame_id.strip("/") == odometry.frame_id or is_fixed_frame(frame_id):
         return table, frame_id
     if frame_id.strip("/") != odometry.child_frame_id:
         raise GrouptronError(
