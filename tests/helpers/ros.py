@@ -7,75 +7,40 @@ from pathlib import Path
 
 import numpy as np
 
-PEOPLE_MSGDEF = """std_msgs/Header header
-people_msgs/Person[] people
-================================================================================
-MSG: std_msgs/Header
-builtin_interfaces/Time stamp
-string frame_id
-================================================================================
-MSG: builtin_interfaces/Time
-int32 sec
-uint32 nanosec
-================================================================================
-MSG: people_msgs/Person
-string name
-geometry_msgs/Point position
-geometry_msgs/Point velocity
-float64 reliability
-string[] tagnames
-string[] tags
-================================================================================
-MSG: geometry_msgs/Point
-float64 x
-float64 y
-float64 z"""
-START_S = 1_700_000_000.0  # a robot's clock: Unix time
 
-ODOMETRY_MSGDEF = """std_msgs/Header header
-string child_frame_id
-geometry_msgs/PoseWithCovariance pose
-geometry_msgs/TwistWithCovariance twist
-================================================================================
-MSG: std_msgs/Header
-builtin_interfaces/Time stamp
-string frame_id
-================================================================================
-MSG: builtin_interfaces/Time
-int32 sec
-uint32 nanosec
-================================================================================
-MSG: geometry_msgs/PoseWithCovariance
-geometry_msgs/Pose pose
-float64[36] covariance
-================================================================================
-MSG: geometry_msgs/Pose
-geometry_msgs/Point position
-geometry_msgs/Quaternion orientation
-================================================================================
-MSG: geometry_msgs/Point
-float64 x
-float64 y
-float64 z
-================================================================================
-MSG: geometry_msgs/Quaternion
-float64 x
-float64 y
-float64 z
-float64 w
-================================================================================
-MSG: geometry_msgs/TwistWithCovariance
-geometry_msgs/Twist twist
-float64[36] covariance
-================================================================================
-MSG: geometry_msgs/Twist
-geometry_msgs/Vector3 linear
-geometry_msgs/Vector3 angular
-================================================================================
-MSG: geometry_msgs/Vector3
-float64 x
-float64 y
-float64 z"""
+def _msgdef(top: str, *names: str) -> str:
+    """A message definition as MCAP stores it: ``top``'s fields, then each named type's."""
+    rule = "=" * 80
+    return "\n".join([top, *(f"{rule}\nMSG: {n}\n{_FIELDS[n]}" for n in names)])
+
+
+_FIELDS = {
+    "std_msgs/Header": "builtin_interfaces/Time stamp\nstring frame_id",
+    "builtin_interfaces/Time": "int32 sec\nuint32 nanosec",
+    "people_msgs/Person": "string name\ngeometry_msgs/Point position\n"
+    "geometry_msgs/Point velocity\nfloat64 reliability\nstring[] tagnames\nstring[] tags",
+    "geometry_msgs/Point": "float64 x\nfloat64 y\nfloat64 z",
+    "geometry_msgs/PoseWithCovariance": "geometry_msgs/Pose pose\nfloat64[36] covariance",
+    "geometry_msgs/Pose": "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation",
+    "geometry_msgs/Quaternion": "float64 x\nfloat64 y\nfloat64 z\nfloat64 w",
+    "geometry_msgs/TwistWithCovariance": "geometry_msgs/Twist twist\nfloat64[36] covariance",
+    "geometry_msgs/Twist": "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular",
+    "geometry_msgs/Vector3": "float64 x\nfloat64 y\nfloat64 z",
+}
+"""The fields of each message type the test bags use."""
+
+PEOPLE_MSGDEF = _msgdef(
+    "std_msgs/Header header\npeople_msgs/Person[] people",
+    *("std_msgs/Header", "builtin_interfaces/Time", "people_msgs/Person", "geometry_msgs/Point"),
+)
+ODOMETRY_MSGDEF = _msgdef(
+    "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/PoseWithCovariance pose\n"
+    "geometry_msgs/TwistWithCovariance twist",
+    *("std_msgs/Header", "builtin_interfaces/Time", "geometry_msgs/PoseWithCovariance"),
+    *("geometry_msgs/Pose", "geometry_msgs/Point", "geometry_msgs/Quaternion"),
+    *("geometry_msgs/TwistWithCovariance", "geometry_msgs/Twist", "geometry_msgs/Vector3"),
+)
+START_S = 1_700_000_000.0  # a robot's clock: Unix time
 
 
 def odometry_message(time_s: float, pose: np.ndarray) -> dict:
