@@ -43,7 +43,7 @@ def cmd_ros2(args: argparse.Namespace) -> int:
 
 def _exit_now(code: int) -> None:
     """End the process now, everything written and flushed: stopped by a signal, a node ends
-    within a second, and PyTorch's own teardown at exit takes about 0.45 s more."""
+    within a second, and PyTorch's own teardown at exit would take a good part of it."""
     logging.shutdown()
     sys.stdout.flush()
     sys.stderr.flush()

@@ -95,8 +95,11 @@ class LiveForecaster:
             return None
         regions = forecast.regions(self.regions_q) if self.regions_q and len(forecast) else None
         update_ms = 1000 * (time.perf_counter() - started)
-        index = {name: i for i, name in enumerate(people.ids)}
-        now_xy = people.xy[[index[str(i)] for i in forecast.ids]].reshape(-1, 2)
+        # Where each forecast person is in the message: their ids found in one sorted pass.
+        given = np.asarray(people.ids, dtype=str)
+        order = np.argsort(given)
+        at = order[np.searchsorted(given[order], forecast.ids.astype(str))]
+        now_xy = people.xy[at].reshape(-1, 2)
         return Made(forecast, regions, now_xy, update_ms, people.frame_id)
 
     def refused(self, kind: str, reason: str) -> None:

@@ -37,7 +37,7 @@ from grouptron.ros2.messages import (
     tracked_bytes,
 )
 from grouptron.ros2.odometry import WAIT_S as ODOMETRY_WAIT_S
-from grouptron.ros2.odometry import OdometryTrack, Placement, parse_pose
+from grouptron.ros2.odometry import OdometryTrack, Placement
 from grouptron.ros2.options import NodeOptions, chosen_options, parameter
 
 DIAGNOSTICS_PERIOD_S = 1.0
@@ -90,7 +90,6 @@ class NodeParts:
         """``setup``'s work: what a failure undoes."""
         self.active = True  # a lifecycle node's until activated: False
         chosen = chosen_options(node, options)
-        self.kind = chosen.type
         self.fields = BagFields.parse(chosen.ros_fields) if chosen.ros_fields else None
         self.options = chosen
         # Online calibration and learning are ROS parameters too (flags their defaults).
@@ -101,9 +100,7 @@ class NodeParts:
             online_calibration=online_on, learn=chosen_learn, state=chosen.state
         )
         self.odometry: OdometryTrack | None = (
-            OdometryTrack(parse_pose(chosen.sensor_pose) if chosen.sensor_pose else None)
-            if chosen.odom
-            else None
+            OdometryTrack(chosen.sensor_pose_xyyaw()) if chosen.odom else None
         )
         self.live = LiveForecaster(
             self.session,
@@ -199,7 +196,9 @@ class NodeParts:
         message, arrived_ns = latest
         try:
             people = (
-                tracked_bytes(message) if self.raw else tracked(message, self.kind, self.fields)
+                tracked_bytes(message)
+                if self.raw
+                else tracked(message, self.options.type, self.fields)
             )
         except NobodyError:
             self.live.health.set_aside("empty")  # nobody in view: nothing wrong

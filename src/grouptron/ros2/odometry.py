@@ -116,14 +116,3 @@ class OdometryTrack:
             base = compose_poses(base, self.sensor_pose)
         xy = fixed_from_body(people.xy, base)
         return Tracked(people.time_s, self.fixed_frame, people.ids, xy, people.stamp)
-
-
-def parse_pose(text: str) -> np.ndarray:
-    """(3,) a mounting pose ``x,y,yaw`` (metres, radians); one line if it is not one."""
-    try:
-        values = np.array([float(v) for v in text.split(",")])
-    except ValueError:
-        values = np.zeros(0)
-    if values.shape != (3,) or not np.isfinite(values).all():
-        raise GrouptronError(f"--sensor-pose must be x,y,yaw (metres, radians), not {text!r}")
-    return values

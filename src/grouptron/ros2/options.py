@@ -83,13 +83,25 @@ class NodeOptions:
         """(2,) the costmap's fixed centre, or None: around the robot."""
         if not self.costmap_centre:
             return None if self.odom else np.zeros(2)
-        try:
-            centre = np.array([float(v) for v in self.costmap_centre.split(",")])
-        except ValueError:
-            centre = np.zeros(0)
-        if centre.shape != (2,) or not np.isfinite(centre).all():
-            raise GrouptronError(f"costmap_centre must be x,y, not {self.costmap_centre!r}")
-        return centre
+        return comma_numbers(self.costmap_centre, 2, "costmap_centre must be x,y")
+
+    def sensor_pose_xyyaw(self) -> np.ndarray | None:
+        """(3,) the sensor's mounting pose on the base, or None: people come in its frame."""
+        if not self.sensor_pose:
+            return None
+        return comma_numbers(self.sensor_pose, 3, "--sensor-pose must be x,y,yaw (m, rad)")
+
+
+def comma_numbers(text: str, count: int, usage: str) -> np.ndarray:
+    """(count,) finite numbers written ``a,b,...``; ``usage`` and the text in one line if
+    they are not."""
+    try:
+        values = np.array([float(v) for v in text.split(",")])
+    except ValueError:
+        values = np.zeros(0)
+    if values.shape != (count,) or not np.isfinite(values).all():
+        raise GrouptronError(f"{usage}, not {text!r}")
+    return values
 
 
 MAX_CELLS = 4000
@@ -125,6 +137,7 @@ def _check(chosen: NodeOptions) -> None:
         chosen.qos(topic)  # one line now, not at the first message
     if chosen.sensor_pose and not chosen.odom:
         raise GrouptronError("--sensor-pose places a sensor on the base: add --odom TOPIC")
+    chosen.sensor_pose_xyyaw()  # one line now, not when the node is half made
     if chosen.costmap:
         if not 0 < chosen.costmap_q < 1 or chosen.costmap_steps < 1:
             raise GrouptronError("costmap_q must be in (0, 1) and costmap_steps at least 1")
