@@ -26,7 +26,7 @@ from grouptron.groups.assign import assign_groups
 from grouptron.model.batch import make_batch
 from grouptron.model.factory import build_model
 from grouptron.presets import experiment_preset
-from grouptron.training.losses import elbo_loss
+from grouptron.model.elbo import elbo_loss
 
 
 def main() -> None:

@@ -60,7 +60,7 @@ def train_speed(data_dir: Path | None, iterations: int) -> dict[str, float]:
     from grouptron.data.prepare.augment import draw_rotation_angles
     from grouptron.model.batch import make_batch
     from grouptron.model.factory import build_model
-    from grouptron.training.losses import elbo_loss
+    from grouptron.model.elbo import elbo_loss
 
     config = ExperimentConfig()
     samples = load_part(resolve_data_dir(data_dir), "eth", "train", config.data).samples

@@ -21,12 +21,12 @@ from grouptron.data.prepare.samples import scene_samples
 from grouptron.data.prepare.scene import build_scene
 from grouptron.evaluation.evaluate import score_samples
 from grouptron.inference.predictor import Predictor
+from grouptron.model import schedules
 from grouptron.model.batch import make_batch
 from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.elbo import elbo_loss
 from grouptron.model.factory import groups_for_model
 from grouptron.model.noise import draw_training_noise
-from grouptron.training import schedules
-from grouptron.training.losses import elbo_loss
 
 HERE = Path(__file__).parent
 CHECKPOINTS = (

@@ -17,9 +17,9 @@ from grouptron.data.prepare.scene import build_scene
 from grouptron.errors import GrouptronError
 from grouptron.groups.assign import assign_groups
 from grouptron.model.batch import Batch, make_batch
+from grouptron.model.elbo import elbo_loss
 from grouptron.model.factory import build_model
 from grouptron.model.noise import draw_training_noise
-from grouptron.training.losses import elbo_loss
 from tests.golden.compute import synthetic_tracks
 from tests.helpers.models import SMALL, TINY_MODEL
 

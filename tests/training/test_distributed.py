@@ -61,16 +61,16 @@ import sys
 import dataclasses
 import torch
 from grouptron.cli import main
-from grouptron.training import trainer
+from grouptron.model import cvae
 
-real, calls = trainer.elbo_loss, [0]
+real, calls = cvae.elbo_loss, [0]
 
 def poisoned(*args, **kwargs):
     terms = real(*args, **kwargs)
     calls[0] += 1
     return dataclasses.replace(terms, loss=terms.loss * torch.nan) if calls[0] == 3 else terms
 
-trainer.elbo_loss = poisoned
+cvae.elbo_loss = poisoned
 sys.exit(main(sys.argv[1:]))
 """
 

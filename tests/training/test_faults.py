@@ -17,9 +17,9 @@ from grouptron.cli import main
 from grouptron.config import ExperimentConfig, TrainConfig, save_config
 from grouptron.errors import GrouptronError
 from grouptron.model import checkpoint as checkpoint_module
+from grouptron.model import cvae as cvae_module
 from grouptron.model.checkpoint import load_checkpoint
-from grouptron.training import trainer as trainer_module
-from grouptron.training.losses import LossTerms
+from grouptron.model.elbo import LossTerms
 from grouptron.training.trainer import LAST, train
 from tests.conftest import REPO
 from tests.helpers.data import tiny_parts
@@ -130,7 +130,7 @@ def test_sigkill_mid_epoch_and_mid_checkpoint_then_resume_ends_at_the_same_weigh
 def _poisoned_loss(bad_calls: dict[int, str]) -> Any:
     """elbo_loss whose result is made NaN (``"loss"``) or gets inf gradients (``"grad"``) on
     the given calls (1-based)."""
-    real = trainer_module.elbo_loss
+    real = cvae_module.elbo_loss
     calls = [0]
 
     class InfiniteGradient(torch.autograd.Function):
@@ -160,7 +160,7 @@ def test_nonfinite_steps_are_skipped_counted_and_stop_the_run(
 ) -> None:
     config = dataclasses.replace(CONFIG, train=dataclasses.replace(CONFIG.train, epochs=1))
     train_set, val_set = tiny_parts(synthetic_data_dir, config)
-    monkeypatch.setattr(trainer_module, "elbo_loss", _poisoned_loss({2: "loss", 5: "grad"}))
+    monkeypatch.setattr(cvae_module, "elbo_loss", _poisoned_loss({2: "loss", 5: "grad"}))
     state = train(config, train_set, val_set, tmp_path / "skips", progress=False)
     assert state.nonfinite_steps == 2
     assert state.iteration == STEPS_PER_EPOCH - 2  # the skipped steps changed nothing
@@ -171,7 +171,7 @@ def test_nonfinite_steps_are_skipped_counted_and_stop_the_run(
     strict = dataclasses.replace(
         config, train=dataclasses.replace(config.train, max_nonfinite_steps=1)
     )
-    monkeypatch.setattr(trainer_module, "elbo_loss", _poisoned_loss({1: "grad", 3: "loss"}))
+    monkeypatch.setattr(cvae_module, "elbo_loss", _poisoned_loss({1: "grad", 3: "loss"}))
     with pytest.raises(GrouptronError, match=r"training stopped: 2 steps with non-finite"):
         train(strict, train_set, val_set, tmp_path / "strict", progress=False)
 

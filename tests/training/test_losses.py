@@ -9,9 +9,9 @@ import torch
 from torch.distributions import Categorical, MultivariateNormal, kl_divergence
 
 from grouptron.config import LossConfig
+from grouptron.model import schedules
 from grouptron.model.cvae import CVAEOutput, Encoding, TrajectronCVAE
-from grouptron.training import schedules
-from grouptron.training.losses import (
+from grouptron.model.elbo import (
     elbo_loss,
     kl_categorical,
     mutual_information,

@@ -19,6 +19,7 @@ from grouptron.inference.export import (
 )
 from grouptron.io import refuse_folder
 from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.factory import cvae_only
 from grouptron.model.predict import default_point_forecast
 
 
@@ -29,7 +30,8 @@ def cmd_export(args: argparse.Namespace) -> int:
     refuse_folder(out)  # before the work, not after it
     torch.set_num_threads(args.threads)
     path = resolve_checkpoint(args.checkpoint)
-    model, config = load_trained_model(path)
+    loaded, config = load_trained_model(path)
+    model = cvae_only(loaded, "ONNX export")  # the network a graph is traced from
     # The file states the default point forecast; a calibration of another would not fit.
     forecast = default_point_forecast(config)
     calibration = calibration_for(args.calibration, config, forecast, str(path))

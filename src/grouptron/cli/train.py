@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 
-from grouptron.cli.common import show_progress
 from grouptron.config import ExperimentConfig
 from grouptron.workflows.train import TrainRequest, make_experiment, parse_setting, train_run
 
@@ -47,7 +46,9 @@ def experiment_from_args(
 def cmd_train(args: argparse.Namespace) -> int:
     """``grouptron train``: train a model, then plot its training curves and say which
     checkpoint was chosen."""
-    result = train_run(request_from_args(args), progress=show_progress(args), announce=True)
+    # Progress by default: a bar on a terminal, else a line every half minute.
+    quiet = getattr(args, "quiet", False)
+    result = train_run(request_from_args(args), progress=not quiet, announce=True)
     if result.summary:
         print(result.summary)
     return 0

@@ -72,6 +72,10 @@ def _typed(where: str, expected: Any, value: Any) -> Any:
             choices = ", ".join(repr(a) for a in typing.get_args(expected))
             raise GrouptronError(f"{where} must be one of {choices}, not {value!r}")
         return value
+    if origin is dict:
+        if not isinstance(value, dict):
+            raise GrouptronError(f"{where} must be a table of settings, not {value!r:.40}")
+        return dict(value)
     if origin is tuple or expected is tuple:
         if not isinstance(value, list | tuple):
             raise GrouptronError(f"{where} must be a list, not {value!r}")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 from grouptron import constants
 from grouptron.errors import GrouptronError
@@ -282,6 +282,10 @@ class ExperimentConfig:
     group_encoder: GroupEncoderConfig = dataclasses.field(default_factory=GroupEncoderConfig)
     loss: LossConfig = dataclasses.field(default_factory=LossConfig)
     train: TrainConfig = dataclasses.field(default_factory=TrainConfig)
+    model_settings: dict[str, Any] = dataclasses.field(default_factory=dict, hash=False)
+    """The settings of a model of the forecaster interface (``model_name`` a class or an entry
+    point), JSON values by name, as its class reads them; the shipped models use the sections
+    above and leave it empty."""
     point_forecast: str = ""
     """The trained model's own point forecast, chosen after training and written into its
     checkpoint (empty: its kind's rule, ``grouptron.model.predict.default_point_forecast``)."""

@@ -20,14 +20,9 @@ from grouptron.evaluation.region_scores import RegionScoring
 from grouptron.groups.assign import SampleGroups
 from grouptron.model.batch import batches
 from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.forecaster import Forecaster, PointResult
 from grouptron.model.mixture import Mixture
-from grouptron.model.predict import (
-    Ablation,
-    Decoded,
-    decode,
-    mixture_mean_positions,
-    predict_samples,
-)
+from grouptron.model.predict import Ablation, Decoded, mixture_mean_positions
 from grouptron.point_forecast import (
     PointForecast,
     best_of_samples,
@@ -148,7 +143,7 @@ def _step_means(values: np.ndarray) -> tuple[float, ...]:
 # very same batches (their per-sample scores are paired later).
 @torch.inference_mode()
 def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     samples: SampleSet,
     modes: tuple[str, ...] = ("ml",),
@@ -180,7 +175,7 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
     count = len(samples)
     nll_batch = max(1, batch_size // 64)
     results: dict[str, SampleScores] = {}
-    if all(mode in modes for mode in SHARED_DECODE):
+    if all(mode in modes for mode in SHARED_DECODE) and isinstance(model, TrajectronCVAE):
         results = _score_shared_decode(
             model,
             config,
@@ -205,14 +200,13 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
             truth = batch.fut_rel_m.double().cpu().numpy()  # (B, H, 2)
             if is_point_forecast(mode):
                 named = PointForecast.parse(mode)
-                decoded = decode(model, batch, named, horizon, dt, ablate=ablate)
+                decoded = model.forecast_point(batch, named, horizon, dt, ablate=ablate)
                 point = decoded.point.double().cpu().numpy()  # (B, H, 2)
                 made_from = _distribution(decoded, regions)
                 _store(values, index, count, _point_scores(point, made_from, truth, regions))
                 continue
             best_of = best_of_samples(mode)
-            draws = predict_samples(
-                model,
+            draws = model.forecast_futures(
                 batch,
                 horizon,
                 dt,
@@ -229,7 +223,7 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
     return [results[mode] for mode in modes]
 
 
-def _distribution(decoded: Decoded, regions: RegionScoring | None) -> Mixture | None:
+def _distribution(decoded: PointResult, regions: RegionScoring | None) -> Mixture | None:
     """The distribution a point forecast was made from, where regions are scored."""
     return decoded.distribution().mixture() if regions is not None else None
 
@@ -309,7 +303,9 @@ def _score_shared_decode(  # noqa: PLR0913 - score_samples's options, all keywor
     ):
         batch = batch.to(device)
         truth = batch.fut_rel_m.double().cpu().numpy()  # (B, H, 2)
-        decoded = decode(model, batch, PointForecast("ml"), horizon, dt, ablate=ablate)
+        decoded: Decoded = model.forecast_point(
+            batch, PointForecast("ml"), horizon, dt, ablate=ablate
+        )
         predictions = {  # ml decodes all Z, whose weighted mean is the mean forecast
             "ml": decoded.point,
             "mean": mixture_mean_positions(decoded.encoding, decoded.velocity, dt),
@@ -322,7 +318,7 @@ def _score_shared_decode(  # noqa: PLR0913 - score_samples's options, all keywor
 
 
 def evaluate_model(  # noqa: PLR0913 - score_samples's options, all keyword-only
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     samples: SampleSet,
     modes: tuple[str, ...] = ("ml",),

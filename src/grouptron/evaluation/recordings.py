@@ -23,8 +23,8 @@ from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores, score_samples
 from grouptron.evaluation.region_scores import RegionScoring
 from grouptron.evaluation.results import EvaluationResult, score_rows
-from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model
+from grouptron.model.forecaster import Forecaster
 from grouptron.model.predict import Ablation
 
 POOLED = "all files"
@@ -171,7 +171,7 @@ def _rows(
 def evaluate_recordings(  # noqa: PLR0913 - the model and scoring options, all keyword-only
     sources: Sequence[TrackSource],
     *,
-    model: TrajectronCVAE | None,
+    model: Forecaster | None,
     experiment: ExperimentConfig | None,
     data: DataConfig,
     modes: tuple[str, ...] = ("ml",),

@@ -35,7 +35,7 @@ from grouptron.evaluation.evaluate import SHARED_DECODE, SampleScores, score_sam
 from grouptron.evaluation.region_scores import RegionScoring
 from grouptron.groups.assign import SampleGroups
 from grouptron.io import keep_cache_npz, read_cache_npz
-from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.forecaster import Forecaster
 from grouptron.model.predict import Ablation
 from grouptron.point_forecast import is_point_forecast
 
@@ -48,7 +48,7 @@ SCORING_MODULES = ("grouptron.evaluation.evaluate", "grouptron.model.factory")
 
 def cached_score_samples(  # noqa: PLR0913 - score_samples's options, all keyword-only
     folder: Path | None,
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     samples: SampleSet,
     modes: Sequence[str],
@@ -161,7 +161,7 @@ def metric_definitions(mode: str, regions: RegionScoring | None = None) -> str:
 
 
 def _common_key(
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     samples: SampleSet,
     groups: SampleGroups | None,

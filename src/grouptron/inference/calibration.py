@@ -27,8 +27,8 @@ from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.inference.engine import EngineOptions, forecast_samples
 from grouptron.io import document_errors, read_json_document, write_text_atomically
-from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model
+from grouptron.model.forecaster import Forecaster, latent_values_of
 from grouptron.model.regions import conformal_radii, prediction_regions, shape_distances
 from grouptron.point_forecast import PointForecast
 
@@ -119,7 +119,7 @@ def needed_forecasts(q: float) -> int:
 
 
 def calibration_scores(
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     samples: SampleSet,
     forecast: PointForecast,
@@ -158,7 +158,7 @@ def _digests(data: bytes) -> tuple[str, str]:
 
 
 def calibrate(
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     samples: SampleSet,
     forecast: PointForecast,
@@ -309,7 +309,7 @@ def calibration_for(
         if shipped is None:
             return None
         loaded = load_calibration(shipped)
-        Z = config.model.latent_values
+        Z = latent_values_of(config)
         if PointForecast.parse(loaded.point_forecast).for_model(Z) != forecast.for_model(Z):
             return None  # shipped for the model's own forecast, not this one
         calibration = loaded
@@ -318,7 +318,7 @@ def calibration_for(
         calibration if isinstance(calibration, RegionCalibration) else load_calibration(calibration)
     )
 
-    Z = config.model.latent_values
+    Z = latent_values_of(config)
     stored = PointForecast.parse(loaded.point_forecast).for_model(Z)
     if (loaded.checkpoint, stored) != (config.model_name, forecast.for_model(Z)):
         raise GrouptronError(

@@ -15,9 +15,8 @@ from grouptron.config import ExperimentConfig
 from grouptron.data.prepare.samples import SampleSet
 from grouptron.groups.assign import SampleGroups
 from grouptron.model.batch import Batch, batches
-from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.forecaster import Forecaster
 from grouptron.model.mixture import Mixture
-from grouptron.model.predict import decode, predict_samples
 from grouptron.point_forecast import PointForecast
 
 
@@ -63,7 +62,7 @@ class EngineOptions:
 
 @torch.inference_mode()
 def forecast_samples(
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     samples: SampleSet,
     forecast: PointForecast,
@@ -79,7 +78,7 @@ def forecast_samples(
 
 
 def _decode_batches(
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     batched: Iterable[tuple[np.ndarray, Batch]],
     count: int,
@@ -94,7 +93,7 @@ def _decode_batches(
     every: list[Mixture] = []
     for index, batch in batched:  # consecutive, in order
         batch = batch.to(options.device)
-        decoded = decode(model, batch, forecast, H, dt, every=options.mixture)
+        decoded = model.forecast_point(batch, forecast, H, dt, every=options.mixture)
         point[index] = decoded.point.double().cpu().numpy()
         if options.distribution:
             own.append(decoded.distribution().mixture())
@@ -102,9 +101,9 @@ def _decode_batches(
         if whole is not None:
             every.append(whole.mixture())
         if K:
-            pred = predict_samples(model, batch, H, dt, num_samples=K, generator=generator)
+            pred = model.forecast_futures(batch, H, dt, num_samples=K, generator=generator)
             drawn[index] = pred.double().cpu().numpy()
-    Z = config.model.latent_values
+    Z = model.latent_values
     M = forecast.latent_values(Z)
     return Forecasts(
         point=point,

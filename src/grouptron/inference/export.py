@@ -26,7 +26,8 @@ from grouptron.inference.calibration import RegionCalibration, calibration_docum
 from grouptron.io import refuse_folder, save_atomically
 from grouptron.model.batch import Batch, GroupBatch, make_batch
 from grouptron.model.cvae import TrajectronCVAE
-from grouptron.model.factory import groups_for_model, uses_groups
+from grouptron.model.factory import cvae_only, groups_for_model, uses_groups
+from grouptron.model.forecaster import Forecaster
 from grouptron.model.gaussians import (
     covariance_matrices,
     position_covariances,
@@ -139,7 +140,7 @@ def example_batch(config: ExperimentConfig) -> Batch:
 
 
 def export_onnx(
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     out: str | Path,
     calibration: RegionCalibration | None = None,
@@ -156,7 +157,7 @@ def export_onnx(
         raise GrouptronError(
             "export needs onnx and onnxscript: pip install 'grouptron[export]'"
         ) from None
-    network = ForecastNetwork(model, config)
+    network = ForecastNetwork(cvae_only(model, "ONNX export"), config)
     inputs = batch_inputs(example_batch(config), config)
     samples = torch.export.Dim("samples")
     dims: dict[str, dict[int, torch.export.Dim]] = {

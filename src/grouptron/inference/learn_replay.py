@@ -20,7 +20,7 @@ from grouptron.data.prepare.scene import Scene
 from grouptron.groups.assign import SampleGroups
 from grouptron.inference.engine import EngineOptions, Forecasts, forecast_samples
 from grouptron.inference.learning import LearningOptions, LearningStatus, SiteLearner
-from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.forecaster import Forecaster
 from grouptron.model.mixture import Mixture
 from grouptron.point_forecast import PointForecast
 
@@ -35,7 +35,7 @@ class Replay:
         learner: the learner (its ``model``: the weights in use at the end).
     """
 
-    models: list[TrajectronCVAE]
+    models: list[Forecaster]
     from_step: np.ndarray
     learner: SiteLearner
 
@@ -50,7 +50,7 @@ class Replay:
 
 
 def replay_learning(
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     forecast: PointForecast,
     scene: Scene,
@@ -84,7 +84,7 @@ def replay_learning(
 
 def forecast_by_version(
     replay: Replay | None,
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     samples: SampleSet,
     forecast: PointForecast,

@@ -43,7 +43,7 @@ from grouptron.inference.inputs import MAX_MISSED_STEPS
 from grouptron.inference.learning_round import RoundJob, RoundResult, RoundSettings, seeded_round
 from grouptron.inference.round_worker import FINISH_WAIT_S, STOP_WAIT_S, RoundWorker
 from grouptron.inference.site_samples import Completed, SiteLog, joined
-from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.forecaster import Forecaster
 from grouptron.point_forecast import PointForecast
 from grouptron.training.fine_tune import FineTune
 
@@ -152,7 +152,7 @@ class SiteLearner:
 
     def __init__(
         self,
-        model: TrajectronCVAE,
+        model: Forecaster,
         config: ExperimentConfig,
         forecast: PointForecast,
         options: LearningOptions,
@@ -214,13 +214,13 @@ class SiteLearner:
         """Whether a background round is running."""
         return self._thread is not None and self._thread.is_alive()
 
-    def snapshot(self) -> tuple[TrajectronCVAE, LearningStatus]:
+    def snapshot(self) -> tuple[Forecaster, LearningStatus]:
         """The weights in use and the status that describes them, taken together (a round
         replaces both)."""
         with self._lock:
             return self.model, self.status
 
-    def resume(self, model: TrajectronCVAE, status: LearningStatus) -> None:
+    def resume(self, model: Forecaster, status: LearningStatus) -> None:
         """Start from weights a session of this site learnt before (a kept state) and its
         status; the shipped weights stay the yardstick a rollback returns to."""
         self.model = model.to(self._device).eval()

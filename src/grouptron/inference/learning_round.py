@@ -16,8 +16,8 @@ from grouptron.data.prepare.samples import SampleSet
 from grouptron.evaluation.uncertainty import Interval, mean_interval
 from grouptron.groups.assign import SampleGroups
 from grouptron.inference.engine import EngineOptions, forecast_samples
-from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model
+from grouptron.model.forecaster import Forecaster
 from grouptron.point_forecast import PointForecast
 from grouptron.training.fine_tune import FineTune, fine_tune
 
@@ -49,7 +49,7 @@ class RoundJob:
         number: the round's number (seeds it); iteration: fine-tune steps so far.
     """
 
-    in_use: TrajectronCVAE
+    in_use: Forecaster
     adapted: bool
     train: SampleSet
     holdout: SampleSet
@@ -69,12 +69,12 @@ class RoundResult:
     """
 
     rolled_back: bool
-    accepted: TrajectronCVAE | None
+    accepted: Forecaster | None
     difference: Interval
     iteration: int
 
 
-def judged_round(job: RoundJob, shipped: TrajectronCVAE, settings: RoundSettings) -> RoundResult:
+def judged_round(job: RoundJob, shipped: Forecaster, settings: RoundSettings) -> RoundResult:
     """Roll back to ``shipped`` where the learnt weights in use do worse than it on the fresh
     samples, fine-tune a copy of the weights in use, and accept it only where it forecasts
     better beyond chance and by at least ``min_gain``."""
@@ -102,7 +102,7 @@ def judged_round(job: RoundJob, shipped: TrajectronCVAE, settings: RoundSettings
     return RoundResult(rolled_back, candidate if better else None, difference, iteration)
 
 
-def seeded_round(job: RoundJob, shipped: TrajectronCVAE, settings: RoundSettings) -> RoundResult:
+def seeded_round(job: RoundJob, shipped: Forecaster, settings: RoundSettings) -> RoundResult:
     """:func:`judged_round` with PyTorch's random state seeded by the round (and the
     caller's left as it was): the same job gives the same result anywhere."""
     with torch.random.fork_rng(devices=[]):
@@ -111,8 +111,8 @@ def seeded_round(job: RoundJob, shipped: TrajectronCVAE, settings: RoundSettings
 
 
 def _difference(
-    new: TrajectronCVAE,
-    old: TrajectronCVAE,
+    new: Forecaster,
+    old: Forecaster,
     samples: SampleSet,
     groups: SampleGroups | None,
     settings: RoundSettings,

@@ -50,8 +50,8 @@ from grouptron.inference.learning import LearningOptions, SiteLearner
 from grouptron.inference.online import OnlineCalibration, online_state
 from grouptron.inference.stream import StreamSession
 from grouptron.model.checkpoint import load_trained_model
-from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import uses_groups
+from grouptron.model.forecaster import Forecaster, latent_values_of
 from grouptron.model.predict import default_point_forecast
 from grouptron.point_forecast import PointForecast
 from grouptron.presets import DETECTION_GROUPS
@@ -107,7 +107,7 @@ class Predictor:
 
     def __init__(  # noqa: PLR0913 - the predictor's settings, keyword-only after the forecast
         self,
-        model: TrajectronCVAE,
+        model: Forecaster,
         config: ExperimentConfig,
         source: str = "",
         forecast: PointForecast | str | None = None,
@@ -171,7 +171,7 @@ class Predictor:
     @property
     def decoded_latent_values(self) -> int:
         """How many latent values the point forecast decodes (the mean: all of them)."""
-        return self.forecast.latent_values(self.config.model.latent_values)
+        return self.forecast.latent_values(latent_values_of(self.config))
 
     @property
     def history_steps(self) -> int:
@@ -390,7 +390,7 @@ class Predictor:
         return check_walking_speed(values, self.config.data, self.frames_per_step, min_pairs)
 
     def _empty(self, frame: int, num_samples: int) -> Forecast:
-        data, Z = self.config.data, self.config.model.latent_values
+        data, Z = self.config.data, latent_values_of(self.config)
         M = self.decoded_latent_values
         empty = empty_forecast(frame, data.horizon_steps, Z, M, num_samples, self.mixture)
         return dataclasses.replace(empty, calibration=self.calibration)
@@ -440,9 +440,9 @@ def _chosen_forecast(
         warnings.warn(
             "latent_values=K is now named as forecast='ml-topK'", FutureWarning, stacklevel=3
         )
-        K = integer_argument(latent_values, "latent_values", 1, config.model.latent_values)
+        K = integer_argument(latent_values, "latent_values", 1, latent_values_of(config))
         plain_ml = forecast == PointForecast("ml")  # ml of K latent values is ml-topK
-        if not plain_ml and forecast.latent_values(config.model.latent_values) != K:
+        if not plain_ml and forecast.latent_values(latent_values_of(config)) != K:
             raise GrouptronError(f"forecast={str(named)!r} does not decode {K} latent values")
         forecast = PointForecast("ml", K)
-    return forecast.for_model(config.model.latent_values)
+    return forecast.for_model(latent_values_of(config))

@@ -35,8 +35,8 @@ from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.uncertainty import Interval
 from grouptron.inference.learning_round import RoundJob, RoundResult, RoundSettings, seeded_round
-from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import build_model
+from grouptron.model.forecaster import Forecaster
 from grouptron.point_forecast import PointForecast
 from grouptron.training.fine_tune import FineTune
 
@@ -80,7 +80,7 @@ class RoundWorker:
         self._start = start
         self._pipes = _Pipes(self._process.stdout, self._process.stdin)
 
-    def start(self, shipped: TrajectronCVAE) -> None:
+    def start(self, shipped: Forecaster) -> None:
         """Send the settings and the shipped weights (blocks until the process reads them:
         it imports PyTorch first; ``close`` from another thread ends the wait)."""
         try:
@@ -198,11 +198,11 @@ def serve(threads: int) -> None:
         pipes.send(answer, [] if result.accepted is None else [_weights_bytes(result.accepted)])
 
 
-def _weights_bytes(model: TrajectronCVAE) -> bytes:
+def _weights_bytes(model: Forecaster) -> bytes:
     return save_weights({k: v.detach().cpu().contiguous() for k, v in model.state_dict().items()})
 
 
-def _model(weights: bytes, settings: RoundSettings) -> TrajectronCVAE:
+def _model(weights: bytes, settings: RoundSettings) -> Forecaster:
     model = build_model(settings.config)
     model.load_state_dict(load_weights(weights))
     return model.eval()

@@ -16,7 +16,7 @@ from grouptron.inference.learning import LearningStatus
 from grouptron.io import write_text_atomically
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE as BEST
 from grouptron.model.checkpoint import Checkpoint, load_trained_model, save_checkpoint
-from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.forecaster import Forecaster
 
 SITE_CARD = "site.json"
 """The card beside a kept site's weights."""
@@ -24,7 +24,7 @@ SITE_CARD = "site.json"
 
 def save_site(
     folder: str | Path,
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     status: LearningStatus,
     source: str,
@@ -53,7 +53,7 @@ def save_site(
     return weights
 
 
-def load_site(folder: str | Path, source: str) -> tuple[TrajectronCVAE, LearningStatus]:
+def load_site(folder: str | Path, source: str) -> tuple[Forecaster, LearningStatus]:
     """The weights and status kept by :func:`save_site` in ``folder``, for a session that
     starts from the checkpoint file ``source`` again; one line if they were learnt from other
     weights."""

@@ -16,8 +16,8 @@ from grouptron.errors import GrouptronError
 from grouptron.inference.engine import EngineOptions
 from grouptron.inference.forecast import Forecast
 from grouptron.inference.learn_replay import Replay, forecast_by_version
-from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model
+from grouptron.model.forecaster import Forecaster
 from grouptron.point_forecast import PointForecast
 
 
@@ -39,7 +39,7 @@ def _samples_to_forecast(
 
 
 def forecast_scene(  # noqa: PLR0913 - the forecast options, all keyword-only
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     scene: Scene,
     forecast: PointForecast | str = "ml",

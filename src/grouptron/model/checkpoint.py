@@ -19,8 +19,8 @@ from safetensors.torch import load_file, save_file
 from grouptron.config import ExperimentConfig, config_to_dict, experiment_from_stored
 from grouptron.errors import GrouptronError
 from grouptron.io import save_atomically
-from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import build_model, load_weights
+from grouptron.model.forecaster import Forecaster
 
 FORMAT_VERSION = 1
 BEST_WEIGHTS_FILE = "best.safetensors"
@@ -185,7 +185,7 @@ def stored_checkpoints(root: str | Path) -> list[tuple[Path, ExperimentConfig]]:
     return [(path, load_checkpoint(path).config) for path in paths]
 
 
-def load_trained_model(path: str | Path) -> tuple[TrajectronCVAE, ExperimentConfig]:
+def load_trained_model(path: str | Path) -> tuple[Forecaster, ExperimentConfig]:
     """The model stored in a checkpoint (weights loaded strictly, eval mode) and its config."""
     checkpoint = load_checkpoint(path)
     try:

@@ -1,13 +1,12 @@
 """The Trajectron++ conditional VAE for one pedestrian type, batched over samples.
 
 Read top to bottom: encoders -> latent distributions -> decoder. ``forward`` is stateless: it
-maps a :class:`Batch` to a :class:`CVAEOutput`; losses live in ``grouptron.training.losses``.
+maps a :class:`Batch` to a :class:`CVAEOutput`; losses live in ``grouptron.model.elbo``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING
 
 import torch
 import torch.nn.functional as F
@@ -15,57 +14,19 @@ from torch import nn
 
 from grouptron.config import ModelConfig
 from grouptron.errors import GrouptronError
-from grouptron.model import gaussians, noise
+from grouptron.model import gaussians, noise, predict, schedules
 from grouptron.model.batch import Batch
+from grouptron.model.cvae_outputs import CVAEOutput, Encoding, Feedback, VelocityGaussians
+from grouptron.model.elbo import LossTerms, elbo_loss
+from grouptron.model.forecaster import Forecaster, TrainingStep
 from grouptron.model.layers import HoistedGRUDecoder, StepBuffers, run_masked_lstm
 from grouptron.model.noise import TrainingNoise
+from grouptron.point_forecast import PointForecast
 
-Feedback = Literal["sample", "mean"]
+if TYPE_CHECKING:
+    from grouptron.config import ExperimentConfig
 
-
-@dataclass(frozen=True)
-class Encoding:
-    """The condition ``x`` and the latent logits of ``B`` samples.
-
-    Attributes:
-        x: (B, Dx) condition ``[edge encoding; history encoding]`` (+ ``E_scene``).
-        p_logits: (B, Z) centred logits of p(z|x).
-        q_logits: (B, Z) centred logits of q(z|x,y), or None without a future.
-    """
-
-    x: torch.Tensor
-    p_logits: torch.Tensor
-    q_logits: torch.Tensor | None
-
-
-@dataclass(frozen=True)
-class VelocityGaussians:
-    """Per-step velocity Gaussians of ``M`` decoded branches per sample.
-
-    Attributes:
-        mean: (B, M, H, 2) m/s.
-        log_sigma: (B, M, H, 2).
-        corr: (B, M, H).
-        fed_back: (B, M, H, 2) the actions fed back into the decoder (samples or means).
-    """
-
-    mean: torch.Tensor
-    log_sigma: torch.Tensor
-    corr: torch.Tensor
-    fed_back: torch.Tensor
-
-    @property
-    def cov(self) -> torch.Tensor:
-        """(B, M, H, 3) covariance entries."""
-        return gaussians.covariance_entries(self.log_sigma, self.corr)
-
-
-@dataclass(frozen=True)
-class CVAEOutput:
-    """What the loss needs: the encoding and all Z latent branches decoded."""
-
-    encoding: Encoding
-    velocity: VelocityGaussians
+__all__ = ["CVAEOutput", "Encoding", "TrajectronCVAE", "VelocityGaussians", "centre_logits"]
 
 
 def centre_logits(logits: torch.Tensor, clip: float | None) -> torch.Tensor:
@@ -74,8 +35,16 @@ def centre_logits(logits: torch.Tensor, clip: float | None) -> torch.Tensor:
     return centred.clamp(-clip, clip) if clip is not None else centred
 
 
-class TrajectronCVAE(nn.Module):
-    """History LSTM + edge LSTM -> discrete latent -> GRU decoder of velocity Gaussians."""
+class TrajectronCVAE(Forecaster):
+    """History LSTM + edge LSTM -> discrete latent -> GRU decoder of velocity Gaussians.
+
+    As a :class:`Forecaster`: trained on the negative ELBO with the reference's annealing,
+    its point forecasts the mode (``ml``, of its most probable latent values for ``ml-topK``)
+    or the mean of its Gaussian mixture over the latent values (``model.predict``).
+    """
+
+    point_forecasts = ("ml", "mean")
+    ablations = predict.ABLATIONS
 
     def __init__(
         self, config: ModelConfig, extra_condition_dim: int = 0, velocity_scale_mps: float = 2.0
@@ -108,6 +77,76 @@ class TrajectronCVAE(nn.Module):
     def extra_dropout_sizes(self) -> dict[str, int]:
         """Dropout sites beyond the CVAE's (``noise.dropout_sizes``), drawn after them."""
         return {}
+
+    @property
+    def latent_values(self) -> int:
+        """Z, the values of the discrete latent."""
+        return self.config.latent_values
+
+    # --- the forecaster interface -----------------------------------------------------------
+
+    def training_noise(self, rows: int, config: ExperimentConfig) -> TrainingNoise:
+        """Dropout masks and decoder draws of the whole global batch (``model.noise``)."""
+        sizes = self.extra_dropout_sizes()
+        return noise.draw_training_noise(rows, config.model, config.data.horizon_steps, sizes)
+
+    def training_loss(self, batch: Batch, step: TrainingStep) -> LossTerms:
+        """The negative ELBO at the step's KL weight and logit clip (``model.schedules``)."""
+        c = step.config
+        clip = schedules.logit_clip(c.loss, step.iteration)
+        output = self(batch, step.noise, logit_clip=clip, bf16=c.train.bf16)
+        weight = schedules.kl_weight(c.loss, step.iteration)
+        return elbo_loss(
+            output, batch, c.loss, weight, dt_s=c.data.dt_s, batch_mean=step.batch_mean
+        )
+
+    def sample(
+        self,
+        batch: Batch,
+        horizon: int,
+        dt_s: float,
+        num_samples: int,
+        generator: torch.Generator | None = None,
+    ) -> torch.Tensor:
+        """(B, K, H, 2) futures: z ~ p(z|x), a velocity drawn and fed back per step."""
+        return self.forecast_futures(
+            batch, horizon, dt_s, num_samples=num_samples, generator=generator
+        )
+
+    def point(
+        self, batch: Batch, forecast: PointForecast, horizon: int, dt_s: float
+    ) -> predict.Decoded:
+        """The point forecast ``forecast`` with the Gaussians it was made from."""
+        return self.forecast_point(batch, forecast, horizon, dt_s)
+
+    def forecast_point(
+        self,
+        batch: Batch,
+        forecast: PointForecast,
+        horizon: int,
+        dt_s: float,
+        *,
+        every: bool = False,
+        ablate: tuple[str, ...] = (),
+    ) -> predict.Decoded:
+        """``model.predict.decode``: only the latent values ``forecast`` reads (all Z with
+        ``every``), with ``ablate``'s inputs zeroed."""
+        return predict.decode(self, batch, forecast, horizon, dt_s, every=every, ablate=ablate)
+
+    def forecast_futures(
+        self,
+        batch: Batch,
+        horizon: int,
+        dt_s: float,
+        *,
+        num_samples: int,
+        generator: torch.Generator | None = None,
+        ablate: tuple[str, ...] = (),
+    ) -> torch.Tensor:
+        """``model.predict.predict_samples`` with ``ablate``'s inputs zeroed."""
+        return predict.predict_samples(
+            self, batch, horizon, dt_s, num_samples=num_samples, generator=generator, ablate=ablate
+        )
 
     # --- encoders ---------------------------------------------------------------------------
 

@@ -9,6 +9,7 @@ from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.groups.assign import SampleGroups, assign_groups
 from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.forecaster import Forecaster, outside_forecaster
 from grouptron.model.grouptron import GrouptronCVAE
 from grouptron.presets import MODEL_NAMES, MODELS
 
@@ -24,7 +25,9 @@ DISPLAY_NAMES = {name: spec.display for name, spec in MODELS.items()}
 def uses_groups(config: ExperimentConfig) -> bool:
     """Whether the model's batches need the samples' groups."""
     spec = MODELS.get(config.model_name)
-    return spec is not None and spec.reads_groups
+    if spec is None:
+        return outside_forecaster(config.model_name).reads_groups
+    return spec.reads_groups
 
 
 def groups_for_model(samples: SampleSet, config: ExperimentConfig) -> SampleGroups | None:
@@ -34,17 +37,35 @@ def groups_for_model(samples: SampleSet, config: ExperimentConfig) -> SampleGrou
     return assign_groups(samples, config.groups, config.data.position_scale_m)
 
 
-def build_model(config: ExperimentConfig) -> TrajectronCVAE:
-    """The model named by ``config.model_name`` (Grouptron is Trajectron++ plus encoders)."""
+def build_model(config: ExperimentConfig) -> Forecaster:
+    """The model named by ``config.model_name``: a shipped one (Grouptron is Trajectron++ plus
+    encoders) or any :class:`Forecaster` named by class or entry point, built from ``config``."""
     scale = config.data.velocity_scale_mps
     spec = MODELS.get(config.model_name)
     if spec is not None and not spec.reads_groups:
         return TrajectronCVAE(config.model, velocity_scale_mps=scale)
     if spec is not None:
         return GrouptronCVAE(config.model, config.group_encoder, scale)
-    raise GrouptronError(
-        f"unknown model {config.model_name!r}; choose from {', '.join(MODEL_NAMES)}"
-    )
+    model_class = outside_forecaster(config.model_name)
+    try:
+        return model_class(config)
+    except GrouptronError:
+        raise
+    except Exception as exc:
+        raise GrouptronError(
+            f"model {config.model_name!r} could not be built from its settings "
+            f"({type(exc).__name__}: {exc})"
+        ) from None
+
+
+def cvae_only(model: Forecaster, what: str) -> TrajectronCVAE:
+    """``model`` as the CVAE that ``what`` needs, or one line saying it needs one."""
+    if not isinstance(model, TrajectronCVAE):
+        raise GrouptronError(
+            f"{what} works with the shipped CVAEs (Trajectron++, Grouptron) only, not "
+            f"{type(model).__name__}"
+        )
+    return model
 
 
 def load_weights(model: torch.nn.Module, state: dict[str, torch.Tensor], source: str) -> None:

@@ -22,6 +22,8 @@ from grouptron.model.stgcn import STGCNBlock, segment_mean
 class GrouptronCVAE(TrajectronCVAE):
     """Trajectron++ plus the group- and scene-level encoders (weights shared by all groups)."""
 
+    reads_groups = True
+
     def __init__(
         self, config: ModelConfig, groups: GroupEncoderConfig, velocity_scale_mps: float = 2.0
     ):

@@ -1,12 +1,14 @@
-"""The forecasting engine: what a trained CVAE predicts for a batch. :func:`decode` makes a
-point forecast (any :class:`PointForecast`) with the Gaussians it was made from and, when
-asked, those of every latent value; :func:`predict_samples` draws futures. Every path that
-forecasts (the Python API, live sessions, whole files, calibration, evaluation, export) calls
-these, so that one forecast is made one way."""
+"""The CVAE's forecasting engine: what a trained CVAE predicts for a batch. :func:`decode`
+makes a point forecast (any :class:`PointForecast`) with the Gaussians it was made from and,
+when asked, those of every latent value; :func:`predict_samples` draws futures. The CVAE's
+forecaster methods (``TrajectronCVAE.forecast_point``, ``forecast_futures``) are these, and
+every path that forecasts (the Python API, live sessions, whole files, calibration,
+evaluation, export) calls those, so that one forecast is made one way."""
 
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 import torch
 
@@ -14,15 +16,14 @@ from grouptron import constants
 from grouptron.config import ExperimentConfig
 from grouptron.errors import GrouptronError
 from grouptron.model.batch import Batch
-from grouptron.model.cvae import Encoding, TrajectronCVAE, VelocityGaussians
-from grouptron.model.gaussians import (
-    covariance_matrices,
-    position_covariances,
-    positions_from_velocities,
-)
-from grouptron.model.mixture import Mixture
+from grouptron.model.cvae_outputs import Encoding, VelocityGaussians
+from grouptron.model.forecaster import Gaussians, is_outside_name, outside_forecaster
+from grouptron.model.gaussians import position_covariances, positions_from_velocities
 from grouptron.model.mixture_mode import mixture_mode
 from grouptron.point_forecast import PointForecast
+
+if TYPE_CHECKING:
+    from grouptron.model.cvae import TrajectronCVAE
 
 ABLATIONS = constants.ABLATIONS
 """Inputs an evaluation can take away to see what a model uses: ``edges`` zeroes the
@@ -132,30 +133,6 @@ def most_likely_of_decoded_top(
     Z, horizon = velocity.mean.shape[1], velocity.mean.shape[2]
     top = top_latent_values(encoding, velocity, latent_values)
     return most_likely_positions(*top, horizon, dt_s, mode_starts(latent_values, Z))
-
-
-@dataclasses.dataclass(frozen=True)
-class Gaussians:
-    """The position Gaussians of M decoded latent values, relative to ``t``: a forecast's
-    distribution as the network makes it (:meth:`mixture` turns it into a :class:`Mixture`).
-
-    Attributes:
-        log_weights: (B, M) log p(z|x) renormalised over the M values.
-        means: (B, M, H, 2) position means relative to ``t``, metres.
-        covariances: (B, M, H, 3) their covariance entries (var_x, cov_xy, var_y), m^2.
-    """
-
-    log_weights: torch.Tensor
-    means: torch.Tensor
-    covariances: torch.Tensor
-
-    def mixture(self) -> Mixture:
-        """Float64 NumPy, relative to ``t``, covariances as (B, M, H, 2, 2) matrices."""
-        return Mixture(
-            log_weights=self.log_weights.double().cpu().numpy(),
-            means=self.means.double().cpu().numpy(),
-            covariances=covariance_matrices(self.covariances).double().cpu().numpy(),
-        )
 
 
 def _gaussians(encoding: Encoding, velocity: VelocityGaussians, dt_s: float) -> Gaussians:
@@ -269,6 +246,8 @@ def default_point_forecast(config: ExperimentConfig) -> PointForecast:
     (benchmarks/RESULTS.md)."""
     if config.point_forecast:
         named = PointForecast.parse(config.point_forecast)
+    elif is_outside_name(config.model_name):  # a model of the forecaster interface
+        return PointForecast.parse(outside_forecaster(config.model_name).point_forecasts[0])
     else:
         named = PointForecast("ml", 10 if config.model.velocity_residual else 1)
     return named.for_model(config.model.latent_values)

@@ -17,10 +17,10 @@ import torch
 from grouptron.config import ExperimentConfig
 from grouptron.data.prepare.samples import SampleSet
 from grouptron.groups.assign import SampleGroups
-from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.forecaster import Forecaster
 from grouptron.training.distributed import SINGLE
 from grouptron.training.run_state import TrainState
-from grouptron.training.trainer import train_step
+from grouptron.training.trainer import TrainingPass, train_step
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,7 @@ class FineTune:
 
 
 def fine_tune(
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     samples: SampleSet,
     groups: SampleGroups | None,
@@ -58,10 +58,11 @@ def fine_tune(
     constant = torch.optim.lr_scheduler.ExponentialLR(optimizer, 1.0)
     state = TrainState(model, optimizer, constant, rng, iteration=iteration)
     model.train()
+    network = TrainingPass(model)
     for _ in range(budget.steps):
         index = rng.choice(len(samples), size=min(budget.batch_size, len(samples)))
         terms = train_step(
-            state, config, samples, index, groups=groups, cluster=SINGLE, network=model
+            state, config, samples, index, groups=groups, cluster=SINGLE, network=network
         )
         if terms is not None:
             state.iteration += 1

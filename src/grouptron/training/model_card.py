@@ -18,6 +18,7 @@ from grouptron.config import ExperimentConfig, non_default_settings
 from grouptron.constants import ALL_LOCATIONS
 from grouptron.io import write_text_atomically
 from grouptron.model.factory import DISPLAY_NAMES
+from grouptron.model.forecaster import is_outside_name
 from grouptron.presets import CUSTOM, model_label
 
 CARD = "README.md"
@@ -145,7 +146,10 @@ def _wall_time(records: list[dict[str, Any]]) -> str:
 
 
 def _model_name(config: ExperimentConfig) -> str:
-    """The named model the run is, or its code's model with switches of its own."""
+    """The named model the run is, or its code's model with switches of its own, or a
+    model of the forecaster interface by its class."""
+    if is_outside_name(config.model_name):
+        return f"`{config.model_name}` (a model of the forecaster interface, docs/models.md)"
     label = model_label(config)
     if label != CUSTOM:
         return DISPLAY_NAMES.get(label, label)

@@ -5,13 +5,15 @@ took 57% of its fp32 time, on an AVX2-only CPU bf16 is emulated and about 10x sl
 Intel Xeon that announces AVX-512 BF16 (without AMX) it was 1.37x *slower* than fp32
 (``benchmarks/precision.py``, ``benchmarks/RESULTS.md``). The CPU flags are therefore not
 enough: on a CPU with native bf16 flags ``auto`` also times the decoder's recurrence in both
-precisions (about two seconds) and takes bf16 only where it is clearly faster.
+precisions (a few seconds, paired timings that a busy machine does not flip) and takes bf16
+only where it is clearly faster; ``grouptron train`` prints the measurement with its choice.
 """
 
 from __future__ import annotations
 
 import functools
 import logging
+import statistics
 import time
 from pathlib import Path
 from typing import Literal
@@ -52,10 +54,17 @@ BF16_MIN_SPEEDUP = 1.15
 """``auto`` takes bf16 on a CPU only when the timed recurrence runs at least this much faster."""
 
 
+TIMED_ROUNDS = 5
+"""Paired timings (fp32 then bf16, back to back) after one warm-up round: the median of their
+ratios, so that other work on a busy machine, which slows both runs of a pair, does not flip
+the choice the way one slow run in a minimum can."""
+
+
 @functools.cache
 def bf16_speedup_cpu(threads: int) -> float:
     """fp32 time / bf16 time of a decoder-shaped GRU recurrence (6,400 rows, hidden 128, 12
-    steps, forward and backward) on this CPU with ``threads`` threads; above 1: bf16 faster."""
+    steps, forward and backward) on this CPU with ``threads`` threads, the median of
+    :data:`TIMED_ROUNDS` paired ratios; above 1: bf16 faster."""
     previous = torch.get_num_threads()
     torch.set_num_threads(threads)
     try:
@@ -73,11 +82,9 @@ def bf16_speedup_cpu(threads: int) -> float:
             loss.backward()
             return time.perf_counter() - start
 
-        times = {False: [], True: []}  # type: dict[bool, list[float]]
-        for _ in range(3):  # the first round warms both paths up
-            for bf16 in (False, True):
-                times[bf16].append(run(bf16))
-        return min(times[False][1:]) / min(times[True][1:])
+        run(False), run(True)  # warm both paths up
+        ratios = [run(False) / run(True) for _ in range(TIMED_ROUNDS)]
+        return float(statistics.median(ratios))
     finally:
         torch.set_num_threads(previous)
 

@@ -15,8 +15,8 @@ import torch
 from grouptron.config import ExperimentConfig
 from grouptron.errors import GrouptronError
 from grouptron.model.checkpoint import Checkpoint, load_checkpoint
-from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import build_model, load_weights, uses_groups
+from grouptron.model.forecaster import Forecaster
 
 LAST = "last.safetensors"
 
@@ -25,7 +25,7 @@ LAST = "last.safetensors"
 class TrainState:
     """Everything that changes during training and must survive a restart."""
 
-    model: TrajectronCVAE
+    model: Forecaster
     optimizer: torch.optim.Adam
     scheduler: torch.optim.lr_scheduler.ExponentialLR
     rng: np.random.Generator

@@ -27,8 +27,8 @@ from grouptron.model.checkpoint import (
     load_checkpoint,
     save_checkpoint,
 )
-from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import build_model, load_weights
+from grouptron.model.forecaster import Forecaster
 
 BEST = BEST_WEIGHTS_FILE
 
@@ -52,18 +52,20 @@ def validation_subset(num_samples: int, size: int) -> np.ndarray:
 
 
 def validate(
-    model: TrajectronCVAE,
+    model: Forecaster,
     config: ExperimentConfig,
     samples: SampleSet,
     groups: SampleGroups | None = None,
 ) -> dict[str, float]:
     """Most-likely ADE/FDE on validation samples (no augmentation, no dropout), next to the
-    constant-velocity baseline's on the same samples for scale."""
+    constant-velocity baseline's on the same samples for scale; a model that makes no most
+    likely forecast is scored (under the same keys) by the point forecast it makes."""
+    mode = "ml" if "ml" in model.point_forecasts else model.point_forecasts[0]
     scores = evaluate_model(
         model,
         config,
         samples,
-        ("ml",),
+        (mode,),
         batch_size=config.train.eval_batch_size,
         groups=groups,
         device=next(model.parameters()).device,

@@ -34,20 +34,18 @@ from grouptron.data.prepare.augment import draw_rotation_angles
 from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.groups.assign import SampleGroups
-from grouptron.model.batch import make_batch
+from grouptron.model.batch import Batch, make_batch
 from grouptron.model.checkpoint import (
     TEMPORARY_CHECKPOINTS,
     save_checkpoint,
 )
-from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import uses_groups
-from grouptron.model.noise import draw_training_noise
-from grouptron.training import schedules
+from grouptron.model.forecaster import Forecaster, LossLike, TrainingStep
 from grouptron.training.distributed import SINGLE, Cluster, global_mean
-from grouptron.training.losses import LossTerms, elbo_loss
 from grouptron.training.metrics_log import MetricsWriter
 from grouptron.training.model_card import describe_device, write_model_card
 from grouptron.training.precision import precision_name
+from grouptron.training.progress import EpochProgress
 from grouptron.training.run_state import LAST, TrainState, checkpoint_of, setup
 from grouptron.training.selection import (
     BEST,
@@ -83,17 +81,17 @@ def train_epoch(  # noqa: PLR0913 - the pass's options, all keyword-only
     With several processes (``cluster``), each runs its share of every global batch through
     ``network`` (the model wrapped in DDP); the order, angles and noise are the same everywhere.
     """
-    network = state.model if network is None else network
+    network = TrainingPass(state.model) if network is None else network
     state.model.train()
     order = epoch_order(state.rng, len(samples), weights, config.train.epoch_samples)
     size = config.train.batch_size
     starts = range(0, len(order), size)
     totals: dict[str, float] = {}
     seen, started = 0, time.perf_counter()
-    bar = tqdm(starts, desc=f"epoch {state.epoch + 1}", unit="it", disable=not progress)
+    shown = EpochProgress(state.epoch + 1, config.train.epochs, len(starts), shown=progress)
     finished = True
     skipped_before = state.nonfinite_steps
-    for start in bar:  # closed below, also when stopped early
+    for start in starts:  # the progress is closed below, also when stopped early
         if max_iterations is not None and state.iteration >= max_iterations:
             finished = False
             break
@@ -107,9 +105,8 @@ def train_epoch(  # noqa: PLR0913 - the pass's options, all keyword-only
         seen += len(index)
         for key, value in terms.as_floats().items():
             totals[key] = totals.get(key, 0.0) + value * len(index)
-        elapsed = time.perf_counter() - started
-        bar.set_postfix(loss=f"{float(terms.loss.detach()):.3f}", samples_s=f"{seen / elapsed:.0f}")
-    bar.close()
+        shown.step(len(index), float(terms.loss.detach()))
+    shown.close()
     elapsed = time.perf_counter() - started
     means = {f"train_{k}": v / max(seen, 1) for k, v in totals.items()}
     means["train_seconds"] = elapsed
@@ -140,32 +137,24 @@ def train_step(
     groups: SampleGroups | None,
     cluster: Cluster,
     network: torch.nn.Module,
-) -> LossTerms | None:
+) -> LossLike | None:
     """One optimiser step on the global batch ``index`` (this process's rows of it); None when
     the step was skipped for a non-finite loss or gradient."""
     device = next(state.model.parameters()).device
     angles = (
         draw_rotation_angles(state.rng, len(index)) if config.train.rotation_augmentation else None
     )
-    extra = state.model.extra_dropout_sizes()
-    noise = draw_training_noise(len(index), config.model, config.data.horizon_steps, extra)
+    noise = state.model.training_noise(len(index), config)  # the global batch's draws
     mine = cluster.shard(len(index))  # this process's rows of the global batch
     rotation = None if angles is None else angles[mine]
     batch = make_batch(samples, index[mine], config.data, rotation, groups=groups).to(device)
-    output = network(
-        batch,
-        noise.rows(mine).to(device),
-        logit_clip=schedules.logit_clip(config.loss, state.iteration),
-        bf16=config.train.bf16,
-    )
-    terms = elbo_loss(
-        output,
-        batch,
-        config.loss,
-        schedules.kl_weight(config.loss, state.iteration),
-        dt_s=config.data.dt_s,
+    step = TrainingStep(
+        config=config,
+        iteration=state.iteration,
+        noise=None if noise is None else noise.rows(mine).to(device),
         batch_mean=functools.partial(global_mean, cluster=cluster, global_count=len(index)),
     )
+    terms = network(batch, step)
     state.optimizer.zero_grad(set_to_none=True)
     # DDP averages the processes' gradients; each holds its rows' share of the whole loss.
     # Backward runs even for a non-finite loss so that DDP's gradient exchange completes
@@ -268,12 +257,26 @@ def _open_run_folder(
             )
 
 
-def _wrapped(model: TrajectronCVAE, cluster: Cluster, device: torch.device) -> torch.nn.Module:
-    """The model as the optimiser steps see it: wrapped in DDP with several processes."""
+class TrainingPass(torch.nn.Module):
+    """A model's training loss as a module's forward, which DDP wraps: its gradient exchange
+    is set up by the forward it calls."""
+
+    def __init__(self, model: Forecaster) -> None:
+        super().__init__()
+        self.model = model
+
+    def forward(self, batch: Batch, step: TrainingStep) -> LossLike:
+        """``model.training_loss(batch, step)``."""
+        return self.model.training_loss(batch, step)
+
+
+def _wrapped(model: Forecaster, cluster: Cluster, device: torch.device) -> torch.nn.Module:
+    """The model as the optimiser steps see it: its training pass, wrapped in DDP with
+    several processes."""
     if not cluster.distributed:
-        return model
+        return TrainingPass(model)
     device_ids = [device.index] if device.type == "cuda" else None
-    return DistributedDataParallel(model, device_ids=device_ids)
+    return DistributedDataParallel(TrainingPass(model), device_ids=device_ids)
 
 
 def epoch_line(record: dict[str, Any], epochs: int) -> str:

@@ -39,8 +39,8 @@ from grouptron.evaluation.uncertainty import Interval, mean_interval
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.io import write_text_atomically
 from grouptron.model.checkpoint import load_trained_model
-from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model
+from grouptron.model.forecaster import Forecaster
 from grouptron.model.predict import default_point_forecast
 from grouptron.training.trainer import BEST, train
 
@@ -223,8 +223,8 @@ def _write_record(
 
 
 def _held_out(
-    before: TrajectronCVAE,
-    after: TrajectronCVAE,
+    before: Forecaster,
+    after: Forecaster,
     experiment: ExperimentConfig,
     tables: list[TrackTable],
     before_name: str,

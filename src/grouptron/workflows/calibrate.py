@@ -27,6 +27,7 @@ from grouptron.inference.calibration import (
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint, warn_look_ahead
 from grouptron.io import refuse_folder
 from grouptron.model.checkpoint import load_trained_model
+from grouptron.model.forecaster import latent_values_of
 from grouptron.model.predict import default_point_forecast
 from grouptron.point_forecast import PointForecast
 
@@ -53,7 +54,7 @@ def calibrate_tracks(
     scene = build_scene(table, data, name=str(tracks.path))
     samples = scene_samples(scene, data, data.history_steps, require_future=True)
     point = default_point_forecast(experiment) if named is None else named
-    point = point.for_model(experiment.model.latent_values)
+    point = point.for_model(latent_values_of(experiment))
     digest = weights_digest(path)
     calibration = calibrate(model, experiment, samples, point, str(tracks.path), digest)
     density, speed = scene_conditions(scene, data.perception_radius_m)

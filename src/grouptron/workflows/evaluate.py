@@ -44,8 +44,8 @@ from grouptron.geometry import DerivativeScheme
 from grouptron.groups.assign import SampleGroups
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
 from grouptron.model.checkpoint import load_trained_model
-from grouptron.model.cvae import TrajectronCVAE
 from grouptron.model.factory import groups_for_model, uses_groups
+from grouptron.model.forecaster import Forecaster
 from grouptron.model.predict import ABLATIONS, default_point_forecast
 from grouptron.point_forecast import is_evaluation_mode, is_sampled_mode
 from grouptron.workflows.adapt import adapted_parts
@@ -137,7 +137,7 @@ class EvaluationOptions:
 class _Loaded:
     """A checkpoint's model and settings (both None for constant velocity alone)."""
 
-    model: TrajectronCVAE | None
+    model: Forecaster | None
     experiment: ExperimentConfig | None
     data: DataConfig
     name: str | None

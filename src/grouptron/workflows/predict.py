@@ -40,7 +40,7 @@ from grouptron.inference.site_model import save_site
 from grouptron.inference.tracks import forecast_scene
 from grouptron.io import refuse_folder, write_text_atomically
 from grouptron.model.checkpoint import load_trained_model
-from grouptron.model.cvae import TrajectronCVAE
+from grouptron.model.forecaster import Forecaster, latent_values_of
 from grouptron.model.predict import default_point_forecast
 from grouptron.model.regions import region_shapes
 from grouptron.point_forecast import PointForecast
@@ -152,7 +152,7 @@ def predict_tracks(request: PredictRequest) -> Predicted:
     sampled = request.forecast == SAMPLES
     point = default_point_forecast(experiment)
     if isinstance(request.forecast, PointForecast):
-        point = request.forecast.for_model(experiment.model.latent_values)
+        point = request.forecast.for_model(latent_values_of(experiment))
     named = request.calibration not in (None, False)
     if (request.regions or named) and out is not None and out.suffix == ".ndjson":
         raise GrouptronError("--regions and --calibration go with CSV or MCAP output")
@@ -193,7 +193,7 @@ def predict_tracks(request: PredictRequest) -> Predicted:
 
 def _learnt(
     request: PredictRequest,
-    model: TrajectronCVAE,
+    model: Forecaster,
     experiment: ExperimentConfig,
     point: PointForecast,
     scene: Scene,

@@ -33,7 +33,10 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     show.add_argument("--split", choices=SPLITS, help="the ETH/UCY split (default: eth)")
     show.add_argument("--dataset", metavar="FILE", help="a dataset of your own instead")
     show.add_argument(
-        "--model", choices=MODEL_NAMES, help="the model (default: --config's, else trajectron++)"
+        "--model",
+        metavar="MODEL",
+        help=f"the model: {', '.join(MODEL_NAMES)} or package.module:Class (default: "
+        "--config's, else trajectron++)",
     )
     show.add_argument("--config", help="JSON file of settings laid over the preset")
     show.add_argument(

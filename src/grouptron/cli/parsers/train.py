@@ -41,11 +41,14 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     )
     train_cmd.add_argument(
         "--model",
-        choices=MODEL_NAMES,
+        metavar="MODEL",
         help="trajectron++ or grouptron (the paper's), grouptron-robust (Grouptron with "
         "every density switch on; README, 'Grouptron'), trajectron++-residual (velocities "
-        "relative to the current one) or grouptron-robust-residual (both) (default: a "
-        "--config file's model_name, else trajectron++)",
+        "relative to the current one) or grouptron-robust-residual (both); or a model of "
+        "your own: package.module:Class (a module installed or in the current folder) or a "
+        "'grouptron.models' entry point, its settings given as --set "
+        "model_settings.NAME=VALUE (docs/models.md) (default: a --config file's model_name, "
+        f"else trajectron++; shipped: {', '.join(MODEL_NAMES)})",
     )
     train_cmd.add_argument("--epochs", type=int, help="epochs (default 100, as the reference)")
     train_cmd.add_argument("--out", help="output folder (default runs/MODEL-SPLIT-DERIVATIVES)")

@@ -11,7 +11,7 @@ import torch.nn.functional as F
 from grouptron.config import LossConfig
 from grouptron.model import gaussians
 from grouptron.model.batch import Batch
-from grouptron.model.cvae import CVAEOutput
+from grouptron.model.cvae_outputs import CVAEOutput
 
 
 @dataclass(frozen=True)
