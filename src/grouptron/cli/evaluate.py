@@ -24,6 +24,7 @@ from grouptron.workflows.evaluate import (
     Tracks,
     evaluate,
 )
+from grouptron.workflows.evaluate_files import ForecastFiles
 from grouptron.workflows.evaluate_learning import (
     LearningEvaluation,
     evaluate_learning,
@@ -35,8 +36,13 @@ from grouptron.workflows.evaluate_learning import (
 def _check_options(args: argparse.Namespace) -> None:
     """Refuse option combinations that the Python API's types rule out (the workflow checks
     the rest), before anything is read."""
-    if args.model is not None and args.checkpoint is not None:
-        raise GrouptronError("give either --checkpoint PATH or --model constant-velocity")
+    given = [args.checkpoint, args.model, args.forecasts]
+    if sum(g is not None for g in given) > 1:
+        raise GrouptronError(
+            "give one of --checkpoint PATH, --forecasts FILE or --model constant-velocity"
+        )
+    if (args.name or args.allow_missing) and not args.forecasts:
+        raise GrouptronError("--name and --allow-missing describe --forecasts files")
     if args.tracks and args.dataset:
         raise GrouptronError("give either --tracks or --dataset, not both")
     if (args.tracks or args.dataset) and (args.split is not None or args.subset is not None):
@@ -48,6 +54,14 @@ def _check_options(args: argparse.Namespace) -> None:
             "--columns, --fps, --units, --max-gap and --no-speed-check describe --tracks files; "
             "a --dataset file gives its files' layout itself"
         )
+
+
+def _scored(args: argparse.Namespace) -> str | ForecastFiles | None:
+    """What is scored: forecast files, constant velocity alone (None) or a checkpoint."""
+    if args.forecasts:
+        files = tuple(Path(f) for f in args.forecasts)
+        return ForecastFiles(files, args.name or "", allow_missing=args.allow_missing)
+    return None if args.model is not None else (args.checkpoint or DEFAULT_CHECKPOINT)
 
 
 def _source(args: argparse.Namespace) -> Source:
@@ -77,10 +91,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     """``grouptron evaluate``: score a checkpoint beside constant velocity (or that alone) on
     the benchmark's test sets, track files or a dataset, as a table or JSON."""
     _check_options(args)
-    checkpoint = None if args.model is not None else (args.checkpoint or DEFAULT_CHECKPOINT)
+    checkpoint = _scored(args)
     torch.set_num_threads(args.threads)
     if args.learn:
-        return _evaluate_learning(args, checkpoint or DEFAULT_CHECKPOINT)
+        return _evaluate_learning(args, args.checkpoint or DEFAULT_CHECKPOINT)
     ablate = tuple(a.strip() for a in (args.ablate or "").split(",") if a.strip())
     options = EvaluationOptions(
         seed=args.seed,

@@ -346,6 +346,15 @@ def evaluate_model(  # noqa: PLR0913 - score_samples's options, all keyword-only
     return [scores.summary() for scores in per_sample]
 
 
+def forecast_scores(mode: str, positions: np.ndarray, truth: np.ndarray) -> SampleScores:
+    """Per-sample scores of forecasts made anywhere, as ``score_samples`` scores a model's:
+    (S, H, 2) point forecasts, or the best of (S, K, H, 2) samples, against (S, H, 2)
+    ``truth``."""
+    if positions.ndim == 3:
+        return _completed(mode, _point_scores(positions, None, truth, None), len(truth))
+    return _completed(mode, _best_of_scores(positions, truth), len(truth))
+
+
 def constant_velocity_scores(samples: SampleSet, horizon_steps: int) -> SampleScores:
     """Per-sample ADE/FDE (metres), every registered metric and the displacement error of
     every step of constant velocity, the one baseline every table shows."""

@@ -361,14 +361,24 @@ def outside_forecaster(name: str) -> type[Forecaster]:
 
 def _imported(module_name: str, name: str) -> Any:
     """The module, imported from installed code or else from the current folder."""
-    try:
-        return importlib.import_module(module_name)
-    except ModuleNotFoundError as exc:
-        here = os.getcwd()
-        if exc.name != module_name.split(".")[0] or here in sys.path:
-            raise GrouptronError(f"model {name!r}: cannot import it ({exc})") from None
-    sys.path.insert(0, here)  # as ``python -m`` would: a model written beside the data
-    return _loaded(lambda: importlib.import_module(module_name), name)
+    here, root = os.getcwd(), module_name.split(".")[0]
+    for attempt in range(2):
+        try:
+            return importlib.import_module(module_name)
+        except ModuleNotFoundError as exc:
+            if exc.name != root:  # the model's module was found; something it imports was not
+                raise GrouptronError(f"model {name!r}: importing it failed ({exc})") from None
+            if attempt or here in sys.path:
+                break
+            sys.path.insert(0, here)  # as ``python -m`` would: a model written beside the data
+        except Exception as exc:
+            raise GrouptronError(
+                f"model {name!r}: importing it failed ({type(exc).__name__}: {exc})"
+            ) from None
+    raise GrouptronError(
+        f"model {name!r}: cannot import it: no module {root!r} is installed or in the current "
+        "folder"
+    )
 
 
 def _loaded(load: Callable[[], Any], name: str) -> Any:

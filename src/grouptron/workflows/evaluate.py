@@ -29,7 +29,7 @@ from grouptron.constants import (
     SPLITS,
 )
 from grouptron.data.datasets.custom import DatasetDescription, load_dataset_part
-from grouptron.data.datasets.locate import resolve_data_dir
+from grouptron.data.datasets.locate import resolve_data_dir, split_files
 from grouptron.data.datasets.subsets import density_masks, parse_univ_n, time_step_ids
 from grouptron.data.formats.track_files import TrackSource
 from grouptron.data.prepare.samples import SampleSet
@@ -49,6 +49,13 @@ from grouptron.model.forecaster import Forecaster
 from grouptron.model.predict import ABLATIONS, default_point_forecast
 from grouptron.point_forecast import is_evaluation_mode, is_sampled_mode
 from grouptron.workflows.adapt import adapted_parts
+from grouptron.workflows.evaluate_files import (
+    ForecastFiles,
+    ReadForecasts,
+    read_forecasts,
+    refuse_for_files,
+    scored_forecast_files,
+)
 from grouptron.workflows.evaluate_regions import refuse_meaningless_regions, region_scoring
 from grouptron.workflows.held_out import (
     mark_not_held_out,
@@ -142,25 +149,31 @@ class _Loaded:
     data: DataConfig
     name: str | None
     path: Path | None = None
+    forecasts: ReadForecasts | None = None
+    """Forecast files made elsewhere, scored instead of a model."""
 
 
 def evaluate(
     source: Source,
-    checkpoint: str | Path | None = DEFAULT_CHECKPOINT,
+    checkpoint: str | Path | ForecastFiles | None = DEFAULT_CHECKPOINT,
     modes: Sequence[str] | None = None,
     options: EvaluationOptions = EvaluationOptions(),
 ) -> list[EvaluationResult]:
-    """Rows of scores of ``checkpoint`` (a shipped name or a file; None: constant velocity
-    alone) on ``source``, constant velocity's rows beside them on the same samples, each mean
-    with its 95% interval (time steps resampled). ``modes``: evaluation modes (default: the
-    checkpoint's own point forecast, what ``predict`` writes). Every request is checked
-    before anything is read, so Python callers get the command line's one-line errors.
-    """
+    """Rows of scores of ``checkpoint`` (a shipped name or a file; forecast files made
+    elsewhere, on the benchmark's samples; None: constant velocity alone) on ``source``,
+    constant velocity's rows beside them on the same samples, each mean with its 95% interval
+    (time steps resampled). ``modes``: evaluation modes (default: the checkpoint's own point
+    forecast, what ``predict`` writes). Every request is checked before anything is read, so
+    Python callers get the command line's one-line errors."""
     _refuse_meaningless(source, checkpoint, modes, options)
-    refuse_meaningless_regions(checkpoint, modes, options.regions, options.calibration)
+    if isinstance(checkpoint, ForecastFiles):
+        on_benchmark, taken = isinstance(source, Benchmark), bool(options.ablate or options.regions)
+        refuse_for_files(on_benchmark, taken, modes)
+    else:
+        refuse_meaningless_regions(checkpoint, modes, options.regions, options.calibration)
     with scoring(options.metrics):  # the metrics asked, for this evaluation only
         loaded = _load(checkpoint, options)
-        chosen = tuple(modes) if modes else _default_modes(loaded.experiment)
+        chosen = tuple(modes) if modes else _default_modes(loaded)
         _check_ablations(options.ablate, loaded)
         regions = region_scoring(
             loaded.experiment, loaded.path, chosen, options.regions, options.calibration
@@ -174,7 +187,7 @@ def evaluate(
 
 def _refuse_meaningless(
     source: Source,
-    checkpoint: str | Path | None,
+    checkpoint: str | Path | ForecastFiles | None,
     modes: Sequence[str] | None,
     options: EvaluationOptions,
 ) -> None:
@@ -199,12 +212,14 @@ def _refuse_meaningless(
         raise GrouptronError("--mode nll is scored on benchmark test sets, not on --tracks")
 
 
-def _load(checkpoint: str | Path | None, options: EvaluationOptions) -> _Loaded:
-    if checkpoint is None:
+def _load(checkpoint: str | Path | ForecastFiles | None, options: EvaluationOptions) -> _Loaded:
+    if checkpoint is None or isinstance(checkpoint, ForecastFiles):
         data = DataConfig(on_gap=options.on_gap)
         if options.derivatives:
             data = dataclasses.replace(data, derivatives=options.derivatives)
-        return _Loaded(None, None, data, None)
+        if checkpoint is None:
+            return _Loaded(None, None, data, None)
+        return _Loaded(None, None, data, checkpoint.name, forecasts=read_forecasts(checkpoint))
     path = resolve_checkpoint(checkpoint)
     model, experiment = load_trained_model(path)
     data = dataclasses.replace(experiment.data, on_gap=options.on_gap)
@@ -216,7 +231,10 @@ def _load(checkpoint: str | Path | None, options: EvaluationOptions) -> _Loaded:
     return _Loaded(model.to(options.device), experiment, data, str(checkpoint), path)
 
 
-def _default_modes(experiment: ExperimentConfig | None) -> tuple[str, ...]:
+def _default_modes(loaded: _Loaded) -> tuple[str, ...]:
+    if loaded.forecasts is not None:
+        return loaded.forecasts.default_modes()
+    experiment = loaded.experiment
     return (default_point_forecast(experiment).name,) if experiment is not None else ("ml",)
 
 
@@ -327,9 +345,15 @@ def _evaluate_benchmark(
             group_config=group_config,
             use_cache=options.use_cache,
         )
+        if loaded.forecasts is not None:  # made elsewhere: found by frame and id
+            recordings = split_files(data_dir, split, "test")
+            samples, scored = scored_forecast_files(
+                loaded.forecasts, recordings, samples, modes, loaded.data
+            )
+        else:
+            scored = _model_scores(loaded, samples, groups, modes, options, regions=regions)
         masks: dict[str | None, np.ndarray | None] = {source.subset: None}
         masks.update(density_masks(samples) if options.by_density else {})
-        scored = _model_scores(loaded, samples, groups, modes, options, regions=regions)
         rows += _rows(split, scored, masks, loaded.data.derivatives, time_step_ids(samples))
         for name, checkpoint, scores in scored:  # (model, row mode): its scores per split
             key = (name, scores.mode if checkpoint else None)

@@ -23,6 +23,7 @@ EXAMPLES = (
     "  grouptron evaluate --tracks corridor.txt --columns id,frame,x,y,z --fps 16 --units cm\n"
     "  grouptron evaluate --model constant-velocity --split all\n"
     "  grouptron evaluate --checkpoint grouptron-eth-central --mode ml\n"
+    "  grouptron evaluate --forecasts eth.csv --split eth\n"
     "  grouptron evaluate --checkpoint grouptron-eth-central --mode best-of-5,best-of-20 "
     "--metrics miss-rate-2m\n"
     "  grouptron evaluate --checkpoint CKPT --metrics my_metrics:curvature --format json\n"
@@ -64,6 +65,25 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     )
     evaluate.add_argument(
         "--model", choices=(CONSTANT_VELOCITY,), help="score a baseline instead of a checkpoint"
+    )
+    evaluate.add_argument(
+        "--forecasts",
+        nargs="+",
+        metavar="FILE",
+        help="score forecasts made by any code instead of a checkpoint, on the benchmark's test "
+        "samples (each found by the recording's frame number and person id): CSV rows "
+        "'frame,id,step,x_m,y_m' (predict's layout 2; a 'sample' column for sampled futures, "
+        "scored best-of-K) or TrajNet++ .ndjson predictions; one file per test recording, "
+        "named after it where a split has several (docs/models.md)",
+    )
+    evaluate.add_argument(
+        "--name", help="the forecast files' model name in the rows (default: the file's name)"
+    )
+    evaluate.add_argument(
+        "--allow-missing",
+        action="store_true",
+        help="score the test samples the --forecasts files have instead of refusing files "
+        "that lack some (their count is said)",
     )
     evaluate.add_argument(
         "--split",

@@ -111,13 +111,13 @@ def write_forecast_ndjson(
         scene = {"id": scene_id, "p": ped, "s": first, "e": last, "fps": ROWS_PER_SECOND}
         lines.append(json.dumps({"scene": scene}))
         for i, (x, y) in enumerate(observed):
-            row = {"f": first + i * frames_per_step, "p": ped, "x": round(float(x), 4)}
-            lines.append(json.dumps({"track": {**row, "y": round(float(y), 4)}}))
+            row = {"f": first + i * frames_per_step, "p": ped, "x": round(float(x), 6)}
+            lines.append(json.dumps({"track": {**row, "y": round(float(y), 6)}}))
         for k in range(K):
             for h in range(H):
                 x, y = positions[scene_id, k, h]
                 row = {"f": frame + (h + 1) * frames_per_step, "p": ped}
-                row |= {"x": round(float(x), 4), "y": round(float(y), 4)}
+                row |= {"x": round(float(x), 6), "y": round(float(y), 6)}
                 row |= {"prediction_number": k, "scene_id": scene_id}
                 lines.append(json.dumps({"track": row}))
     write_text_atomically(Path(path), "\n".join(lines) + "\n")
