@@ -10,6 +10,7 @@ import os
 import re
 import shlex
 import shutil
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -108,6 +109,9 @@ def sandbox(
         write_layout(tmp_path / name, "t,id,x,y", start_s=1_700_000_000.0)
     (tmp_path / "corridor.toml").write_text(_toml_block("corridor.toml"))
     write_bag(tmp_path / "run.mcap", np.loadtxt(test_file))
+    shutil.copy(REPO / "examples/models/lstm_forecaster.py", tmp_path)  # docs/models.md's model
+    monkeypatch.setattr(sys, "path", list(sys.path))  # a model's folder joins it while it runs
+    monkeypatch.delitem(sys.modules, "lstm_forecaster", raising=False)
     monkeypatch.chdir(tmp_path)
     return tmp_path
 

@@ -4,6 +4,7 @@ differ per (model, ETH/UCY split). Everything else is ExperimentConfig's default
 from __future__ import annotations
 
 import copy
+import json
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -132,6 +133,34 @@ def model_label(config: ExperimentConfig) -> str:
         if spec.base == base and all(values[s][k] == wanted[s][k] for s, k in keys):
             return spec.name
     return CUSTOM
+
+
+MODEL_SECTIONS = ("model", "group_encoder", "groups", "loss", "model_settings")
+"""The settings that make a model what it is (training length, seed, precision and data do
+not): a run differing from its model's preset in one of them is an ablation of its own."""
+
+
+def run_label(config: ExperimentConfig) -> str:
+    """The named model a run is, else its model's name and the settings in which it differs
+    from that model's preset on its split (the sections of :data:`MODEL_SECTIONS`):
+    ``grouptron [group_encoder.group_dim=32]``; a model of the forecaster interface is named by
+    its class (and its settings that differ from none)."""
+    label = model_label(config)
+    if label != CUSTOM:
+        return label
+    preset = config_from_dict(
+        ExperimentConfig, preset_values(config.split, config.model_name, config.dataset)
+    )
+    ours, theirs = config_to_dict(config), config_to_dict(preset)
+    base = MODELS[config.model_name].base if config.model_name in MODELS else None
+    read = {"trajectron++": ("model", "loss"), None: ("model_settings",)}  # what the code reads
+    changed = [
+        f"{section}.{key}={json.dumps(value)}"
+        for section in read.get(base, MODEL_SECTIONS)
+        for key, value in sorted(ours[section].items())
+        if theirs[section].get(key) != value
+    ]
+    return f"{config.model_name} [{', '.join(changed)}]" if changed else config.model_name
 
 
 SPLIT_PRESETS: dict[tuple[str, str], dict[str, dict[str, Any]]] = {

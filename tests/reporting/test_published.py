@@ -73,7 +73,7 @@ def test_each_published_row_is_printed_in_the_table_of_its_kind_only() -> None:
         assert f"| {method} | published |" in best_of
         assert f"- {method}: Gupta" in best_of or f"- {method}: Sadeghian" in best_of
     assert (
-        "| Social-GAN | published | 1.52/0.81 | 1.61/0.72 | 1.26/0.60 | 0.69/0.34 | 0.84/0.42 |"
+        "| Social-GAN | published | 0.81/1.52 | 0.72/1.61 | 0.60/1.26 | 0.34/0.69 | 0.42/0.84 |"
         in (best_of)
     )
     assert "| Social-LSTM | published |" in table_i and "- Social-LSTM: " in table_i
@@ -93,7 +93,7 @@ def test_a_model_with_several_seeds_shows_their_mean_spread_and_worst_under_its_
     difference = dataclasses.replace(spread, model="grouptron - trajectron++")
     text = report_markdown(Report(rows, [], [spread, difference]), ("central",), "grouptron report")
     table_i = _section(text, "## Table I")
-    assert "| Trajectron++ | ours, central | 1.000/0.500 | 1.000/0.500 | 0.959/0.377 |" in table_i
+    assert "| Trajectron++ | ours, central | 0.500/1.000 | 0.500/1.000 | 0.377/0.959 |" in table_i
     assert (
         "|  | seeds 0, 1, 2: FDE mean ± sd (worst) | - | - | 1.024 ± 0.056 (1.059) | - | - | - |"
         in (table_i)

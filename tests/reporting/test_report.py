@@ -218,9 +218,9 @@ def test_markdown_shows_published_ours_and_differences() -> None:
     ]
     text = report_markdown(Report(rows, [], []), ("central",), "grouptron report --mode ml")
     assert "## Table I" in text and "## Table II" in text
-    assert "| Grouptron | ours, central | 1.716/0.700 | - |" in text
-    assert "+10.0% / +0.0%" in text  # Grouptron eth FDE 10% above the published 1.56
-    assert "1.17/0.436" in text  # published values keep their printed precision
+    assert "| Grouptron | ours, central | 0.700/1.716 | - |" in text
+    assert "+0.0% / +10.0%" in text  # Grouptron eth FDE 10% above the published 1.56
+    assert "0.436/1.17" in text  # published values keep their printed precision
     assert "Grouptron FDE below our Trajectron++ on UNIV-40 (central): met" in text
     # Both ends of ours / published are shown: 1.0 / 1.68 (eth FDE), 0.5 / 0.22 (hotel ADE).
     assert (
@@ -244,7 +244,7 @@ def test_report_command_writes_markdown_and_json(
     assert main([*common, "--derivatives", "central", "--mode", "ml", "--out", str(out)]) == 0
     text = out.read_text()
     capsys.readouterr()
-    assert f"--checkpoints {folder}" in text and "| constant velocity | ours | 2.282/1.075" in text
+    assert f"--checkpoints {folder}" in text and "| constant velocity | ours | 1.075/2.282" in text
     loud = [c for c in common if c != "--quiet"]  # progress goes to stderr, never into JSON
     assert main([*loud, "--derivatives", "central", "--mode", "ml", "--format", "json"]) == 0
     printed = capsys.readouterr()

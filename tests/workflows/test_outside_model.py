@@ -84,3 +84,18 @@ def test_names_that_name_no_model_fail_before_any_work(outside_folder: Path) -> 
 
     with pytest.raises(GrouptronError, match=r"could not be built from its settings.*width"):
         build_model(config)
+
+
+def test_a_packages_entry_point_names_its_model(
+    outside_folder: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from importlib.metadata import EntryPoint
+
+    from grouptron.model import forecaster
+
+    point = EntryPoint(name="lstm", value=MODEL, group=forecaster.ENTRY_POINT_GROUP)
+    monkeypatch.setattr(forecaster, "entry_points", lambda group: [point])
+    sys.path.insert(0, str(outside_folder))  # as an installed package would be
+    assert forecaster.outside_forecaster("lstm").__name__ == "LSTMForecaster"
+    with pytest.raises(GrouptronError, match=r"choose from trajectron\+\+, .*, lstm"):
+        forecaster.outside_forecaster("lstn")

@@ -15,6 +15,7 @@ from grouptron import __version__
 from grouptron.cli.options import EXIT_USAGE, Formatter, Parser
 from grouptron.cli.parsers import (
     adapt,
+    compare,
     config,
     data,
     evaluate,
@@ -46,7 +47,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"grouptron {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log more detail")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
-    for module in (data, evaluate, report, forecast, export, train, adapt, groups, config, ros2):
+    commands_in_order = (data, evaluate, compare, report, forecast, export, train, adapt)
+    for module in (*commands_in_order, groups, config, ros2):
         module.add_parser(commands)
     _accept_global_options_everywhere(parser)
     return parser

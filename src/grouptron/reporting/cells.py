@@ -1,6 +1,7 @@
 """Shared pieces of the report's Markdown: column sets, display names and cell formats.
 
-Cells print FDE/ADE like the paper; a percent change is (ours - reference) / reference.
+Cells print ADE/FDE, the field's order and ``evaluate``'s (the Grouptron paper prints
+FDE/ADE); a percent change is (ours - reference) / reference.
 """
 
 from __future__ import annotations
@@ -30,10 +31,20 @@ Key = tuple[str, str | None, str, str | None]  # model, derivatives, column, mod
 
 
 def display_name(value: str) -> str:
-    """How a model, column or subset is named in the tables."""
+    """How a model, column or subset is named in the tables (a run named by its settings or
+    its class as it is)."""
     if value.endswith("-present"):
         return value.removesuffix("-present").upper() + " (present)"
+    if "[" in value or ":" in value:
+        return value
     return DISPLAY.get(value, value.upper())
+
+
+def ours_models(rows: dict[Key, EvaluationResult]) -> tuple[str, ...]:
+    """The models of our rows in table order: the named ones, then the runs named by their
+    settings or class (ablations, models of the forecaster interface) by name."""
+    others = sorted({k[0] for k in rows} - {*OURS_MODELS, CONSTANT_VELOCITY})
+    return (*OURS_MODELS, *others)
 
 
 def column_of(row: EvaluationResult) -> str:
@@ -46,16 +57,18 @@ def index_rows(rows: Sequence[EvaluationResult]) -> dict[Key, EvaluationResult]:
     return {(r.model, r.derivatives, column_of(r), r.mode): r for r in rows}
 
 
-def fde_ade(fde: float, ade: float) -> str:
-    """A cell as the paper prints it: FDE/ADE in metres."""
+def ade_fde(ade: float, fde: float) -> str:
+    """A cell: ADE/FDE in metres."""
     if math.isnan(fde) or math.isnan(ade):
         return "-"
-    return f"{fde:.3f}/{ade:.3f}"
+    return f"{ade:.3f}/{fde:.3f}"
 
 
 def published_pair(values: tuple[float, float]) -> str:
-    """A published (FDE, ADE) as the paper prints it: two decimals, three where it has them."""
-    return "/".join(f"{v:.3f}"[:-1] if f"{v:.3f}".endswith("0") else f"{v:.3f}" for v in values)
+    """A published (FDE, ADE) as ADE/FDE, with the paper's precision: two decimals, three
+    where it has them."""
+    fde, ade = values
+    return "/".join(f"{v:.3f}"[:-1] if f"{v:.3f}".endswith("0") else f"{v:.3f}" for v in (ade, fde))
 
 
 def percent_change(ours: float, reference: float) -> str:

@@ -11,12 +11,12 @@ from grouptron.constants import CONSTANT_VELOCITY
 from grouptron.evaluation.metrics import metric_label
 from grouptron.evaluation.results import EvaluationResult
 from grouptron.reporting.cells import (
-    OURS_MODELS,
     TABLE_I_COLUMNS,
     TABLE_II_COLUMNS,
     Key,
     display_name,
     markdown_table,
+    ours_models,
 )
 
 COLUMNS = (*TABLE_I_COLUMNS, *TABLE_II_COLUMNS[1:])
@@ -32,7 +32,7 @@ def metric_tables(
     for name in names:
         lines = []
         for derivatives in schemes:
-            for model in (*OURS_MODELS, CONSTANT_VELOCITY):
+            for model in (*ours_models(rows), CONSTANT_VELOCITY):
                 for mode in ("ml",) if model == CONSTANT_VELOCITY else modes:
                     cells = [rows.get((model, derivatives, c, mode)) for c in COLUMNS]
                     if any(r is not None and name in r.metrics for r in cells):

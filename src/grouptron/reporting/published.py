@@ -85,7 +85,8 @@ SOPHIE = PublishedRow(
         "mean": (1.15, 0.54),
     },
     "Sadeghian et al., CVPR 2019, Table 1 (best of 20 samples); the Grouptron paper's Table I "
-    "prints ZARA1 as 0.63/0.34 (SoPhie's own ADE there is 0.30; the AVG 0.54 holds either way)",
+    "prints ZARA1 as FDE/ADE 0.63/0.34 (SoPhie's own ADE there is 0.30; the AVG 0.54 holds "
+    "either way)",
 )
 TRAJECTRON = PublishedRow(
     "trajectron++",

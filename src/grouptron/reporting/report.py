@@ -42,9 +42,10 @@ from grouptron.evaluation.test_sets import load_test_set, subset_with_groups
 from grouptron.geometry import DerivativeScheme
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_trained_model, stored_checkpoints
 from grouptron.model.factory import MODEL_NAMES, PAPER_MODELS, uses_groups
+from grouptron.model.forecaster import is_outside_name
 from grouptron.model.predict import ABLATIONS
 from grouptron.point_forecast import is_evaluation_mode
-from grouptron.presets import CUSTOM, model_label
+from grouptron.presets import run_label
 from grouptron.reporting.stats import Report, build_report
 
 log = logging.getLogger(__name__)
@@ -100,13 +101,15 @@ def find_checkpoints(
     found = []
     for path, config in stored_checkpoints(root):
         derivatives = config.data.derivatives
-        label = model_label(config)  # a run with other switches is not its code's model
-        if label == CUSTOM and config.model_name in models:
-            log.info("%s: %s with switches of its own, left out", path, config.model_name)
+        label = run_label(config)  # a run with other switches is not its code's model
+        # An ablation belongs to its model; a model of the forecaster interface to a report
+        # of every model.
+        wanted = label in models or config.model_name in models
+        wanted |= is_outside_name(config.model_name) and tuple(models) == MODEL_NAMES
         if (
             derivatives in schemes
             and config.split in splits
-            and label in models
+            and wanted
             and (seeds is None or config.train.seed in seeds)
         ):
             found.append(
@@ -120,7 +123,15 @@ def find_checkpoints(
             f"{' or '.join(splits) if tuple(splits) != SPLITS else 'an ETH/UCY split'}{seeded}"
         )
     order = {name: i for i, name in enumerate((*schemes, *MODEL_NAMES, *SPLITS))}
-    found.sort(key=lambda c: (order[c.derivatives], order[c.model], order[c.split], c.seed))
+    found.sort(
+        key=lambda c: (
+            order[c.derivatives],
+            order.get(c.model, len(order)),  # other runs after the named models, by name
+            c.model,
+            order[c.split],
+            c.seed,
+        )
+    )
     have = {(c.model, c.split, c.derivatives) for c in found}
     # The paper's two models are expected on every split; a variant only where it was trained.
     expected = [m for m in models if m in PAPER_MODELS or any(c.model == m for c in found)]
@@ -167,7 +178,7 @@ def score_checkpoint(
     """Per-sample scores and mean rows of one checkpoint: each mode on its test set and, for
     univ, on UNIV-N."""
     model, experiment = load_trained_model(entry.path)
-    stored = (model_label(experiment), experiment.split, experiment.data.derivatives)
+    stored = (run_label(experiment), experiment.split, experiment.data.derivatives)
     if stored != (entry.model, entry.split, entry.derivatives):
         raise GrouptronError(
             f"{entry.path}: expected {entry.model} on {entry.split} ({entry.derivatives}) "

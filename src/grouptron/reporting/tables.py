@@ -1,8 +1,8 @@
 """The report's rows as Markdown: the paper's Tables I and II with our numbers beside the
 published ones, then best-of-20, KDE NLL, the targets and the checkpoints used.
 
-Cells print FDE/ADE like the paper. "Δ" cells are (ours - published) / published in percent
-for FDE / ADE; negative is better.
+Cells print ADE/FDE (the field's order; the paper prints FDE/ADE). "Δ" cells are (ours -
+published) / published in percent for ADE / FDE; negative is better.
 """
 
 from __future__ import annotations
@@ -21,10 +21,11 @@ from grouptron.reporting.cells import (
     TABLE_I_COLUMNS,
     TABLE_II_COLUMNS,
     Key,
+    ade_fde,
     display_name,
-    fde_ade,
     index_rows,
     markdown_table,
+    ours_models,
     percent_change,
     published_pair,
 )
@@ -66,7 +67,7 @@ def _versus_lines(
             ]
             if any(g and t for g, t in pairs):
                 cells = [
-                    f"{percent_change(g.fde, t.fde)} / {percent_change(g.ade, t.ade)}"
+                    f"{percent_change(g.ade, t.ade)} / {percent_change(g.fde, t.fde)}"
                     if g and t
                     else "-"
                     for g, t in pairs
@@ -96,7 +97,7 @@ def _ml_table(
         if method in OURS_MODELS:
             continue
         lines.append([method, "published", *(published_pair(values[c]) for c in columns)])
-    for model in OURS_MODELS:
+    for model in ours_models(rows):
         if model in published:
             values = published[model]
             lines.append(
@@ -110,7 +111,7 @@ def _ml_table(
                 [
                     display_name(model),
                     f"ours, {derivatives}",
-                    *(fde_ade(r.fde, r.ade) if r else "-" for r in cells),
+                    *(ade_fde(r.ade, r.fde) if r else "-" for r in cells),
                 ]
             )
             lines += _seed_line(seeds, model, derivatives, columns)
@@ -120,8 +121,8 @@ def _ml_table(
                         "",
                         "Δ ours vs published",
                         *(
-                            f"{percent_change(r.fde, published[model][c][0])} / "
-                            f"{percent_change(r.ade, published[model][c][1])}"
+                            f"{percent_change(r.ade, published[model][c][1])} / "
+                            f"{percent_change(r.fde, published[model][c][0])}"
                             if r
                             else "-"
                             for r, c in zip(cells, columns, strict=True)
@@ -135,7 +136,7 @@ def _ml_table(
             [
                 display_name(CONSTANT_VELOCITY),
                 "ours",
-                *(fde_ade(r.fde, r.ade) if r else "-" for r in cv),
+                *(ade_fde(r.ade, r.fde) if r else "-" for r in cv),
             ]
         )
     return markdown_table(["method", "source", *(display_name(c) for c in columns)], lines)
@@ -176,10 +177,10 @@ def _mode_table(
     *,
     with_baseline: bool = False,
 ) -> list[str]:
-    """One line per (model, derivatives): FDE/ADE, or the NLL in nats for ``nll``; first the
+    """One line per (model, derivatives): ADE/FDE, or the NLL in nats for ``nll``; first the
     published rows of the mode's kind (best-of-20: Table I's)."""
     lines = published_lines(TABLE_I_ROWS, mode, tuple(columns)) if mode == BEST_OF_20 else []
-    models = (*OURS_MODELS, CONSTANT_VELOCITY) if with_baseline else OURS_MODELS
+    models = (*ours_models(rows), CONSTANT_VELOCITY) if with_baseline else ours_models(rows)
     for derivatives in schemes:
         for model in models:
             cells = [rows.get((model, derivatives, c, mode)) for c in columns]
@@ -190,7 +191,7 @@ def _mode_table(
                     f"{r.nll:.3f} ({r.samples})" if r and r.nll is not None else "-" for r in cells
                 ]
             else:
-                text = [fde_ade(r.fde, r.ade) if r else "-" for r in cells]
+                text = [ade_fde(r.ade, r.fde) if r else "-" for r in cells]
             lines.append([display_name(model), derivatives, *text])
     if not lines:
         return []
@@ -209,7 +210,7 @@ def interval_table(
     """ML FDE with its 95% interval (time steps resampled) per model, derivatives and column."""
     lines = []
     for derivatives in schemes:
-        for model in (*OURS_MODELS, CONSTANT_VELOCITY):
+        for model in (*ours_models(rows), CONSTANT_VELOCITY):
             cells = [rows.get((model, derivatives, c, "ml")) for c in columns]
             if any(cells):
                 lines.append([display_name(model), derivatives, *(_ci(r) for r in cells)])
@@ -345,7 +346,7 @@ def _other_modes(
         "ml-argmax": "Most likely latent value only (decode the argmax z, follow its means)",
         "mean": "Mean trajectory (every latent value's, weighted by p(z|x))",
         "ml-top10": "Most likely of the 10 most probable latent values (mixture mode per step)",
-        "best-of-20": "Best of 20 samples (minFDE/minADE)",
+        "best-of-20": "Best of 20 samples (minADE/minFDE)",
         "nll": "KDE NLL in nats (Scott's bandwidth; 2000 futures per sample; "
         "in brackets: samples scored)",
     }
@@ -355,7 +356,7 @@ def _other_modes(
             titles[mode] = f"Most likely of the {top} most probable latent values"
         best_of = best_of_samples(mode) if mode else None
         if mode and best_of and mode not in titles:
-            titles[mode] = f"Best of {best_of} samples (minFDE/minADE)"
+            titles[mode] = f"Best of {best_of} samples (minADE/minFDE)"
     out = []
     for mode, title in titles.items():
         if mode in modes:
@@ -374,13 +375,13 @@ def report_markdown(report: Report, schemes: Sequence[str], command: str) -> str
         "# Results",
         "",
         f"Generated by `{command}` from the checkpoints listed at the end; do not edit by hand.",
-        "Cells are FDE/ADE in metres on the test sets (leave one location out), as in the",
-        "Grouptron paper. *published* rows are copied from the papers (central derivatives),",
-        "each in the table of the forecast it scores, its source under that table. *ours* rows",
-        "are measured, each from one training run: the lowest seed number found (seed 0",
-        "where there is one, as for every shipped checkpoint); where a model has more seeds,",
-        "the line under its row gives the FDE mean ± sd over them and, in brackets, the worst",
-        "seed's. Δ is the difference in percent (negative: lower error).",
+        "Cells are ADE/FDE in metres on the test sets (leave one location out), the field's",
+        "order (the Grouptron paper prints FDE/ADE). *published* rows are copied from the",
+        "papers (central derivatives), each in the table of the forecast it scores, its source",
+        "under that table. *ours* rows are measured, each from one training run: the lowest",
+        "seed number found (seed 0 where there is one, as for every shipped checkpoint); where",
+        "a model has more seeds, the line under its row gives the FDE mean ± sd over them and,",
+        "in brackets, the worst seed's. Δ is the difference in percent (negative: lower error).",
         "Derivatives: `central` ones are the papers' inputs (the velocity at the last observed",
         "step uses the next, unobserved position); `backward` ones are causal.",
         "",

@@ -13,8 +13,8 @@ from grouptron.reporting.cells import (
     TABLE_II_COLUMNS,
     TARGET_TOLERANCE,
     Key,
+    ade_fde,
     display_name,
-    fde_ade,
 )
 from grouptron.reporting.published import TABLE_I, TABLE_II
 from grouptron.reporting.stats import PairedDifference, SeedSpread
@@ -79,7 +79,7 @@ def _central_targets(rows: dict[Key, EvaluationResult]) -> list[str]:
             ok = r.fde <= fde_ref and r.ade <= ade_ref
             checks.append(
                 f"Grouptron {display_name(column)} at or below published "
-                f"{fde_ref:.2f}/{ade_ref:.2f}: {_verdict(ok)} ({fde_ade(r.fde, r.ade)})"
+                f"{ade_ref:.2f}/{fde_ref:.2f}: {_verdict(ok)} ({ade_fde(r.ade, r.fde)})"
             )
     return checks
 

@@ -205,8 +205,12 @@ def _precision(request: TrainRequest, *, outside: bool) -> bool:
     own arithmetic: ``auto`` leaves it fp32 and ``bf16`` sets ``train.bf16`` for it to read."""
     requested, device = request.precision or "auto", torch.device(request.device)
     if requested == "auto" and outside:
+        print("precision: fp32 (a model of the forecaster interface chooses its own)")
         return False
-    if requested != "auto" or not native_bf16(device) or device.type != "cpu":
+    if requested == "auto" and device.type == "cpu" and not native_bf16(device):
+        print("precision: fp32 (this CPU computes bf16 only by emulation, about 10x slower)")
+        return False
+    if requested != "auto" or device.type != "cpu":
         return resolve_precision(requested, device)
     threads = request.threads or TrainConfig().threads
     print(
