@@ -31,8 +31,8 @@ demo: install
 	$(BIN)/grouptron report --mode ml --models trajectron++,grouptron --seeds 0
 
 lint: install
-	$(BIN)/ruff check src tests benchmarks campaign
-	$(BIN)/ruff format --check src tests benchmarks campaign
+	$(BIN)/ruff check src tests benchmarks campaign examples
+	$(BIN)/ruff format --check src tests benchmarks campaign examples
 	$(BIN)/lint-imports
 
 typecheck: install

@@ -24,9 +24,9 @@ from grouptron.data.datasets.locate import resolve_data_dir
 from grouptron.data.prepare.augment import draw_rotation_angles
 from grouptron.groups.assign import assign_groups
 from grouptron.model.batch import make_batch
+from grouptron.model.elbo import elbo_loss
 from grouptron.model.factory import build_model
 from grouptron.presets import experiment_preset
-from grouptron.model.elbo import elbo_loss
 
 
 def main() -> None:

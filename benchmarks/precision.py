@@ -24,8 +24,8 @@ from grouptron.data.datasets.dataset import load_part
 from grouptron.data.datasets.locate import resolve_data_dir
 from grouptron.data.prepare.augment import draw_rotation_angles
 from grouptron.model.batch import make_batch
-from grouptron.model.factory import build_model
 from grouptron.model.elbo import elbo_loss
+from grouptron.model.factory import build_model
 from grouptron.training.model_card import describe_device
 from grouptron.training.precision import cpu_flags, native_bf16
 

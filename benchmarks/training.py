@@ -59,8 +59,8 @@ def train_speed(data_dir: Path | None, iterations: int) -> dict[str, float]:
     from grouptron.data.datasets.locate import resolve_data_dir
     from grouptron.data.prepare.augment import draw_rotation_angles
     from grouptron.model.batch import make_batch
-    from grouptron.model.factory import build_model
     from grouptron.model.elbo import elbo_loss
+    from grouptron.model.factory import build_model
 
     config = ExperimentConfig()
     samples = load_part(resolve_data_dir(data_dir), "eth", "train", config.data).samples

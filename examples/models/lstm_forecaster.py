@@ -1,7 +1,7 @@
 """An LSTM encoder-decoder that grouptron trains, evaluates and serves without a change to the
 package: the worked example of docs/models.md.
 
-    grouptron train --model lstm_forecaster:LSTMForecaster --split eth --set model_settings.hidden=32
+    grouptron train --model lstm_forecaster:LSTMForecaster --split eth
 
 The encoder reads a person's standardised history; the decoder is one linear map from its last
 state to a Gaussian per future step (position offset from now, metres, and an isotropic spread),

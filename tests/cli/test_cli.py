@@ -67,7 +67,7 @@ def test_bad_track_file_is_one_line_and_exit_2(
         (["evaluate", "--model", "oracle"], "invalid choice"),
         (
             ["evaluate", "--checkpoint", "x", "--model", "constant-velocity"],
-            "give either --checkpoint PATH or --model constant-velocity",
+            "give one of --checkpoint PATH, --forecasts FILE or --model constant-velocity",
         ),
         (["evaluate", "--checkpoint", "nowhere.safetensors"], "checkpoint not found"),
         (["train", "--split", "eth", "--epochs", "0"], "epochs"),

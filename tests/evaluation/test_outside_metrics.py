@@ -106,6 +106,6 @@ def test_an_outside_metric_appears_in_evaluate_and_report(
     text = capsys.readouterr().out
     for section in ("## lateral (`lateral`)", "## miss >0.5 m (`far-miss`)", "## MR 2m"):
         assert section in text
-    assert "## Best of 5 samples (minFDE/minADE)" in text
+    assert "## Best of 5 samples (minADE/minFDE)" in text
     assert "--split eth --metrics " + named in text  # the command that regenerates it
     assert "lateral" not in metrics.METRICS  # registered for those commands only

@@ -102,14 +102,10 @@ def find_checkpoints(
     for path, config in stored_checkpoints(root):
         derivatives = config.data.derivatives
         label = run_label(config)  # a run with other switches is not its code's model
-        # An ablation belongs to its model; a model of the forecaster interface to a report
-        # of every model.
-        wanted = label in models or config.model_name in models
-        wanted |= is_outside_name(config.model_name) and tuple(models) == MODEL_NAMES
         if (
             derivatives in schemes
             and config.split in splits
-            and wanted
+            and _reported(config, label, models)
             and (seeds is None or config.train.seed in seeds)
         ):
             found.append(
@@ -146,6 +142,14 @@ def find_checkpoints(
             ", ".join(missing),
         )
     return found
+
+
+def _reported(config: ExperimentConfig, label: str, models: Sequence[str]) -> bool:
+    """Whether a run belongs to a report of ``models``: a named model's run, an ablation of
+    one (its model named), a model of the forecaster interface in a report of every model."""
+    if label in models or config.model_name in models:
+        return True
+    return is_outside_name(config.model_name) and tuple(models) == MODEL_NAMES
 
 
 def subset_masks(split: str, samples: SampleSet) -> dict[str | None, np.ndarray | None]:

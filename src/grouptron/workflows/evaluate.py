@@ -23,14 +23,13 @@ import numpy as np
 
 from grouptron.config import DataConfig, ExperimentConfig
 from grouptron.constants import (
-    ALL_LOCATIONS,
     CONSTANT_VELOCITY,
     EVALUATION_MODES,
     SPLITS,
 )
 from grouptron.data.datasets.custom import DatasetDescription, load_dataset_part
 from grouptron.data.datasets.locate import resolve_data_dir, split_files
-from grouptron.data.datasets.subsets import density_masks, parse_univ_n, time_step_ids
+from grouptron.data.datasets.subsets import density_masks, time_step_ids
 from grouptron.data.formats.track_files import TrackSource
 from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
@@ -58,6 +57,7 @@ from grouptron.workflows.evaluate_files import (
 )
 from grouptron.workflows.evaluate_regions import refuse_meaningless_regions, region_scoring
 from grouptron.workflows.held_out import (
+    benchmark_splits,
     mark_not_held_out,
     seen_dataset_files,
     seen_splits,
@@ -310,26 +310,9 @@ def _evaluate_benchmark(
 ) -> list[EvaluationResult]:
     """Every split's test set (and its UNIV-N subset), the mean over the five splits."""
     experiment = loaded.experiment
-    if experiment is not None and experiment.split == ALL_LOCATIONS and not options.include_seen:
-        raise GrouptronError(
-            f"{loaded.name} was trained on every ETH/UCY location ({ALL_LOCATIONS}), so no "
-            "benchmark test set is held out from it; score it on recordings of your own "
-            "(--tracks, --dataset), or pass --include-seen to score it marked not held out"
-        )
-    if experiment is not None and experiment.dataset and not source.splits:
-        raise GrouptronError(
-            f"{loaded.name} was trained on a dataset of its own ({experiment.split}), not on a "
-            "benchmark split: name the splits to score it on (--split), or score recordings "
-            "(--tracks, --dataset)"
-        )
-    own = (experiment.split,) if experiment and experiment.split in SPLITS else SPLITS
-    splits = source.splits or own
-    unknown = [s for s in splits if s not in SPLITS]
-    if unknown:
-        raise GrouptronError(f"unknown split {unknown[0]!r}; choose from {', '.join(SPLITS)}")
-    subset = parse_univ_n(source.subset) if source.subset is not None else None
-    if subset is not None and tuple(splits) != ("univ",):
-        raise GrouptronError("--subset univ-N needs --split univ")
+    splits, subset = benchmark_splits(
+        source.splits, source.subset, experiment, loaded.name, include_seen=options.include_seen
+    )
     data_dir = resolve_data_dir(source.data_dir)
     seen = seen_splits(experiment, loaded.name, data_dir, splits, options.include_seen)
     grouped = experiment is not None and uses_groups(experiment)

@@ -16,8 +16,9 @@ from collections.abc import Collection, Sequence
 from pathlib import Path
 
 from grouptron.config import ExperimentConfig
-from grouptron.constants import CONSTANT_VELOCITY, SPLITS
+from grouptron.constants import ALL_LOCATIONS, CONSTANT_VELOCITY, SPLITS
 from grouptron.data.datasets.custom import DatasetDescription
+from grouptron.data.datasets.subsets import UnivN, parse_univ_n
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.recordings import POOLED, benchmark_seen, training_files
 from grouptron.evaluation.results import EvaluationResult
@@ -92,3 +93,36 @@ def mark_not_held_out(
 def seen_track_names(files: Sequence[Path | str]) -> set[str]:
     """The row names of track files seen in training: each file's, and the pooled row's."""
     return {Path(f).name for f in files} | ({POOLED} if files else set())
+
+
+def benchmark_splits(
+    asked: Sequence[str] | None,
+    subset_name: str | None,
+    experiment: ExperimentConfig | None,
+    name: str | None,
+    *,
+    include_seen: bool,
+) -> tuple[tuple[str, ...], UnivN | None]:
+    """The splits to score (``asked``, else the checkpoint's own, or all five) and the UNIV-N
+    subset, refused where the checkpoint has no held-out benchmark test set."""
+    if experiment is not None and experiment.split == ALL_LOCATIONS and not include_seen:
+        raise GrouptronError(
+            f"{name} was trained on every ETH/UCY location ({ALL_LOCATIONS}), so no "
+            "benchmark test set is held out from it; score it on recordings of your own "
+            "(--tracks, --dataset), or pass --include-seen to score it marked not held out"
+        )
+    if experiment is not None and experiment.dataset and not asked:
+        raise GrouptronError(
+            f"{name} was trained on a dataset of its own ({experiment.split}), not on a "
+            "benchmark split: name the splits to score it on (--split), or score recordings "
+            "(--tracks, --dataset)"
+        )
+    own = (experiment.split,) if experiment and experiment.split in SPLITS else SPLITS
+    splits = tuple(asked or own)
+    unknown = [s for s in splits if s not in SPLITS]
+    if unknown:
+        raise GrouptronError(f"unknown split {unknown[0]!r}; choose from {', '.join(SPLITS)}")
+    subset = parse_univ_n(subset_name) if subset_name is not None else None
+    if subset is not None and splits != ("univ",):
+        raise GrouptronError("--subset univ-N needs --split univ")
+    return splits, subset

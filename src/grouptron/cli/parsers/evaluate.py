@@ -66,25 +66,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     evaluate.add_argument(
         "--model", choices=(CONSTANT_VELOCITY,), help="score a baseline instead of a checkpoint"
     )
-    evaluate.add_argument(
-        "--forecasts",
-        nargs="+",
-        metavar="FILE",
-        help="score forecasts made by any code instead of a checkpoint, on the benchmark's test "
-        "samples (each found by the recording's frame number and person id): CSV rows "
-        "'frame,id,step,x_m,y_m' (predict's layout 2; a 'sample' column for sampled futures, "
-        "scored best-of-K) or TrajNet++ .ndjson predictions; one file per test recording, "
-        "named after it where a split has several (docs/models.md)",
-    )
-    evaluate.add_argument(
-        "--name", help="the forecast files' model name in the rows (default: the file's name)"
-    )
-    evaluate.add_argument(
-        "--allow-missing",
-        action="store_true",
-        help="score the test samples the --forecasts files have instead of refusing files "
-        "that lack some (their count is said)",
-    )
+    _add_forecast_file_options(evaluate)
     evaluate.add_argument(
         "--split",
         help=f"one of {', '.join(SPLITS)} or all (default: the checkpoint's split, or all)",
@@ -179,4 +161,27 @@ def _add_region_options(evaluate: argparse.ArgumentParser) -> None:
         help="size the --regions with a grouptron calibrate file of this checkpoint and point "
         "forecast; without it the checkpoint's shipped one where it has one for the forecasts "
         "scored, as predict draws them; 'none': the model's own regions, uncalibrated",
+    )
+
+
+def _add_forecast_file_options(evaluate: argparse.ArgumentParser) -> None:
+    """Forecast files made by any code, scored instead of a checkpoint."""
+    evaluate.add_argument(
+        "--forecasts",
+        nargs="+",
+        metavar="FILE",
+        help="score forecasts made by any code instead of a checkpoint, on the benchmark's test "
+        "samples (each found by the recording's frame number and person id): CSV rows "
+        "'frame,id,step,x_m,y_m' (predict's layout 2; a 'sample' column for sampled futures, "
+        "scored best-of-K) or TrajNet++ .ndjson predictions; one file per test recording, "
+        "named after it where a split has several (docs/models.md)",
+    )
+    evaluate.add_argument(
+        "--name", help="the forecast files' model name in the rows (default: the file's name)"
+    )
+    evaluate.add_argument(
+        "--allow-missing",
+        action="store_true",
+        help="score the test samples the --forecasts files have instead of refusing files "
+        "that lack some (their count is said)",
     )
