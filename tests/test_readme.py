@@ -73,5 +73,7 @@ def test_readme_training_and_evaluation_example_runs(
     exec(compile(code, "README.md", "exec"), namespace)
     printed = capsys.readouterr().out
     assert "done: 2 epochs" in printed and (tmp_path / "runs/eth-try/best.safetensors").is_file()
+    # Progress by default, without a terminal too: what is trained, then each epoch's line.
+    assert "training grouptron on eth" in printed and "epoch 2/2: loss" in printed
     assert "grouptron ml FDE" in printed and "grouptron best-of-20 FDE" in printed
     assert "constant-velocity - FDE" in printed and "None" not in printed
