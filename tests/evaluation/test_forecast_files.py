@@ -126,3 +126,25 @@ def test_shipped_checkpoints_csv_scores_as_it_does_to_a_micrometre(
     assert ours["samples"] == model["samples"] == 364
     assert abs(ours["ade"] - model["ade"]) < 1e-6 and abs(ours["fde"] - model["fde"]) < 1e-6
     assert np.isfinite(ours["fde"])
+
+
+def test_files_need_their_split_and_each_position_once(
+    tiny_checkpoints: Path,
+    synthetic_data_dir: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    checkpoint = str(tiny_checkpoints / "trajectron++-eth-central")
+    tracks = str(synthetic_data_dir / "eth/test/scene5.txt")
+    out = tmp_path / "scene5.csv"
+    predict = ["predict", "--checkpoint", checkpoint, "--tracks", tracks, "--quiet"]
+    assert main([*predict, "--out", str(out), "--forecast", "ml"]) == 0
+    data = ["--data-dir", str(synthetic_data_dir)]
+    capsys.readouterr()
+    assert main(["evaluate", "--forecasts", str(out), *data]) == 2
+    assert "name them with --split" in capsys.readouterr().err
+    lines = out.read_text().splitlines()
+    twice = tmp_path / "twice.csv"
+    twice.write_text("\n".join([*lines, lines[1]]) + "\n")
+    assert main(["evaluate", "--forecasts", str(twice), "--split", "eth", *data]) == 2
+    assert "a position given twice" in capsys.readouterr().err

@@ -78,3 +78,12 @@ def test_the_shipped_cvaes_declare_what_they_make() -> None:
     assert trajectron.latent_values == SMALL.latent_values
     assert latent_values_of(ExperimentConfig(model=SMALL)) == SMALL.latent_values
     assert latent_values_of(ExperimentConfig(model_name="pkg:Model")) == 1
+
+
+def test_a_forecast_of_the_wrong_shape_is_refused_in_one_line() -> None:
+    class Short(Straight):
+        def sample(self, batch, horizon, dt_s, num_samples, generator=None):  # type: ignore[no-untyped-def]
+            return super().sample(batch, horizon - 1, dt_s, num_samples, generator)
+
+    with pytest.raises(GrouptronError, match=r"Short.sample returned shape \(4, 2, 11, 2\)"):
+        Short(ExperimentConfig()).forecast_futures(random_batch(4), 12, 0.4, num_samples=2)

@@ -102,12 +102,20 @@ class GroupConfig:
     max_group_size: int | None = None
     """With ``max_distance_m``: a merge that would make a group larger than this is skipped,
     so that a dense crowd is not chained into one group (None: no limit)."""
+    detector: Literal["distance", "learned"] = "distance"
+    """``distance``: the settings above on trajectory distances; ``learned``: 1 - the shipped
+    pair classifier's probability of walking together is the distance (``groups.learned``),
+    cut at ``max_distance_m`` with single linkage and ``max_group_size``."""
 
     def __post_init__(self) -> None:
         if self.linkage not in ("single", "average", "complete"):
             raise GrouptronError("groups.linkage must be single, average or complete")
         if self.distance not in ("hausdorff", "modified"):
             raise GrouptronError("groups.distance must be hausdorff or modified")
+        if self.detector not in ("distance", "learned"):
+            raise GrouptronError("groups.detector must be distance or learned")
+        if self.detector == "learned" and self.max_distance_m is None:
+            raise GrouptronError("groups.detector learned links pairs up to max_distance_m")
         if not 0.0 < self.quantile <= 1.0:
             raise GrouptronError("groups.quantile must be in (0, 1]")
         if not self.velocity_weight_s >= 0:

@@ -27,7 +27,7 @@ def sample_keys(scenes: Sequence[Scene], samples: SampleSet) -> tuple[np.ndarray
 
 
 def positions_of_samples(
-    rows: ForecastRows, frames: np.ndarray, ids: np.ndarray, horizon: int
+    rows: ForecastRows, frames: np.ndarray, ids: np.ndarray, horizon: int, source: str = ""
 ) -> tuple[np.ndarray, np.ndarray]:
     """(S, K, H, 2) the file's forecasts of the samples keyed by (S,) ``frames`` and ``ids``
     (K = 1 for point forecasts, else the file's sampled futures in sample order; NaN where
@@ -39,6 +39,11 @@ def positions_of_samples(
     numbers, k = np.unique(sample, return_inverse=True)
     table = np.full((codes.max() + 1, len(numbers), horizon, 2), np.nan)
     inside = rows.step <= horizon
+    cells = np.stack([row_code, k.ravel(), rows.step], 1)[inside]  # (R', 3) one per position
+    if len(np.unique(cells, axis=0)) < len(cells):
+        raise GrouptronError(
+            f"{source}: a position given twice (the same frame, id, sample and step)"
+        )
     table[row_code[inside], k.ravel()[inside], rows.step[inside] - 1] = rows.xy_m[inside]
     positions = table[sample_code]
     found = np.asarray(~np.isnan(positions).any(axis=(1, 2, 3)))

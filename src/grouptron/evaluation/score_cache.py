@@ -18,6 +18,7 @@ from __future__ import annotations
 import ast
 import dataclasses
 import hashlib
+import inspect
 import json
 import sys
 from collections.abc import Sequence
@@ -79,7 +80,11 @@ def cached_score_samples(  # noqa: PLR0913 - score_samples's options, all keywor
     if folder is None:
         return score(tuple(modes))
     common = _common_key(model, config, samples, groups, batch_size, seed, ablate)
-    subfolder = folder / scoring_source_digest(_model_modules(model))[:16]
+    code = scoring_source_digest(_model_modules(model))
+    outside = _outside_source_digest(model)  # a model of the forecaster interface's own code
+    if outside:
+        code = hashlib.sha256((code + outside).encode()).hexdigest()
+    subfolder = folder / code[:16]
     paths = {mode: subfolder / f"{_mode_key(common, mode, regions)}.npz" for mode in modes}
     shape = (len(samples), config.data.horizon_steps)
     found = {mode: _read(paths[mode], mode, shape, regions) for mode in modes}
@@ -203,6 +208,24 @@ def _model_modules(model: torch.nn.Module) -> tuple[str, ...]:
     """The grouptron modules that define the classes of the model, its parts and their bases."""
     names = {c.__module__ for part in model.modules() for c in type(part).__mro__}
     return tuple(sorted(n for n in names if n.startswith(f"{PACKAGE}.")))
+
+
+def _outside_source_digest(model: torch.nn.Module) -> str:
+    """SHA256 of the source files of the model's classes outside grouptron (a model of the
+    forecaster interface): editing its code must not reuse its old scores ("" for none)."""
+    files = {
+        inspect.getsourcefile(c)
+        for part in model.modules()
+        for c in type(part).__mro__
+        if not c.__module__.startswith((f"{PACKAGE}.", "torch", "builtins"))
+    }
+    found = sorted(f for f in files if f is not None and Path(f).is_file())
+    if not found:
+        return ""
+    digest = hashlib.sha256()
+    for path in found:
+        digest.update(Path(path).read_bytes())
+    return digest.hexdigest()
 
 
 @cache

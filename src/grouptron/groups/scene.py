@@ -21,6 +21,15 @@ from grouptron.groups.labels import (
     partition_from_labels,
     same_group_pairs,
 )
+from grouptron.groups.learned import (
+    PairClassifier,
+    learned_distances,
+    linked_groups,
+    load_classifier,
+    near_pairs_now,
+)
+from grouptron.groups.pair_features import FEATURES, pair_features
+from grouptron.groups.partition_scores import PartitionCounts
 
 
 @dataclass(frozen=True)
@@ -49,13 +58,20 @@ def position_grid(scene: Scene, pad_before: int) -> tuple[np.ndarray, np.ndarray
 
 
 def groups_per_step(
-    scene: Scene, config: GroupConfig, history_steps: int = HISTORY_STEPS, every: int = 1
+    scene: Scene,
+    config: GroupConfig,
+    history_steps: int = HISTORY_STEPS,
+    every: int = 1,
+    classifier: PairClassifier | None = None,
 ) -> Iterator[StepGroups]:
-    """Cluster the pedestrians present at each step on their last ``history_steps`` positions."""
+    """Cluster the pedestrians present at each step on their last ``history_steps`` positions
+    (a learned detector's ``classifier``: None, the shipped one)."""
     pad = history_steps - 1
     pos, present = position_grid(scene, pad)
     for step in range(0, scene.num_steps, every):  # one clustering per step
-        found = _cluster_step(pos, present, step, pad, config=config, dt_s=scene.dt_s)
+        found = _cluster_step(
+            pos, present, step, pad, config=config, dt_s=scene.dt_s, classifier=classifier
+        )
         if found is not None:
             yield found
 
@@ -98,6 +114,7 @@ def _cluster_step(
     config: GroupConfig,
     dt_s: float,
     near_only: bool = False,
+    classifier: PairClassifier | None = None,
 ) -> StepGroups | None:
     """The groups of the people present at ``step``; with ``near_only``, where the rule's
     groups are its threshold's connected pieces, from near pairs only (``groups_at_step``)."""
@@ -106,6 +123,11 @@ def _cluster_step(
         return None
     window = slice(step, step + pad + 1)
     traj, mask, now = pos[tracks, window], present[tracks, window], pos[tracks, step + pad]
+    if config.detector == "learned":
+        assert config.max_distance_m is not None
+        distances = learned_distances(traj, mask, dt_s, classifier or load_classifier())
+        labels = linked_groups(distances, config.max_distance_m, config.max_group_size)
+        return StepGroups(step, tracks, labels, distances, now)
     if near_only and _connected_pieces_suffice(config):
         assert config.max_distance_m is not None
         distances = sparse_group_distances(
@@ -143,8 +165,10 @@ def score_against_labels(
     radius_m: float = PERCEPTION_RADIUS_M,
     *,
     every: int = 1,
+    classifier: PairClassifier | None = None,
 ) -> dict[str, dict[str, float]]:
-    """Pairwise precision/recall/F1 and Dice of detected against labelled groups.
+    """Pairwise precision/recall/F1 and Dice of detected against labelled groups, and in the
+    ``scene`` scope G-MITRE and group matches (``partition_scores``).
 
     Two scopes, over every step with two or more pedestrians:
       ``scene``: all pedestrians present are clustered together; every pair is a decision.
@@ -155,13 +179,14 @@ def score_against_labels(
         scene: the recording.
         labels: {pedestrian id: group label} (ids of the scene's file).
     """
-    scene_counts, ego_counts = PairCounts(), PairCounts()
-    for found in groups_per_step(scene, config, every=every):
+    scene_counts, ego_counts, partitions = PairCounts(), PairCounts(), PartitionCounts()
+    for found in groups_per_step(scene, config, every=every, classifier=classifier):
         if len(found.tracks) < 2:
             continue
         truth = partition_from_labels(scene.ped_id[found.tracks], labels)
         scene_counts.add_pairs(same_group_pairs(found.labels), same_group_pairs(truth))
         scene_counts.add_dice(dice_of_partitions(found.labels, truth))
+        partitions.add(found.labels, truth)
         near = np.linalg.norm(found.pos_now_m[:, None] - found.pos_now_m[None], axis=-1)
         for ego in range(len(found.tracks)):  # the model's per-ego clustering
             others = np.flatnonzero((near[ego] <= radius_m) & (np.arange(len(near)) != ego))
@@ -177,4 +202,32 @@ def score_against_labels(
             labelled = truth[nodes]
             ego_counts.add_pairs(predicted[1:] == predicted[0], labelled[1:] == labelled[0])
             ego_counts.add_dice(dice_of_partitions(predicted, labelled))
-    return {"scene": scene_counts.summary(), "per_ego": ego_counts.summary()}
+    return {
+        "scene": {**scene_counts.summary(), **partitions.summary()},
+        "per_ego": ego_counts.summary(),
+    }
+
+
+def labelled_pairs(
+    scene: Scene, labels: dict[int, int], history_steps: int = HISTORY_STEPS, every: int = 1
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Training data of a pair classifier: (P, F) the features of every pair within
+    ``learned.GATE_M`` of each other at every ``every``-th step of a recording, (P,) whether
+    the labels put them in one group and (P,) the step."""
+    pad = history_steps - 1
+    pos, present = position_grid(scene, pad)
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    for step in range(0, scene.num_steps, every):  # one batch of pairs per step
+        tracks = np.flatnonzero(present[:, step + pad])
+        window = slice(step, step + pad + 1)
+        pairs = near_pairs_now(pos[tracks, step + pad])
+        if not len(pairs):
+            continue
+        truth = partition_from_labels(scene.ped_id[tracks], labels)
+        features = pair_features(pos[tracks, window], present[tracks, window], pairs, scene.dt_s)
+        together = truth[pairs[:, 0]] == truth[pairs[:, 1]]
+        parts.append((features, together, np.full(len(pairs), step)))
+    if not parts:
+        return np.zeros((0, len(FEATURES)), np.float32), np.zeros(0, bool), np.zeros(0, int)
+    features, together, steps = (np.concatenate(part) for part in zip(*parts, strict=True))
+    return features, together, steps

@@ -97,7 +97,7 @@ def _decode_batches(
         point[index] = decoded.point.double().cpu().numpy()
         if options.distribution:
             own.append(decoded.distribution().mixture())
-        whole = decoded.mixture()
+        whole = decoded.mixture() if options.mixture else None
         if whole is not None:
             every.append(whole.mixture())
         if K:

@@ -24,6 +24,7 @@ import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from importlib.metadata import entry_points
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
@@ -286,7 +287,9 @@ class Forecaster(nn.Module):
         inputs (``every``: its whole distribution too; :meth:`PointResult.mixture`)."""
         self.check_ablation(ablate)
         self.check_point_forecast(forecast)
-        return self.point(batch, forecast, horizon, dt_s)
+        made = self.point(batch, forecast, horizon, dt_s)
+        _check_shape(self, "point", made.point, (len(batch), horizon, 2))
+        return made
 
     def forecast_futures(
         self,
@@ -300,7 +303,9 @@ class Forecaster(nn.Module):
     ) -> torch.Tensor:
         """:meth:`sample` after checking ``ablate``."""
         self.check_ablation(ablate)
-        return self.sample(batch, horizon, dt_s, num_samples, generator)
+        drawn = self.sample(batch, horizon, dt_s, num_samples, generator)
+        _check_shape(self, "sample", drawn, (len(batch), num_samples, horizon, 2))
+        return drawn
 
     def check_point_forecast(self, forecast: PointForecast) -> None:
         """Refuse, in one line, a kind of point forecast this model does not make."""
@@ -319,6 +324,17 @@ class Forecaster(nn.Module):
                 f"{type(self).__name__} cannot be evaluated without {', '.join(missing)}: it "
                 f"takes away {', '.join(self.ablations) or 'no inputs'}"
             )
+
+
+def _check_shape(
+    model: Forecaster, method: str, made: torch.Tensor, expected: tuple[int, ...]
+) -> None:
+    """Refuse in one line a forecast whose shape is not the interface's."""
+    if tuple(made.shape) != expected:
+        raise GrouptronError(
+            f"{type(model).__name__}.{method} returned shape {tuple(made.shape)}, not "
+            f"{expected} (samples, [futures,] steps, x/y)"
+        )
 
 
 def latent_values_of(config: ExperimentConfig) -> int:
@@ -360,25 +376,30 @@ def outside_forecaster(name: str) -> type[Forecaster]:
 
 
 def _imported(module_name: str, name: str) -> Any:
-    """The module, imported from installed code or else from the current folder."""
+    """The module, imported from installed code or else from the current folder (which joins
+    the import path for that import only)."""
     here, root = os.getcwd(), module_name.split(".")[0]
-    for attempt in range(2):
-        try:
-            return importlib.import_module(module_name)
-        except ModuleNotFoundError as exc:
-            if exc.name != root:  # the model's module was found; something it imports was not
-                raise GrouptronError(f"model {name!r}: importing it failed ({exc})") from None
-            if attempt or here in sys.path:
-                break
-            sys.path.insert(0, here)  # as ``python -m`` would: a model written beside the data
-        except Exception as exc:
-            raise GrouptronError(
-                f"model {name!r}: importing it failed ({type(exc).__name__}: {exc})"
-            ) from None
-    raise GrouptronError(
-        f"model {name!r}: cannot import it: no module {root!r} is installed or in the current "
-        "folder"
-    )
+    try:
+        return importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        if exc.name != root:  # the model's module was found; something it imports was not
+            raise GrouptronError(f"model {name!r}: importing it failed ({exc})") from None
+    except Exception as exc:
+        raise _failed(name, exc) from None
+    if not (Path(here) / f"{root}.py").is_file() and not (Path(here) / root).is_dir():
+        raise GrouptronError(
+            f"model {name!r}: cannot import it: no module {root!r} is installed or in the "
+            "current folder"
+        )
+    sys.path.insert(0, here)  # as ``python -m`` would: a model written beside the data
+    try:
+        return _loaded(lambda: importlib.import_module(module_name), name)
+    finally:
+        sys.path.remove(here)
+
+
+def _failed(name: str, exc: Exception) -> GrouptronError:
+    return GrouptronError(f"model {name!r}: importing it failed ({type(exc).__name__}: {exc})")
 
 
 def _loaded(load: Callable[[], Any], name: str) -> Any:

@@ -17,7 +17,12 @@ from grouptron.config import ExperimentConfig
 from grouptron.errors import GrouptronError
 from grouptron.model.batch import Batch
 from grouptron.model.cvae_outputs import Encoding, VelocityGaussians
-from grouptron.model.forecaster import Gaussians, is_outside_name, outside_forecaster
+from grouptron.model.forecaster import (
+    Gaussians,
+    is_outside_name,
+    latent_values_of,
+    outside_forecaster,
+)
 from grouptron.model.gaussians import position_covariances, positions_from_velocities
 from grouptron.model.mixture_mode import mixture_mode
 from grouptron.point_forecast import PointForecast
@@ -250,4 +255,4 @@ def default_point_forecast(config: ExperimentConfig) -> PointForecast:
         return PointForecast.parse(outside_forecaster(config.model_name).point_forecasts[0])
     else:
         named = PointForecast("ml", 10 if config.model.velocity_residual else 1)
-    return named.for_model(config.model.latent_values)
+    return named.for_model(latent_values_of(config))

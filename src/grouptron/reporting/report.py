@@ -42,9 +42,9 @@ from grouptron.evaluation.test_sets import load_test_set, subset_with_groups
 from grouptron.geometry import DerivativeScheme
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_trained_model, stored_checkpoints
 from grouptron.model.factory import MODEL_NAMES, PAPER_MODELS, uses_groups
-from grouptron.model.forecaster import is_outside_name
+from grouptron.model.forecaster import Forecaster, is_outside_name
 from grouptron.model.predict import ABLATIONS
-from grouptron.point_forecast import is_evaluation_mode
+from grouptron.point_forecast import PointForecast, is_evaluation_mode, is_point_forecast
 from grouptron.presets import run_label
 from grouptron.reporting.stats import Report, build_report
 
@@ -202,7 +202,7 @@ def score_checkpoint(
         entry.split, entry.model, None, 0, 0.0, 0.0, None, None, str(entry.path), entry.derivatives
     )
     rows, by_mode = [], {}
-    full_modes = tuple(m for m in settings.modes if m != "nll")
+    full_modes = tuple(m for m in settings.modes if m != "nll" and makes(model, m))
     batch, seed = settings.batch_size, settings.seed
     cache = settings.score_cache
     for scores in cached_score_samples(
@@ -256,9 +256,18 @@ def score_checkpoint(
 
 
 def model_ablations(experiment: ExperimentConfig) -> tuple[str, ...]:
-    """The inputs of ``ABLATIONS`` this model has."""
+    """The inputs of ``ABLATIONS`` this model has (a model of the forecaster interface: none
+    that an evaluation can take away)."""
+    if is_outside_name(experiment.model_name):
+        return ()
     has = {"edges": experiment.model.use_edges, "scene": uses_groups(experiment)}
     return tuple(a for a in ABLATIONS if has[a])
+
+
+def makes(model: Forecaster, mode: str) -> bool:
+    """Whether ``model`` makes an evaluation mode's forecast (sampled modes: every model; a
+    point forecast: one of the kinds it makes); a report leaves the others' cells empty."""
+    return not is_point_forecast(mode) or PointForecast.parse(mode).kind in model.point_forecasts
 
 
 def evaluate_checkpoint(

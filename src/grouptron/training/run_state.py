@@ -55,6 +55,8 @@ def setup(
     """Fresh state from the seed, or the state of ``out_dir/last.safetensors`` on resume."""
     torch.manual_seed(config.train.seed)
     model = build_model(config).to(device)
+    if not any(True for _ in model.parameters()):
+        raise GrouptronError(f"{config.model_name} has no parameters to train")
     optimizer = torch.optim.Adam(model.parameters(), lr=config.train.learning_rate)
     scheduler = torch.optim.lr_scheduler.ExponentialLR(optimizer, config.train.lr_decay_per_iter)
     state = TrainState(model, optimizer, scheduler, np.random.default_rng(config.train.seed))

@@ -167,7 +167,8 @@ def evaluate(
     Python callers get the command line's one-line errors."""
     _refuse_meaningless(source, checkpoint, modes, options)
     if isinstance(checkpoint, ForecastFiles):
-        on_benchmark, taken = isinstance(source, Benchmark), bool(options.ablate or options.regions)
+        on_benchmark = isinstance(source, Benchmark) and bool(source.splits)
+        taken = bool(options.ablate or options.regions)
         refuse_for_files(on_benchmark, taken, modes)
     else:
         refuse_meaningless_regions(checkpoint, modes, options.regions, options.calibration)
@@ -331,7 +332,11 @@ def _evaluate_benchmark(
         if loaded.forecasts is not None:  # made elsewhere: found by frame and id
             recordings = split_files(data_dir, split, "test")
             samples, scored = scored_forecast_files(
-                loaded.forecasts, recordings, samples, modes, loaded.data
+                dataclasses.replace(loaded.forecasts, single_split=len(splits) == 1),
+                recordings,
+                samples,
+                modes,
+                loaded.data,
             )
         else:
             scored = _model_scores(loaded, samples, groups, modes, options, regions=regions)

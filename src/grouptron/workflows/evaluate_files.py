@@ -59,10 +59,12 @@ class ForecastFiles:
 
 @dataclass(frozen=True)
 class ReadForecasts:
-    """Forecast files with their rows, read once."""
+    """Forecast files with their rows, read once; ``single_split``: one split is scored, so
+    one file of a split with one test recording needs no name."""
 
     files: ForecastFiles
     rows: tuple[ForecastRows, ...]
+    single_split: bool = True
 
     def default_modes(self) -> tuple[str, ...]:
         """``ml`` for point forecasts, else best-of-20 (of all, if fewer are given)."""
@@ -72,10 +74,13 @@ class ReadForecasts:
 
 
 def refuse_for_files(on_benchmark: bool, takes_away: bool, modes: Sequence[str] | None) -> None:
-    """Refuse for forecast files what needs other samples (recordings: ``on_benchmark``
-    False) or a model (``takes_away``: ablations or regions; the NLL)."""
+    """Refuse for forecast files what needs other samples (recordings, or no split named:
+    ``on_benchmark`` False) or a model (``takes_away``: ablations or regions; the NLL)."""
     if not on_benchmark:
-        raise GrouptronError("forecast files are scored on the benchmark's test sets (--split)")
+        raise GrouptronError(
+            "forecast files are scored on the test sets of the benchmark splits they forecast: "
+            "name them with --split"
+        )
     if takes_away or "nll" in (modes or ()):
         raise GrouptronError(
             "forecast files hold positions only: --ablate, --regions and --mode nll need a "
@@ -95,13 +100,16 @@ def read_forecasts(files: ForecastFiles) -> ReadForecasts:
     return ReadForecasts(files, tuple(rows))
 
 
-def _file_of(read: ReadForecasts, recording: Path, recordings: list[Path]) -> ForecastRows:
-    """The rows of the file for ``recording``: the only one, or the one named after it."""
-    if len(read.files.files) == 1 and len(recordings) == 1:
-        return read.rows[0]
+def _file_of(
+    read: ReadForecasts, recording: Path, recordings: list[Path]
+) -> tuple[ForecastRows, str]:
+    """The rows of the file for ``recording`` and its name: the one named after it, or the
+    only one where one split of one test recording is scored."""
     for path, rows in zip(read.files.files, read.rows, strict=True):
         if path.stem.startswith(recording.stem):
-            return rows
+            return rows, str(path)
+    if len(read.files.files) == 1 and len(recordings) == 1 and read.single_split:
+        return read.rows[0], str(read.files.files[0])
     names = ", ".join(f"{r.stem}{read.files.files[0].suffix}" for r in recordings)
     raise GrouptronError(
         f"no forecast file named after the test recording {recording.name}: give one file per "
@@ -121,10 +129,10 @@ def scored_forecast_files(
     scenes = load_scenes(recordings, data)
     frames, ids = sample_keys(scenes, samples)
     H = data.horizon_steps
-    parts = [
-        positions_of_samples(_file_of(read, path, recordings), frames, ids, H)
-        for path in recordings
-    ]
+    parts = []
+    for path in recordings:  # one file per test recording
+        rows, name = _file_of(read, path, recordings)
+        parts.append(positions_of_samples(rows, frames, ids, H, name))
     counts = {p.shape[1] for p, _ in parts}
     if len(counts) > 1:
         raise GrouptronError(f"{read.files.label}: the files hold different numbers of samples")

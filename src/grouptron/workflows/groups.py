@@ -146,9 +146,9 @@ def score_groups(
     id_map: str | Path | None = None,
     every: int = 1,
 ) -> list[GroupScores]:
-    """Pair precision, recall, F1 and Dice of the groups ``rule`` detects in ``tracks``
-    against the group label file ``labels`` (ids mapped by the ``id_map`` file, if any), for
-    each grouping and scope, at every ``every``-th step."""
+    """Pair precision, recall, F1 and Dice (and, scene-wide, G-MITRE and group matches) of the
+    groups ``rule`` detects in ``tracks`` against the group label file ``labels`` (ids mapped
+    by the ``id_map`` file, if any), for each grouping and scope, at every ``every``-th step."""
     scene = track_scene(tracks)
     labelled = read_group_labels(labels)
     if not labelled:
@@ -180,18 +180,24 @@ def scores_json(tracks: str | Path, labels: str | Path, rows: list[GroupScores])
 
 
 def scores_table(rows: list[GroupScores]) -> str:
-    """One line per grouping and scope: precision, recall, F1, Dice, decisions."""
+    """One line per grouping and scope: pair precision, recall, F1, Dice and decisions, and
+    (scene scope) G-MITRE F1 and the F1 of group matches with all members and two thirds."""
     header = (
         f"{'scope':<9} {'rule':<9} {'linkage':<9} {'distance':<10} {'precision':>9} {'recall':>7} "
-        f"{'F1':>6} {'Dice':>6} {'decisions':>9}"
+        f"{'F1':>6} {'Dice':>6} {'decisions':>9} {'G-MITRE F1':>10} {'exact F1':>8} "
+        f"{'2/3 F1':>7}"
     )
     lines = [header, "-" * len(header)]
     for row in rows:
         r = row.to_dict()
+        partition = " ".join(
+            f"{r[k]:>{w}.3f}" if k in r else f"{'-':>{w}}"
+            for k, w in (("gmitre_f1", 10), ("exact_f1", 8), ("two_thirds_f1", 7))
+        )
         lines.append(
             f"{r['scope']:<9} {r['rule']:<9} {r['linkage']:<9} {r['distance']:<10} "
             f"{r['pair_precision']:>9.3f} {r['pair_recall']:>7.3f} {r['pair_f1']:>6.3f} "
-            f"{r['dice']:>6.3f} {r['decisions']:>9}"
+            f"{r['dice']:>6.3f} {r['decisions']:>9} {partition}"
         )
     return "\n".join(lines)
 

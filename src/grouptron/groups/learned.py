@@ -1,0 +1,154 @@
+"""A learned group detector: a small network gives every pair of people near each other the
+probability that they walk together (from ``pair_features``), and the pairs at least as
+probable as the rule's threshold are linked into groups, a group larger than the rule's
+limit cut back by single linkage on 1 - probability.
+
+Its weights are plain tensors in a safetensors file with its feature scales and a JSON
+description (never a pickle); ``SHIPPED_DETECTOR`` is the one trained on all four recordings
+with human labels (campaign/group_detector.py).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+from safetensors.numpy import load_file, save_file
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from grouptron.errors import GrouptronError
+from grouptron.groups.clustering import agglomerative_groups, canonical_labels
+from grouptron.groups.pair_features import FEATURES, pair_features
+from grouptron.io import save_atomically
+
+GATE_M = 3.0
+"""Pairs farther apart now never walk together here (none of the labelled pairs is): only
+pairs within it are scored."""
+SHIPPED_DETECTOR = (
+    Path(__file__).resolve().parents[1] / "checkpoints/group-detector/best.safetensors"
+)
+"""The detector trained on the four labelled recordings (campaign/group_detector.py)."""
+
+
+@dataclass(frozen=True)
+class PairClassifier:
+    """A one-hidden-layer network over standardised pair features.
+
+    Attributes:
+        mean, scale: (F,) the training features' means and standard deviations.
+        hidden_w, hidden_b: (F, H) and (H,) the hidden layer (ReLU).
+        out_w, out_b: (H,) and () the logit of "walking together".
+    """
+
+    mean: np.ndarray
+    scale: np.ndarray
+    hidden_w: np.ndarray
+    hidden_b: np.ndarray
+    out_w: np.ndarray
+    out_b: np.ndarray
+
+    def probabilities(self, features: np.ndarray) -> np.ndarray:
+        """(P, F) features -> (P,) probabilities that each pair walks together."""
+        x = (features - self.mean) / self.scale
+        hidden = np.maximum(x @ self.hidden_w + self.hidden_b, 0.0)
+        logit = hidden @ self.out_w + self.out_b
+        return 1.0 / (1.0 + np.exp(-np.clip(logit, -30, 30)))
+
+    def save(self, path: Path, about: dict[str, object]) -> None:
+        """Write the weights and ``about`` (how it was trained) atomically."""
+        tensors = {k: np.ascontiguousarray(v, np.float32) for k, v in vars(self).items()}
+        metadata = {"features": json.dumps(FEATURES), "about": json.dumps(about)}
+        path.parent.mkdir(parents=True, exist_ok=True)
+        save_atomically(path, lambda temporary: save_file(tensors, str(temporary), metadata))
+
+
+@functools.cache
+def load_classifier(path: Path = SHIPPED_DETECTOR) -> PairClassifier:
+    """The detector in ``path``, refused in one line if its features are not this code's."""
+    try:
+        from safetensors import safe_open
+
+        with safe_open(str(path), framework="numpy") as handle:
+            features = json.loads((handle.metadata() or {}).get("features", "[]"))
+        tensors = load_file(str(path))
+    except (OSError, ValueError) as exc:
+        raise GrouptronError(f"{path}: cannot read the group detector ({exc})") from None
+    if tuple(features) != FEATURES:
+        raise GrouptronError(f"{path}: a group detector of other features than this code's")
+    return PairClassifier(**{k: tensors[k].astype(np.float64) for k in tensors})
+
+
+def near_pairs_now(pos_now: np.ndarray, gate_m: float = GATE_M) -> np.ndarray:
+    """(P, 2) pairs i < j of (N, 2) positions within ``gate_m`` of each other now."""
+    pairs = cKDTree(pos_now).query_pairs(gate_m, output_type="ndarray")
+    return np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+
+
+def learned_distances(
+    traj: np.ndarray, mask: np.ndarray, dt_s: float, classifier: PairClassifier
+) -> np.ndarray:
+    """(N, N) 1 - the probability that each pair walks together (infinity beyond
+    :data:`GATE_M`, 0 on the diagonal) of N people over the window ((N, W, 2), (N, W))."""
+    n = len(traj)
+    distances = np.full((n, n), np.inf)
+    np.fill_diagonal(distances, 0.0)
+    pairs = near_pairs_now(traj[:, -1])
+    if len(pairs):
+        apart = 1.0 - classifier.probabilities(pair_features(traj, mask, pairs, dt_s))
+        distances[pairs[:, 0], pairs[:, 1]] = distances[pairs[:, 1], pairs[:, 0]] = apart
+    return distances
+
+
+def linked_groups(distances: np.ndarray, threshold: float, max_size: int | None) -> np.ndarray:
+    """(N,) groups of the pairs at most ``threshold`` apart (connected pieces), a piece
+    larger than ``max_size`` cut by single linkage with that limit."""
+    linked = csr_matrix(distances <= threshold)
+    labels = connected_components(linked, directed=False)[1]
+    if max_size is not None:
+        sizes = np.bincount(labels)
+        for piece in np.flatnonzero(sizes > max_size):  # rare: a chain through a crowd
+            members = np.flatnonzero(labels == piece)
+            sub = agglomerative_groups(
+                distances[np.ix_(members, members)],
+                "single",
+                max_distance=threshold,
+                max_size=max_size,
+            )
+            labels[members] = labels.max() + 1 + sub
+    return canonical_labels(labels)
+
+
+def fit_classifier(
+    features: np.ndarray, together: np.ndarray, *, hidden: int = 16, steps: int = 600, seed: int = 0
+) -> PairClassifier:
+    """A :class:`PairClassifier` fitted to (P, F) ``features`` and (P,) ``together`` labels:
+    Adam on the cross-entropy, the two classes weighted equally."""
+    torch.manual_seed(seed)
+    mean, scale = features.mean(axis=0), features.std(axis=0) + 1e-6
+    x = torch.from_numpy(((features - mean) / scale).astype(np.float32))
+    y = torch.from_numpy(together.astype(np.float32))
+    positive = float(y.mean().clamp(1e-3, 1 - 1e-3))
+    weight = torch.where(y > 0, 0.5 / positive, 0.5 / (1 - positive))
+    first, last = torch.nn.Linear(x.shape[1], hidden), torch.nn.Linear(hidden, 1)
+    network = torch.nn.Sequential(first, torch.nn.ReLU(), last)
+    optimiser = torch.optim.Adam(network.parameters(), lr=0.01, weight_decay=1e-4)
+    for _ in range(steps):  # full batch: a few thousand pairs
+        optimiser.zero_grad()
+        logit = network(x)[:, 0]
+        loss = torch.nn.functional.binary_cross_entropy_with_logits(logit, y, weight=weight)
+        loss.backward()
+        optimiser.step()
+    return PairClassifier(
+        mean=mean,
+        scale=scale,
+        hidden_w=first.weight.detach().numpy().T.astype(np.float64),
+        hidden_b=first.bias.detach().numpy().astype(np.float64),
+        out_w=last.weight.detach().numpy()[0].astype(np.float64),
+        out_b=last.bias.detach().numpy()[0].astype(np.float64),
+    )
