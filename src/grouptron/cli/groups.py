@@ -27,6 +27,7 @@ def _group_rule(args: argparse.Namespace) -> GroupRule:
         max_distance_m=args.max_distance,
         velocity_weight_s=args.velocity_weight,
         max_group_size=args.max_group_size,
+        detector=args.detector,
     )
 
 

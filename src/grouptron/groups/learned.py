@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from safetensors import SafetensorError, safe_open
 from safetensors.numpy import load_file, save_file
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
@@ -72,12 +73,10 @@ class PairClassifier:
 def load_classifier(path: Path = SHIPPED_DETECTOR) -> PairClassifier:
     """The detector in ``path``, refused in one line if its features are not this code's."""
     try:
-        from safetensors import safe_open
-
         with safe_open(str(path), framework="numpy") as handle:
             features = json.loads((handle.metadata() or {}).get("features", "[]"))
         tensors = load_file(str(path))
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, SafetensorError) as exc:
         raise GrouptronError(f"{path}: cannot read the group detector ({exc})") from None
     if tuple(features) != FEATURES:
         raise GrouptronError(f"{path}: a group detector of other features than this code's")

@@ -14,6 +14,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from grouptron.groups.distances import mean_velocities, pair_hausdorff
+
 FEATURES = (
     "distance_now",
     "distance_mean",
@@ -31,11 +33,15 @@ FEATURES = (
     "heading_cos_std",
     "seen_together",
     "nearer_others",
+    "rule_distance_m",
 )
 """The features, in column order."""
 MIN_SPACING_M = 0.5
 MIN_WALKING_MPS = 0.5
 """Floors of the crowd's spacing and speed units (a crowd standing shoulder to shoulder)."""
+RULE_VELOCITY_WEIGHT_S = 2.0
+"""The distance rule's velocity weight (``presets.DETECTION_GROUPS``), for its distance as a
+feature: what the classifier may correct."""
 MOVING_MPS = 0.2
 """Below this speed a heading means nothing: the heading terms count such steps as agreeing
 when both stand and as disagreeing when one walks."""
@@ -89,28 +95,23 @@ def pair_features(traj: np.ndarray, mask: np.ndarray, pairs: np.ndarray, dt_s: f
     along = np.abs((offset * unit).sum(-1))
     across = np.abs(offset[..., 0] * unit[..., 1] - offset[..., 1] * unit[..., 0])
     oriented = moving & (norm > MOVING_MPS)
-    lengths = (
-        np.stack(
-            [
-                distance[:, -1],
-                mean_d,
-                np.where(both, distance, np.inf).min(axis=1),
-                spread,
-                _masked_mean(across, oriented),
-                _masked_mean(along, oriented),
-            ],
-            axis=1,
-        )
-        / spacing
-    )
-    speeds = (
-        np.stack(
-            [trend, np.minimum(mean_i, mean_j), np.maximum(mean_i, mean_j), difference], axis=1
-        )
-        / pace
-    )
-    others = np.stack([cos_mean, cos_std, both.mean(axis=1), nearer_others(traj[:, -1], pairs)])
-    return np.concatenate([lengths, speeds, others.T], axis=1).astype(np.float32)
+    hausdorff = pair_hausdorff(traj, mask, pairs)  # the distance rule's distance
+    mean_velocity = mean_velocities(traj, mask, dt_s)  # (N, 2) as the distance rule has them
+    apart_mps = np.linalg.norm(mean_velocity[i] - mean_velocity[j], axis=1)
+    lengths = [
+        distance[:, -1],
+        mean_d,
+        np.where(both, distance, np.inf).min(axis=1),
+        spread,
+        _masked_mean(across, oriented),
+        _masked_mean(along, oriented),
+        hausdorff,
+    ]
+    speeds = [trend, np.minimum(mean_i, mean_j), np.maximum(mean_i, mean_j), difference, apart_mps]
+    rule_m = hausdorff + RULE_VELOCITY_WEIGHT_S * apart_mps  # what the classifier may correct
+    others = [cos_mean, cos_std, both.mean(axis=1), nearer_others(traj[:, -1], pairs), rule_m]
+    columns = [v / spacing for v in lengths] + [v / pace for v in speeds] + others
+    return np.stack(columns, axis=1).astype(np.float32)
 
 
 def crowd_units(traj: np.ndarray, mask: np.ndarray, dt_s: float) -> tuple[float, float]:

@@ -30,7 +30,7 @@ from grouptron.groups.scene import (
     score_against_labels,
 )
 from grouptron.io import refuse_folder, write_csv_atomically
-from grouptron.presets import DETECTION_GROUPS
+from grouptron.presets import DETECTION_GROUPS, LEARNED_GROUPS
 from grouptron.viz.files import check_picture_path
 from grouptron.viz.groups import plot_step_groups
 
@@ -53,6 +53,8 @@ class GroupRule:
             (threshold rule; None: ``DETECTION_GROUPS``').
         max_group_size: the threshold rule's largest group (0: no limit; None:
             ``DETECTION_GROUPS``').
+        detector: ``distance`` (the rules above) or ``learned`` (``LEARNED_GROUPS``: the
+            shipped pair classifier, docs/groups.md).
     """
 
     rule: Literal["threshold", "count"] = "threshold"
@@ -61,9 +63,23 @@ class GroupRule:
     max_distance_m: float | None = None
     velocity_weight_s: float | None = None
     max_group_size: int | None = None
+    detector: Literal["distance", "learned"] = "distance"
 
     def configs(self) -> list[GroupConfig]:
         """The grouping (one per linkage and distance where ``all`` compares them)."""
+        if self.detector == "learned":
+            given = (self.linkage, self.max_distance_m, self.velocity_weight_s)
+            if self.rule != "threshold" or any(g is not None for g in given):
+                raise GrouptronError(
+                    "--detector learned links the pairs its classifier finds probable enough; "
+                    "--rule, --linkage, --max-distance and --velocity-weight set the distance rule"
+                )
+            size = (
+                LEARNED_GROUPS.max_group_size
+                if self.max_group_size is None
+                else self.max_group_size
+            )
+            return [dataclasses.replace(LEARNED_GROUPS, max_group_size=size or None)]
         by_threshold = self.rule == "threshold"
         threshold_options = (self.max_distance_m, self.velocity_weight_s, self.max_group_size)
         if not by_threshold and any(o is not None for o in threshold_options):
@@ -91,6 +107,18 @@ class GroupRule:
             for link in linkages
             for dist in distances
         ]
+
+
+def _learned_rule(rule: GroupRule) -> GroupConfig:
+    """``LEARNED_GROUPS`` with ``rule``'s largest group; the distance rule's options refused."""
+    given = (rule.linkage, rule.max_distance_m, rule.velocity_weight_s)
+    if rule.rule != "threshold" or any(g is not None for g in given):
+        raise GrouptronError(
+            "--detector learned links the pairs its classifier finds probable enough; --rule, "
+            "--linkage, --max-distance and --velocity-weight set the distance rule"
+        )
+    size = LEARNED_GROUPS.max_group_size if rule.max_group_size is None else rule.max_group_size
+    return dataclasses.replace(LEARNED_GROUPS, max_group_size=size or None)
 
 
 def _one_or_all(value: str, every: tuple[Choice, ...], name: str) -> tuple[Choice, ...]:

@@ -30,6 +30,13 @@ def _rule_options(parser: argparse.ArgumentParser, *, compare: bool) -> None:
         "labels, docs/groups.md); count: the paper's C(N) = (N + 1) // 2 groups of N people",
     )
     parser.add_argument(
+        "--detector",
+        choices=("distance", "learned"),
+        default="distance",
+        help="distance: the rule below (the default, better held out); learned: a small "
+        "classifier of pair features trained on four labelled recordings (docs/groups.md)",
+    )
+    parser.add_argument(
         "--linkage",
         choices=(*LINKAGES, "all") if compare else LINKAGES,
         help=f"agglomerative linkage between clusters{every} (default: single for the "
