@@ -3,6 +3,7 @@ round-trips through its file, links cut at the largest group, and a whole record
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -85,3 +86,26 @@ def test_a_recording_is_grouped_by_a_classifier(synthetic_data_dir: Path) -> Non
     found = list(groups_per_step(scene, LEARNED_GROUPS, every=5, classifier=classifier))
     assert found and all(np.bincount(f.labels).max() <= 6 for f in found)
     assert all(np.allclose(np.diag(f.distances), 0.0) for f in found)
+
+
+def test_the_commands_take_the_shipped_detector(
+    synthetic_data_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from grouptron.cli import main
+
+    tracks = str(synthetic_data_dir / "eth/test/scene5.txt")
+    labels = tmp_path / "groups.txt"
+    labels.write_text("0 1\n2 3\n")
+    evaluate = ["groups", "evaluate", "--tracks", tracks, "--labels", str(labels)]
+    assert main([*evaluate, "--detector", "learned", "--format", "json"]) == 0
+    scene, per_ego = json.loads(capsys.readouterr().out)["results"]
+    assert scene["scope"] == "scene" and 0.0 <= scene["gmitre_f1"] <= 1.0
+    assert "gmitre_f1" not in per_ego  # a partition's score: the scene-wide one only
+    assert main([*evaluate, "--detector", "learned", "--linkage", "average"]) == 2
+    assert "--detector learned links the pairs" in capsys.readouterr().err
+    out = tmp_path / "groups.csv"
+    assert (
+        main(["groups", "detect", "--tracks", tracks, "--detector", "learned", "--out", str(out)])
+        == 0
+    )
+    assert out.read_text().count("\n") > 1

@@ -29,12 +29,11 @@ from grouptron.groups.pair_features import FEATURES, pair_features
 from grouptron.io import save_atomically
 
 GATE_M = 3.0
-"""Pairs farther apart now never walk together here (none of the labelled pairs is): only
-pairs within it are scored."""
-SHIPPED_DETECTOR = (
-    Path(__file__).resolve().parents[1] / "checkpoints/group-detector/best.safetensors"
-)
-"""The detector trained on the four labelled recordings (campaign/group_detector.py)."""
+"""Only pairs at most this far apart now are scored (the others are never linked): the
+radius within which the model reads its neighbours too."""
+SHIPPED_DETECTOR = Path(__file__).resolve().parent / "detector" / "best.safetensors"
+"""The detector trained on the four labelled recordings (campaign/group_detector.py; its card
+is README.md beside it)."""
 
 
 @dataclass(frozen=True)
@@ -127,20 +126,19 @@ def fit_classifier(
     features: np.ndarray, together: np.ndarray, *, hidden: int = 16, steps: int = 600, seed: int = 0
 ) -> PairClassifier:
     """A :class:`PairClassifier` fitted to (P, F) ``features`` and (P,) ``together`` labels:
-    Adam on the cross-entropy, the two classes weighted equally."""
+    full-batch Adam on the cross-entropy, the classes as they come, so that its probabilities
+    are the pairs' share of companions (weighting the classes equally linked more strangers
+    on the held-out recordings)."""
     torch.manual_seed(seed)
     mean, scale = features.mean(axis=0), features.std(axis=0) + 1e-6
     x = torch.from_numpy(((features - mean) / scale).astype(np.float32))
     y = torch.from_numpy(together.astype(np.float32))
-    positive = float(y.mean().clamp(1e-3, 1 - 1e-3))
-    weight = torch.where(y > 0, 0.5 / positive, 0.5 / (1 - positive))
     first, last = torch.nn.Linear(x.shape[1], hidden), torch.nn.Linear(hidden, 1)
     network = torch.nn.Sequential(first, torch.nn.ReLU(), last)
     optimiser = torch.optim.Adam(network.parameters(), lr=0.01, weight_decay=1e-4)
-    for _ in range(steps):  # full batch: a few thousand pairs
+    for _ in range(steps):  # full batch: some ten thousand pairs
         optimiser.zero_grad()
-        logit = network(x)[:, 0]
-        loss = torch.nn.functional.binary_cross_entropy_with_logits(logit, y, weight=weight)
+        loss = torch.nn.functional.binary_cross_entropy_with_logits(network(x)[:, 0], y)
         loss.backward()
         optimiser.step()
     return PairClassifier(
