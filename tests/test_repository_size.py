@@ -1,7 +1,8 @@
 """The repository holds the product, not the lab: a guard on what git tracks.
 
 Training state (``last.safetensors``, ``candidates/``) and run folders never enter the tree;
-weights live only in ``checkpoints/<name>/best.safetensors`` and the test fixtures; no file is
+weights live only in ``checkpoints/<name>/best.safetensors``, the group detector's
+``src/grouptron/groups/detector/best.safetensors`` and the test fixtures; no file is
 above 2 MB and the tree stays small. The one exception is a paused run's state in
 ``campaign/paused/`` (committed once when its training pauses, deleted by the commit that ships
 or drops it; campaign/README.md, "Training state"), bounded on its own.
@@ -21,7 +22,11 @@ MB = 1_000_000
 TREE_LIMIT_BYTES = 60 * MB
 FILE_LIMIT_BYTES = 2 * MB
 PAUSED_LIMIT_BYTES = 30 * MB
-WEIGHTS = ("checkpoints/*/best.safetensors", "tests/golden/*.safetensors")
+WEIGHTS = (
+    "checkpoints/*/best.safetensors",
+    "src/grouptron/groups/detector/best.safetensors",  # a pair classifier, not a forecaster
+    "tests/golden/*.safetensors",
+)
 PAUSED = "campaign/paused/"
 
 

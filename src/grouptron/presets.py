@@ -137,14 +137,16 @@ def model_label(config: ExperimentConfig) -> str:
 
 MODEL_SECTIONS = ("model", "group_encoder", "groups", "loss", "model_settings")
 """The settings that make a model what it is (training length, seed, precision and data do
-not): a run differing from its model's preset in one of them is an ablation of its own."""
+not): where a run's switches match no named model, those of them that differ from its model's
+preset name it."""
 
 
 def run_label(config: ExperimentConfig) -> str:
-    """The named model a run is, else its model's name and the settings in which it differs
-    from that model's preset on its split (the sections of :data:`MODEL_SECTIONS`):
-    ``grouptron [group_encoder.group_dim=32]``; a model of the forecaster interface is named by
-    its class (and its settings that differ from none)."""
+    """The named model a run is (:func:`model_label`: by its switches; widths and the loss's
+    weights do not make another model), else its model's name and the settings in which it
+    differs from that model's preset on its split, of the sections its code reads
+    (:data:`MODEL_SECTIONS`): ``trajectron++ [model.edge_aggregation="mean"]``; a model of the
+    forecaster interface by its class and ``model_settings``."""
     label = model_label(config)
     if label != CUSTOM:
         return label

@@ -17,8 +17,12 @@ FORECAST_SUFFIXES = (".csv", ".ndjson")
 
 
 def side(text: str) -> Side:
-    """A forecast file by its suffix, else a checkpoint (a name, file or run folder)."""
-    return ForecastFiles((Path(text),)) if Path(text).suffix in FORECAST_SUFFIXES else text
+    """Forecast files by their suffix (comma-separated: one per test recording), else a
+    checkpoint (a name, file or run folder)."""
+    files = [Path(part) for part in text.split(",")]
+    if all(f.suffix in FORECAST_SUFFIXES for f in files):
+        return ForecastFiles(tuple(files))
+    return text
 
 
 def cmd_compare(args: argparse.Namespace) -> int:

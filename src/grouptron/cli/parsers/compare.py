@@ -24,7 +24,11 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "  grouptron compare runs/a runs/b --mode best-of-20\n"
         "  grouptron compare grouptron-eth-backward theirs.csv --split eth",
     )
-    compare.add_argument("a", help="A: a checkpoint, run folder, shipped name or .csv/.ndjson")
+    compare.add_argument(
+        "a",
+        help="A: a checkpoint, run folder or shipped name, or forecast files (.csv/.ndjson; "
+        "comma-separated, one per test recording, where a split has several)",
+    )
     compare.add_argument("b", help="B: the same kinds as A")
     compare.add_argument(
         "--split",
