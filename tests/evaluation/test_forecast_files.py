@@ -148,3 +148,24 @@ def test_files_need_their_split_and_each_position_once(
     twice.write_text("\n".join([*lines, lines[1]]) + "\n")
     assert main(["evaluate", "--forecasts", str(twice), "--split", "eth", *data]) == 2
     assert "a position given twice" in capsys.readouterr().err
+
+
+def test_forecasts_of_a_recording_score_as_the_checkpoint_there(
+    tiny_checkpoints: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A recording in its own layout (16 frames a second, centimetres): predict's file of it
+    is found by the file's own frame numbers."""
+    from tests.test_doc_commands import write_layout
+
+    recording = write_layout(tmp_path / "corridor.txt", "id,frame,x,y,z", fps=16, units_per_m=100)
+    layout = ["--columns", "id,frame,x,y,z", "--fps", "16", "--units", "cm"]
+    checkpoint = str(tiny_checkpoints / "grouptron-eth-backward")
+    out = tmp_path / "corridor.csv"
+    predict = ["predict", "--checkpoint", checkpoint, "--tracks", str(recording), *layout]
+    assert main([*predict, "--forecast", "ml", "--out", str(out), "--quiet"]) == 0
+    on_tracks = ["--tracks", str(recording), *layout]
+    model = _scores(["--checkpoint", checkpoint, "--mode", "ml", *on_tracks], capsys)
+    ours = _scores(["--forecasts", str(out), *on_tracks], capsys)
+    assert [r["samples"] for r in ours] == [r["samples"] for r in model]
+    assert ours[0]["fde"] == pytest.approx(model[0]["fde"], abs=1e-6)
+    assert ours[0]["ade"] == pytest.approx(model[0]["ade"], abs=1e-6)

@@ -137,7 +137,7 @@ def _in_training(all_data_name: str, split: str) -> bool:
     return not Path(all_data_name).stem.startswith(test_files)
 
 
-def _rows(
+def recording_rows(
     files: Sequence[Path],
     samples: SampleSet,
     scores: SampleScores,
@@ -194,7 +194,7 @@ def evaluate_recordings(  # noqa: PLR0913 - the model and scoring options, all k
     template = dataclasses.replace(template, derivatives=data.derivatives)
     if model is None or experiment is None:
         scores = constant_velocity_scores(samples, data.horizon_steps)
-        return _rows(files, samples, scores, template, by_density)
+        return recording_rows(files, samples, scores, template, by_density)
     groups = groups_for_model(samples, experiment)
     rows = []
     per_mode = score_samples(
@@ -211,8 +211,9 @@ def evaluate_recordings(  # noqa: PLR0913 - the model and scoring options, all k
     )
     name = experiment.model_name + (f" without {' and '.join(ablate)}" if ablate else "")
     for scores in per_mode:
-        rows += _rows(files, samples, scores, dataclasses.replace(template, model=name), by_density)
+        named = dataclasses.replace(template, model=name)
+        rows += recording_rows(files, samples, scores, named, by_density)
     if baseline:
         scores = constant_velocity_scores(samples, data.horizon_steps)
-        rows += _rows(files, samples, scores, template, by_density)
+        rows += recording_rows(files, samples, scores, template, by_density)
     return rows

@@ -54,6 +54,7 @@ from grouptron.workflows.evaluate_files import (
     read_forecasts,
     refuse_for_files,
     scored_forecast_files,
+    track_forecast_rows,
 )
 from grouptron.workflows.evaluate_regions import refuse_meaningless_regions, region_scoring
 from grouptron.workflows.held_out import (
@@ -167,7 +168,9 @@ def evaluate(
     Python callers get the command line's one-line errors."""
     _refuse_meaningless(source, checkpoint, modes, options)
     if isinstance(checkpoint, ForecastFiles):
-        on_benchmark = isinstance(source, Benchmark) and bool(source.splits)
+        on_benchmark = isinstance(source, Tracks) or (
+            isinstance(source, Benchmark) and bool(source.splits)
+        )
         taken = bool(options.ablate or options.regions)
         refuse_for_files(on_benchmark, taken, modes)
     else:
@@ -365,6 +368,8 @@ def _evaluate_tracks(
 ) -> list[EvaluationResult]:
     """Rows per file and pooled, with intervals; a file the checkpoint trained, validated or
     adapted on is named in a warning, and its rows (and the pooled ones) not held out."""
+    if loaded.forecasts is not None:  # made elsewhere: found by the file's frame and id
+        return track_forecast_rows(source.sources, loaded.forecasts, modes, loaded.data)
     seen: list[Path | str] = []
     if loaded.experiment is not None:
         if loaded.data.derivatives == "central":

@@ -8,6 +8,7 @@ benchmark's own test samples, each found by its recording's frame number and per
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,10 +19,15 @@ from grouptron.config import DataConfig
 from grouptron.constants import CONSTANT_VELOCITY
 from grouptron.data.datasets.dataset import load_scenes
 from grouptron.data.formats.forecast_file import ForecastRows, read_forecast_file
+from grouptron.data.formats.time_base import TimeBase
+from grouptron.data.formats.track_files import TrackSource, read_track_file
 from grouptron.data.prepare.samples import SampleSet
+from grouptron.data.prepare.scene import Scene, build_scene
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores
 from grouptron.evaluation.forecast_scores import file_scores, positions_of_samples, sample_keys
+from grouptron.evaluation.recordings import recording_rows, recording_samples
+from grouptron.evaluation.results import EvaluationResult
 
 Scored = list[tuple[str, str | None, SampleScores]]
 """(model name, what it was loaded from, scores) per row, as evaluate's rows are made."""
@@ -74,12 +80,12 @@ class ReadForecasts:
 
 
 def refuse_for_files(on_benchmark: bool, takes_away: bool, modes: Sequence[str] | None) -> None:
-    """Refuse for forecast files what needs other samples (recordings, or no split named:
+    """Refuse for forecast files what needs other samples (no split named, a dataset:
     ``on_benchmark`` False) or a model (``takes_away``: ablations or regions; the NLL)."""
     if not on_benchmark:
         raise GrouptronError(
-            "forecast files are scored on the test sets of the benchmark splits they forecast: "
-            "name them with --split"
+            "forecast files are scored on the test sets of the benchmark splits they forecast "
+            "(name them with --split) or on the recordings they forecast (--tracks)"
         )
     if takes_away or "nll" in (modes or ()):
         raise GrouptronError(
@@ -104,7 +110,7 @@ def _file_of(
     read: ReadForecasts, recording: Path, recordings: list[Path]
 ) -> tuple[ForecastRows, str]:
     """The rows of the file for ``recording`` and its name: the one named after it, or the
-    only one where one split of one test recording is scored."""
+    only one where one split of one test recording (or one recording) is scored."""
     for path, rows in zip(read.files.files, read.rows, strict=True):
         if path.stem.startswith(recording.stem):
             return rows, str(path)
@@ -117,17 +123,39 @@ def _file_of(
     )
 
 
+def recording_scenes(
+    sources: Sequence[TrackSource], data: DataConfig
+) -> tuple[list[Scene], list[TimeBase]]:
+    """The scene of every recording, as ``evaluation.recordings`` builds it, and its time
+    base (which turns its frames into the file's own, as ``predict`` writes them)."""
+    scenes, times = [], []
+    for source in sources:
+        source = dataclasses.replace(source, on_gap=data.on_gap)
+        table, _ = read_track_file(source, data.frames_per_step, data.dt_s)
+        scenes.append(build_scene(table, data, name=Path(source.path).name))
+        times.append(table.times)
+    return scenes, times
+
+
 def scored_forecast_files(
     read: ReadForecasts,
     recordings: list[Path],
     samples: SampleSet,
     modes: tuple[str, ...],
     data: DataConfig,
+    scenes: tuple[list[Scene], list[TimeBase]] | None = None,
 ) -> tuple[SampleSet, Scored]:
     """The samples scored (all, or with ``allow_missing`` those the files have) and the rows'
-    scores: the files' in each mode, then constant velocity's on the same samples."""
-    scenes = load_scenes(recordings, data)
-    frames, ids = sample_keys(scenes, samples)
+    scores: the files' in each mode, then constant velocity's on the same samples. ``scenes``:
+    the recordings' scenes and time bases (:func:`recording_scenes`; None: benchmark files)."""
+    built, times = scenes if scenes is not None else (load_scenes(recordings, data), None)
+    frames, ids = sample_keys(built, samples)
+    if times is not None:  # the file's own frame numbers, as predict writes them
+        for index, time_base in enumerate(times):
+            mine = samples.scene_index == index
+            own = time_base.file_frames(frames[mine])
+            frames[mine] = frames[mine] if own is None else own
+    scenes_list = built
     H = data.horizon_steps
     parts = []
     for path in recordings:  # one file per test recording
@@ -141,7 +169,7 @@ def scored_forecast_files(
     for index, (own, has) in enumerate(parts):
         mine = samples.scene_index == index
         positions[mine], found[mine] = own[mine], has[mine]
-    centres = np.array([scene.centre_world_m for scene in scenes])  # (scenes, 2)
+    centres = np.array([scene.centre_world_m for scene in scenes_list])  # (scenes, 2)
     now_m = samples.pos_now_scene_m + centres[samples.scene_index]  # (S, 2) the files' frame
     missing = int((~found).sum())
     if missing and not read.files.allow_missing:
@@ -156,3 +184,22 @@ def scored_forecast_files(
     scores = file_scores(relative, truth, modes, read.files.label)
     scored: Scored = [(read.files.name, read.files.label, s) for s in scores]
     return samples, [*scored, (CONSTANT_VELOCITY, None, constant_velocity_scores(samples, H))]
+
+
+def track_forecast_rows(
+    sources: Sequence[TrackSource], read: ReadForecasts, modes: tuple[str, ...], data: DataConfig
+) -> list[EvaluationResult]:
+    """Rows of forecast files on recordings, as ``evaluate --tracks`` has a checkpoint's: per
+    file and pooled, each with constant velocity's on the same samples (each recording's
+    forecasts in the file named after it, or in the only file)."""
+    files = [Path(source.path) for source in sources]
+    samples = recording_samples(sources, data)
+    scenes = recording_scenes(sources, data)
+    kept, scored = scored_forecast_files(read, files, samples, modes, data, scenes=scenes)
+    template = EvaluationResult("", CONSTANT_VELOCITY, None, 0, 0.0, 0.0)
+    template = dataclasses.replace(template, derivatives=data.derivatives)
+    rows = []
+    for name, label, scores in scored:
+        named = dataclasses.replace(template, model=name, checkpoint=label)
+        rows += recording_rows(files, kept, scores, named)
+    return rows

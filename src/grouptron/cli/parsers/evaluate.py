@@ -170,8 +170,9 @@ def _add_forecast_file_options(evaluate: argparse.ArgumentParser) -> None:
         "--forecasts",
         nargs="+",
         metavar="FILE",
-        help="score forecasts made by any code instead of a checkpoint, on the benchmark's test "
-        "samples (each found by the recording's frame number and person id): CSV rows "
+        help="score forecasts made by any code instead of a checkpoint, on the test samples of "
+        "--split or of --tracks recordings (each found by the recording's own frame number and "
+        "person id): CSV rows "
         "'frame,id,step,x_m,y_m' (predict's layout 2; a 'sample' column for sampled futures, "
         "scored best-of-K) or TrajNet++ .ndjson predictions; one file per test recording, "
         "named after it where a split has several (docs/models.md)",
