@@ -155,9 +155,15 @@ def test_forecasts_of_a_recording_score_as_the_checkpoint_there(
 ) -> None:
     """A recording in its own layout (16 frames a second, centimetres): predict's file of it
     is found by the file's own frame numbers."""
-    from tests.test_doc_commands import write_layout
-
-    recording = write_layout(tmp_path / "corridor.txt", "id,frame,x,y,z", fps=16, units_per_m=100)
+    rng = np.random.default_rng(0)
+    frames = np.arange(16 * 12)  # 12 s at 16 frames a second
+    rows = [
+        (p, f, 100 * (0.9 * f / 16 + p), 100 * (0.6 * p + 0.01 * rng.normal()), 0.0)
+        for p in range(6)
+        for f in frames
+    ]
+    recording = tmp_path / "corridor.txt"
+    np.savetxt(recording, rows, fmt="%.3f")
     layout = ["--columns", "id,frame,x,y,z", "--fps", "16", "--units", "cm"]
     checkpoint = str(tiny_checkpoints / "grouptron-eth-backward")
     out = tmp_path / "corridor.csv"

@@ -36,13 +36,7 @@ from grouptron.workflows.evaluate_learning import (
 def _check_options(args: argparse.Namespace) -> None:
     """Refuse option combinations that the Python API's types rule out (the workflow checks
     the rest), before anything is read."""
-    given = [args.checkpoint, args.model, args.forecasts]
-    if sum(g is not None for g in given) > 1:
-        raise GrouptronError(
-            "give one of --checkpoint PATH, --forecasts FILE or --model constant-velocity"
-        )
-    if (args.name or args.allow_missing) and not args.forecasts:
-        raise GrouptronError("--name and --allow-missing describe --forecasts files")
+    _check_forecast_options(args)
     if args.tracks and args.dataset:
         raise GrouptronError("give either --tracks or --dataset, not both")
     if (args.tracks or args.dataset) and (args.split is not None or args.subset is not None):
@@ -62,6 +56,22 @@ def _scored(args: argparse.Namespace) -> str | ForecastFiles | None:
         files = tuple(Path(f) for f in args.forecasts)
         return ForecastFiles(files, args.name or "", allow_missing=args.allow_missing)
     return None if args.model is not None else (args.checkpoint or DEFAULT_CHECKPOINT)
+
+
+def _check_forecast_options(args: argparse.Namespace) -> None:
+    """One of a checkpoint, forecast files or constant velocity; what files cannot take."""
+    given = [args.checkpoint, args.model, args.forecasts]
+    if sum(g is not None for g in given) > 1:
+        raise GrouptronError(
+            "give one of --checkpoint PATH, --forecasts FILE or --model constant-velocity"
+        )
+    if (args.name or args.allow_missing) and not args.forecasts:
+        raise GrouptronError("--name and --allow-missing describe --forecasts files")
+    if args.forecasts and (args.learn or args.calibration is not None or args.dataset):
+        raise GrouptronError(
+            "--forecasts files are scored as they are: --learn, --calibration and --dataset "
+            "need a --checkpoint"
+        )
 
 
 def _source(args: argparse.Namespace) -> Source:
