@@ -26,6 +26,14 @@ def _scores(args: list[str], capsys: pytest.CaptureFixture[str]) -> list[dict]:
     return _rows(capsys)
 
 
+def _predicted(checkpoint: str, tracks: str, out: Path, *forecast: str) -> Path:
+    """``out``, predict's file of ``checkpoint``'s forecasts of ``tracks`` (``forecast``: its
+    --forecast and further options)."""
+    predict = ["predict", "--checkpoint", checkpoint, "--tracks", tracks, "--quiet"]
+    assert main([*predict, "--out", str(out), *forecast]) == 0
+    return out
+
+
 @pytest.mark.parametrize("suffix", [".csv", ".ndjson"])
 def test_predicts_own_file_scores_as_the_checkpoint(
     tiny_checkpoints: Path,
@@ -37,8 +45,7 @@ def test_predicts_own_file_scores_as_the_checkpoint(
     checkpoint = str(tiny_checkpoints / "grouptron-eth-central/best.safetensors")
     tracks = str(synthetic_data_dir / "eth/test/scene5.txt")
     out = tmp_path / f"scene5{suffix}"
-    predict = ["predict", "--checkpoint", checkpoint, "--tracks", tracks, "--forecast", "ml"]
-    assert main([*predict, "--out", str(out), "--quiet"]) == 0
+    _predicted(checkpoint, tracks, out, "--forecast", "ml")
     data = ["--split", "eth", "--data-dir", str(synthetic_data_dir)]
     model, baseline = _scores(["--checkpoint", checkpoint, "--mode", "ml", *data], capsys)
     ours, beside = _scores(["--forecasts", str(out), *data], capsys)
@@ -57,8 +64,7 @@ def test_missing_samples_are_counted_and_refused_unless_allowed(
     checkpoint = str(tiny_checkpoints / "trajectron++-eth-central")
     tracks = str(synthetic_data_dir / "eth/test/scene5.txt")
     full = tmp_path / "full.csv"
-    predict = ["predict", "--checkpoint", checkpoint, "--tracks", tracks, "--quiet"]
-    assert main([*predict, "--out", str(full), "--forecast", "ml"]) == 0
+    _predicted(checkpoint, tracks, full, "--forecast", "ml")
     lines = full.read_text().splitlines()
     frames = sorted({int(line.split(",")[0]) for line in lines[1:]})
     cut = tmp_path / "cut.csv"  # without the forecasts made at the first frame
@@ -85,8 +91,7 @@ def test_sampled_futures_are_scored_best_of_k(
     checkpoint = str(tiny_checkpoints / "trajectron++-eth-central")
     tracks = str(synthetic_data_dir / "eth/test/scene5.txt")
     out = tmp_path / "samples.csv"
-    predict = ["predict", "--checkpoint", checkpoint, "--tracks", tracks, "--quiet"]
-    assert main([*predict, "--out", str(out), "--forecast", "samples", "--samples", "5"]) == 0
+    _predicted(checkpoint, tracks, out, "--forecast", "samples", "--samples", "5")
     data = ["--split", "eth", "--data-dir", str(synthetic_data_dir), "--name", "mine"]
     best_of_5, _ = _scores(["--forecasts", str(out), *data], capsys)  # all of them, by default
     best_of_1, _ = _scores(["--forecasts", str(out), "--mode", "best-of-1", *data], capsys)
@@ -118,8 +123,7 @@ def test_shipped_checkpoints_csv_scores_as_it_does_to_a_micrometre(
         pytest.skip("shipped checkpoints not present")
     out = tmp_path / "eth.csv"
     tracks = str(eth_ucy_dir / "eth/test/biwi_eth.txt")
-    predict = ["predict", "--checkpoint", str(checkpoint), "--tracks", tracks, "--quiet"]
-    assert main([*predict, "--out", str(out), "--forecast", "ml"]) == 0
+    _predicted(str(checkpoint), tracks, out, "--forecast", "ml")
     data = ["--split", "eth", "--data-dir", str(eth_ucy_dir)]
     model, _ = _scores(["--checkpoint", str(checkpoint), "--mode", "ml", *data], capsys)
     ours, _ = _scores(["--forecasts", str(out), *data], capsys)
@@ -137,8 +141,7 @@ def test_files_need_their_split_and_each_position_once(
     checkpoint = str(tiny_checkpoints / "trajectron++-eth-central")
     tracks = str(synthetic_data_dir / "eth/test/scene5.txt")
     out = tmp_path / "scene5.csv"
-    predict = ["predict", "--checkpoint", checkpoint, "--tracks", tracks, "--quiet"]
-    assert main([*predict, "--out", str(out), "--forecast", "ml"]) == 0
+    _predicted(checkpoint, tracks, out, "--forecast", "ml")
     data = ["--data-dir", str(synthetic_data_dir)]
     capsys.readouterr()
     assert main(["evaluate", "--forecasts", str(out), *data]) == 2
@@ -167,8 +170,7 @@ def test_forecasts_of_a_recording_score_as_the_checkpoint_there(
     layout = ["--columns", "id,frame,x,y,z", "--fps", "16", "--units", "cm"]
     checkpoint = str(tiny_checkpoints / "grouptron-eth-backward")
     out = tmp_path / "corridor.csv"
-    predict = ["predict", "--checkpoint", checkpoint, "--tracks", str(recording), *layout]
-    assert main([*predict, "--forecast", "ml", "--out", str(out), "--quiet"]) == 0
+    _predicted(checkpoint, str(recording), out, "--forecast", "ml", *layout)
     on_tracks = ["--tracks", str(recording), *layout]
     model = _scores(["--checkpoint", checkpoint, "--mode", "ml", *on_tracks], capsys)
     ours = _scores(["--forecasts", str(out), *on_tracks], capsys)

@@ -44,7 +44,6 @@ class TrajectronCVAE(Forecaster):
     """
 
     point_forecasts = ("ml", "mean")
-    ablations = predict.ABLATIONS
 
     def __init__(
         self, config: ModelConfig, extra_condition_dim: int = 0, velocity_scale_mps: float = 2.0
@@ -82,6 +81,11 @@ class TrajectronCVAE(Forecaster):
     def latent_values(self) -> int:
         """Z, the values of the discrete latent."""
         return self.config.latent_values
+
+    @property
+    def ablations(self) -> tuple[str, ...]:
+        """``edges`` where it reads its neighbours (Grouptron adds ``scene``)."""
+        return ("edges",) if self.config.use_edges else ()
 
     # --- the forecaster interface -----------------------------------------------------------
 

@@ -228,17 +228,20 @@ class Forecaster(nn.Module):
         reads_groups: whether its batches carry the samples' groups (``Batch.groups``).
         point_forecasts: the kinds of point forecast it makes (``ml``, ``mean``), its default
             first; without a :meth:`point` of its own only ``mean`` (of its samples).
-        ablations: the inputs an evaluation may take away from it (``evaluate --ablate``).
     """
 
     reads_groups: ClassVar[bool] = False
     point_forecasts: ClassVar[tuple[str, ...]] = ("mean",)
-    ablations: ClassVar[tuple[str, ...]] = ()
 
     @property
     def latent_values(self) -> int:
         """Discrete components its point forecasts choose among (1 for a model without)."""
         return 1
+
+    @property
+    def ablations(self) -> tuple[str, ...]:
+        """The inputs an evaluation may take away from it (``evaluate --ablate``): none."""
+        return ()
 
     def training_noise(self, rows: int, config: ExperimentConfig) -> RowNoise | None:
         """Random draws of a step for the whole global batch of ``rows`` samples, split by

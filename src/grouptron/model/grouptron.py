@@ -35,6 +35,11 @@ class GrouptronCVAE(TrajectronCVAE):
         self.scene_encoder = STGCNBlock(width + counted, width, adjacency, temporal_layers=layers)
         self.scene_norm = nn.LayerNorm(width) if groups.scene_layer_norm else None
 
+    @property
+    def ablations(self) -> tuple[str, ...]:
+        """Trajectron++'s and ``scene``, its scene encoding E_scene."""
+        return (*super().ablations, "scene")
+
     def extra_dropout_sizes(self) -> dict[str, int]:
         """The ``scene`` dropout site (E_scene's features) where ``scene_dropout_keep`` is below
         1; none otherwise."""

@@ -43,7 +43,6 @@ from grouptron.geometry import DerivativeScheme
 from grouptron.model.checkpoint import BEST_WEIGHTS_FILE, load_trained_model, stored_checkpoints
 from grouptron.model.factory import MODEL_NAMES, PAPER_MODELS, uses_groups
 from grouptron.model.forecaster import Forecaster, is_outside_name
-from grouptron.model.predict import ABLATIONS
 from grouptron.point_forecast import PointForecast, is_evaluation_mode, is_point_forecast
 from grouptron.presets import run_label
 from grouptron.reporting.stats import Report, build_report
@@ -250,18 +249,9 @@ def score_checkpoint(
             groups=groups,
             ablate=(ablation,),
         )[0]
-        for ablation in model_ablations(experiment)
+        for ablation in model.ablations
     }
     return dataclasses.replace(run, density=density_masks(samples), ablated=ablated)
-
-
-def model_ablations(experiment: ExperimentConfig) -> tuple[str, ...]:
-    """The inputs of ``ABLATIONS`` this model has (a model of the forecaster interface: none
-    that an evaluation can take away)."""
-    if is_outside_name(experiment.model_name):
-        return ()
-    has = {"edges": experiment.model.use_edges, "scene": uses_groups(experiment)}
-    return tuple(a for a in ABLATIONS if has[a])
 
 
 def makes(model: Forecaster, mode: str) -> bool:
