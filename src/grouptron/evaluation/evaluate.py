@@ -17,6 +17,7 @@ from grouptron.config import ExperimentConfig
 from grouptron.data.prepare.samples import SampleSet
 from grouptron.evaluation import metrics
 from grouptron.evaluation.region_scores import RegionScoring
+from grouptron.evaluation.scene_metrics import SceneForecasts, moment_ids
 from grouptron.groups.assign import SampleGroups
 from grouptron.model.batch import batches
 from grouptron.model.cvae import TrajectronCVAE
@@ -189,6 +190,7 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
         )
     for mode in (m for m in modes if m not in results):
         values: dict[str, np.ndarray] = {}
+        kept = _SceneKeeper(samples, mode)
         generator = torch.Generator(device=device).manual_seed(seed)  # per mode: see above
         size = nll_batch if mode == "nll" else batch_size
         iterator = batches(samples, config, size, groups)
@@ -204,6 +206,7 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
                 point = decoded.point.double().cpu().numpy()  # (B, H, 2)
                 made_from = _distribution(decoded, regions)
                 _store(values, index, count, _point_scores(point, made_from, truth, regions))
+                kept.keep(index, point[:, None])
                 continue
             best_of = best_of_samples(mode)
             draws = model.forecast_futures(
@@ -217,10 +220,51 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
             draws_np = draws.double().cpu().numpy()  # (B, K, H, 2)
             if best_of is not None:
                 _store(values, index, count, _best_of_scores(draws_np, truth))
+                kept.keep(index, draws_np)
             else:
                 _store(values, index, count, {metrics.NLL: metrics.kde_nll(draws_np, truth)})
-        results[mode] = _completed(mode, values, count)
+        results[mode] = _completed(mode, values | kept.scores(), count)
     return [results[mode] for mode in modes]
+
+
+class _SceneKeeper:
+    """A mode's forecasts of every sample, kept while its batches are scored where a
+    scene-level metric is registered (each reads a whole moment's forecasts at once), and
+    those metrics' scores at the end."""
+
+    def __init__(self, samples: SampleSet, mode: str) -> None:
+        self.samples = samples
+        self.wanted = bool(metrics.scene_metrics()) and mode != metrics.NLL
+        self.forecasts: np.ndarray | None = None  # (S, K, H, 2) once the first batch is kept
+
+    def keep(self, index: np.ndarray, forecasts: np.ndarray) -> None:
+        """Keep one batch's (B, K, H, 2) forecasts (relative to each one's present)."""
+        if not self.wanted:
+            return
+        if self.forecasts is None:
+            self.forecasts = np.full((len(self.samples), *forecasts.shape[1:]), np.nan)
+        self.forecasts[index] = forecasts
+
+    def scores(self) -> dict[str, np.ndarray]:
+        """Every registered scene-level metric of the kept forecasts, name -> (S,)."""
+        if self.forecasts is None:
+            return {}
+        return scene_scores(self.forecasts, self.samples)
+
+
+def scene_scores(forecasts: np.ndarray, samples: SampleSet) -> dict[str, np.ndarray]:
+    """Every registered scene-level metric of (S, K, H, 2) forecasts relative to each sample's
+    present position, name -> (S,); none where none is registered."""
+    chosen = metrics.scene_metrics()
+    if not chosen:
+        return {}
+    now = samples.pos_now_scene_m.astype(np.float64)  # (S, 2) in the scene's own frame
+    scene = SceneForecasts(
+        forecasts + now[:, None, None],
+        samples.fut_rel_m.astype(np.float64) + now[:, None],
+        moment_ids(samples.scene_index, samples.step),
+    )
+    return {name: metric.score(scene) for name, metric in chosen.items()}
 
 
 def _distribution(decoded: PointResult, regions: RegionScoring | None) -> Mixture | None:
@@ -296,6 +340,7 @@ def _score_shared_decode(  # noqa: PLR0913 - score_samples's options, all keywor
     made from the one distribution of all Z latent values)."""
     horizon, dt, count = config.data.horizon_steps, config.data.dt_s, len(samples)
     scores: dict[str, dict[str, np.ndarray]] = {mode: {} for mode in SHARED_DECODE}
+    kept = {mode: _SceneKeeper(samples, mode) for mode in SHARED_DECODE}
     iterator = batches(samples, config, batch_size, groups)
     total = -(-count // batch_size)
     for index, batch in tqdm(
@@ -314,7 +359,8 @@ def _score_shared_decode(  # noqa: PLR0913 - score_samples's options, all keywor
         for mode, values in scores.items():
             pred = predictions[mode].double().cpu().numpy()  # (B, H, 2)
             _store(values, index, count, _point_scores(pred, made_from, truth, regions))
-    return {mode: _completed(mode, v, count) for mode, v in scores.items()}
+            kept[mode].keep(index, pred[:, None])
+    return {mode: _completed(mode, v | kept[mode].scores(), count) for mode, v in scores.items()}
 
 
 def evaluate_model(  # noqa: PLR0913 - score_samples's options, all keyword-only
@@ -346,18 +392,20 @@ def evaluate_model(  # noqa: PLR0913 - score_samples's options, all keyword-only
     return [scores.summary() for scores in per_sample]
 
 
-def forecast_scores(mode: str, positions: np.ndarray, truth: np.ndarray) -> SampleScores:
+def forecast_scores(mode: str, positions: np.ndarray, samples: SampleSet) -> SampleScores:
     """Per-sample scores of forecasts made anywhere, as ``score_samples`` scores a model's:
-    (S, H, 2) point forecasts, or the best of (S, K, H, 2) samples, against (S, H, 2)
-    ``truth``."""
+    (S, H, 2) point forecasts, or the best of (S, K, H, 2) samples (each relative to its
+    sample's present position), against the ``samples``' truths."""
+    truth = samples.fut_rel_m.astype(np.float64)
     if positions.ndim == 3:
-        return _completed(mode, _point_scores(positions, None, truth, None), len(truth))
-    return _completed(mode, _best_of_scores(positions, truth), len(truth))
+        scores = _point_scores(positions, None, truth, None)
+        return _completed(mode, scores | scene_scores(positions[:, None], samples), len(truth))
+    scores = _best_of_scores(positions, truth)
+    return _completed(mode, scores | scene_scores(positions, samples), len(truth))
 
 
 def constant_velocity_scores(samples: SampleSet, horizon_steps: int) -> SampleScores:
     """Per-sample ADE/FDE (metres), every registered metric and the displacement error of
     every step of constant velocity, the one baseline every table shows."""
     pred = constant_velocity(samples.hist_rel_m.astype(np.float64), horizon_steps)
-    truth = samples.fut_rel_m.astype(np.float64)
-    return _completed("ml", _point_scores(pred, None, truth, None), len(samples))
+    return forecast_scores("ml", pred, samples)

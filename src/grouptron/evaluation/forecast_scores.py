@@ -57,9 +57,10 @@ def default_modes(positions: np.ndarray) -> tuple[str, ...]:
 
 
 def file_scores(
-    positions: np.ndarray, truth: np.ndarray, modes: Sequence[str], source: str
+    positions: np.ndarray, samples: SampleSet, modes: Sequence[str], source: str
 ) -> list[SampleScores]:
-    """Per-sample scores of (S, K, H, 2) forecasts against (S, H, 2) ``truth`` in each mode: a
+    """Per-sample scores of (S, K, H, 2) forecasts (relative to each sample's present) against
+    the ``samples``' truths in each mode: a
     point forecast's name scores a file of point forecasts, ``best-of-K`` the first K samples
     of each forecast; anything else is refused naming ``source``."""
     K = positions.shape[1]
@@ -67,9 +68,9 @@ def file_scores(
     for mode in modes:
         best_of = best_of_samples(mode)
         if is_point_forecast(mode) and K == 1:
-            scored.append(forecast_scores(mode, positions[:, 0], truth))
+            scored.append(forecast_scores(mode, positions[:, 0], samples))
         elif best_of is not None and best_of <= K > 1:
-            scored.append(forecast_scores(mode, positions[:, :best_of], truth))
+            scored.append(forecast_scores(mode, positions[:, :best_of], samples))
         else:
             has = "one point forecast" if K == 1 else f"{K} sampled futures"
             raise GrouptronError(

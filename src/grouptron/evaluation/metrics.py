@@ -15,6 +15,10 @@ forecasts ending more than X m off, any X), ``module:name`` (a function or a ``M
 importable module) or the name of an installed package's entry point in the
 ``grouptron.metrics`` group; :func:`scoring` registers it for one evaluation.
 
+A scene-level metric (``evaluation.scene_metrics``: ``col-i``, ``col-ii``, ``jade``,
+``jfde``) reads everyone forecast at the same moment together; it is scored only where
+``--metrics`` names it, and still gives every sample a score.
+
 The displacement error of every forecast step (:data:`DISPLACEMENT`) is kept per step beside
 the metrics.
 
@@ -39,6 +43,7 @@ from importlib.metadata import entry_points
 import numpy as np
 
 from grouptron.errors import GrouptronError
+from grouptron.evaluation.scene_metrics import SCENE_METRICS, SceneMetric
 from grouptron.model.regions import Regions
 
 KDE_LOG_DENSITY_FLOOR = -20.0
@@ -170,11 +175,13 @@ class Metric:
     score: Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
-METRICS: dict[str, Metric] = {}
-"""Every registered metric by name, in the order of registration (the order of columns)."""
+METRICS: dict[str, Metric | SceneMetric] = {}
+"""Every registered metric by name, in the order of registration (the order of columns): a
+per-person ``Metric`` or a ``SceneMetric`` (``evaluation.scene_metrics``) that reads a whole
+moment's forecasts."""
 
 
-def register_metric(metric: Metric) -> Metric:
+def register_metric(metric: Metric | SceneMetric) -> Metric | SceneMetric:
     """Add ``metric`` to :data:`METRICS` (a name is registered once)."""
     if metric.name in METRICS or metric.name == NLL:
         raise ValueError(f"a metric named {metric.name!r} is registered already")
@@ -224,16 +231,19 @@ def miss_rate(threshold_m: float) -> Metric:
     return Metric(f"miss-rate-{threshold_m:g}m", f"MR {threshold_m:g}m", MissBeyond(threshold_m))
 
 
-def resolve_metric(spec: str | Metric) -> Metric:
-    """The metric ``spec`` names: a ``Metric`` as it is; a registered name; ``miss-rate-Xm``
+def resolve_metric(spec: str | Metric | SceneMetric) -> Metric | SceneMetric:
+    """The metric ``spec`` names: a ``Metric`` or ``SceneMetric`` as it is; a registered name;
+    a scene-level metric's (``col-i``, ``col-ii``, ``jade``, ``jfde``); ``miss-rate-Xm``
     (X in metres); the name of an installed entry point of :data:`ENTRY_POINTS`; or
     ``module:name``, the function or ``Metric`` ``name`` of a module importable from the
     current folder or ``sys.path`` (a function is the metric ``name``, labelled so). Anything
     else is refused in one line."""
-    if isinstance(spec, Metric):
+    if isinstance(spec, Metric | SceneMetric):
         return spec
     if spec in METRICS:
         return METRICS[spec]
+    if spec in SCENE_METRICS:
+        return SCENE_METRICS[spec]
     match = _MISS_RATE.fullmatch(spec)
     if match is not None:
         return miss_rate(float(match.group(1)))
@@ -243,7 +253,8 @@ def resolve_metric(spec: str | Metric) -> Metric:
     module, colon, name = spec.partition(":")
     if not (colon and module and name):
         raise GrouptronError(
-            f"unknown metric {spec!r}; choose from {', '.join(METRICS)}, miss-rate-Xm (X in "
+            f"unknown metric {spec!r}; choose from {', '.join({**METRICS, **SCENE_METRICS})}, "
+            f"miss-rate-Xm (X in "
             f"metres), module:name (a function or Metric of a module) or an installed "
             f"{ENTRY_POINTS} entry point"
         )
@@ -270,9 +281,9 @@ def _import(module: str) -> object:
             sys.path.remove(here)
 
 
-def _as_metric(found: object, name: str) -> Metric:
-    """A ``Metric`` as it is, a function as the metric ``name``."""
-    if isinstance(found, Metric):
+def _as_metric(found: object, name: str) -> Metric | SceneMetric:
+    """A ``Metric`` or ``SceneMetric`` as it is, a function as the metric ``name``."""
+    if isinstance(found, Metric | SceneMetric):
         return found
     if callable(found):
         return Metric(name, name, found)
@@ -280,7 +291,9 @@ def _as_metric(found: object, name: str) -> Metric:
 
 
 @contextmanager
-def scoring(extra: Sequence[str | Metric] = ()) -> Iterator[tuple[Metric, ...]]:
+def scoring(
+    extra: Sequence[str | Metric | SceneMetric] = (),
+) -> Iterator[tuple[Metric | SceneMetric, ...]]:
     """Inside the block every evaluation carries the registered metrics and ``extra`` (each
     resolved by :func:`resolve_metric`): those not registered are registered for the block
     only, so one evaluation's metrics never leak into the next. A name registered for a
@@ -305,17 +318,29 @@ def scoring(extra: Sequence[str | Metric] = ()) -> Iterator[tuple[Metric, ...]]:
             METRICS.pop(name, None)
 
 
+def per_person_metrics() -> dict[str, Metric]:
+    """The registered metrics that score each person's forecast alone, by name."""
+    return {name: m for name, m in METRICS.items() if isinstance(m, Metric)}
+
+
+def scene_metrics() -> dict[str, SceneMetric]:
+    """The registered metrics that read a whole moment's forecasts, by name."""
+    return {name: m for name, m in METRICS.items() if isinstance(m, SceneMetric)}
+
+
 def point_scores(pred: np.ndarray, truth: np.ndarray) -> dict[str, np.ndarray]:
-    """Every registered metric of one forecast per sample: (B, H, 2), (B, H, 2) -> name: (B,)."""
-    return {name: metric.score(pred, truth) for name, metric in METRICS.items()}
+    """Every registered per-person metric of one forecast per sample: (B, H, 2), (B, H, 2) ->
+    name: (B,)."""
+    return {name: metric.score(pred, truth) for name, metric in per_person_metrics().items()}
 
 
 def best_of_scores(samples: np.ndarray, truth: np.ndarray) -> dict[str, np.ndarray]:
-    """Every registered metric's best over K forecasts, each minimum taken on its own (they
-    may come from different forecasts, as the reference evaluation does): (B, K, H, 2),
-    (B, H, 2) -> name: (B,)."""
+    """Every registered per-person metric's best over K forecasts, each minimum taken on its
+    own (they may come from different forecasts, as the reference evaluation does):
+    (B, K, H, 2), (B, H, 2) -> name: (B,)."""
     return {
-        name: metric.score(samples, truth[:, None]).min(axis=1) for name, metric in METRICS.items()
+        name: metric.score(samples, truth[:, None]).min(axis=1)
+        for name, metric in per_person_metrics().items()
     }
 
 

@@ -179,9 +179,8 @@ def scored_forecast_files(
         )
     if missing:
         samples, positions, now_m = samples.subset(found), positions[found], now_m[found]
-    truth = samples.fut_rel_m.astype(np.float64)
     relative = positions - now_m[:, None, None].astype(np.float64)  # (S, K, H, 2) from now
-    scores = file_scores(relative, truth, modes, read.files.label)
+    scores = file_scores(relative, samples, modes, read.files.label)
     scored: Scored = [(read.files.name, read.files.label, s) for s in scores]
     return samples, [*scored, (CONSTANT_VELOCITY, None, constant_velocity_scores(samples, H))]
 
