@@ -2,7 +2,8 @@
 
 Usage:
     python campaign/run.py [--only NAME_PART] [--dry-run | --status] [--out campaign/runs]
-                           [--variant [MODEL] | --look-ahead] [--threads N] [--device cpu|cuda]
+                           [--variant [MODEL] | --look-ahead | --baselines] [--threads N]
+                           [--device cpu|cuda]
 
 Every run trains with ``grouptron train`` into ``OUT/<name>`` for 100 epochs (the reference
 recipe) and is skipped once finished (its ``selection.json`` exists). A run that was stopped
@@ -30,6 +31,10 @@ seeds 1-2, ``central`` of the other four splits, then seeds 1-2 of zara1 ``backw
 Trajectron++'s of the same seeds (seed spread on the second split). Their univ ``backward``
 seeds are the screening runs of ``screen.py --only robust`` (``robust-residual``), named for
 shipping with ``ship.py``.
+
+``--baselines`` queues the learned baselines of other families (Social-STGCNN and the small
+trajectory Transformer, ``grouptron.baselines``) on the five splits, strictly causal
+(``backward``), seed 0, for ``BASELINE_EPOCHS`` epochs.
 
 ``--look-ahead`` queues the diagnostic of where the paper's gain comes from: both paper models on
 univ in the papers' protocol, seeds 0-2, then Grouptron on eth (seed 0), each its shipped run's
@@ -82,6 +87,12 @@ repeats ``metrics.jsonl``)."""
 EPOCHS = 100
 SPLITS = ("univ", "eth", "hotel", "zara1", "zara2")
 MODELS = ("trajectron++", "grouptron")
+BASELINES = ("social-stgcnn", "transformer")
+"""The learned baselines of other families (``grouptron.baselines``), by their model names."""
+BASELINE_EPOCHS = 30
+"""The baselines' epochs: their validation error levels off after about 10, and all ten runs
+fit into about an hour of 2 cores (an epoch of the Transformer costs three of
+Social-STGCNN's)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,6 +112,10 @@ class Run:
         name += f"-s{self.seed}" if self.seed else ""
         name += "-look-ahead" if self.look_ahead else ""
         return name + ("-bf16" if self.bf16_only else "")
+
+    @property
+    def epochs(self) -> int:
+        return BASELINE_EPOCHS if self.model in BASELINES else EPOCHS
 
     @property
     def diagnostic(self) -> bool:
@@ -159,6 +174,11 @@ def look_ahead_queue() -> list[Run]:
     models = ("grouptron", "trajectron++")
     univ = [Run(m, "univ", "central", seed, look_ahead=True) for seed in (0, 1, 2) for m in models]
     return [*univ, Run("grouptron", "eth", "central", 0, look_ahead=True)]
+
+
+def baselines_queue() -> list[Run]:
+    """Both learned baselines on the five splits, strictly causal (``backward``), seed 0."""
+    return [Run(model, split, "backward") for model in BASELINES for split in SPLITS]
 
 
 def queue(bf16_ab: bool = False) -> list[Run]:
@@ -251,9 +271,9 @@ def status(runs: list[Run], out: Path) -> list[str]:
         elif epochs == 0:
             state = "starting (training now)" if held(folder) else "not started"
         else:
-            state = f"epoch {epochs} of {EPOCHS}" + (" (training now)" if held(folder) else "")
+            state = f"epoch {epochs} of {run.epochs}" + (" (training now)" if held(folder) else "")
             if seconds is not None:
-                left = (EPOCHS - epochs) * seconds / 3600
+                left = (run.epochs - epochs) * seconds / 3600
                 hours_left += left
                 state += f", about {left:.1f} h left at {seconds:.0f} s per epoch"
         lines.append(f"{run.name}: {state}")
@@ -276,7 +296,7 @@ def command(
         "--out",
         str(folder),
         "--epochs",
-        str(EPOCHS),
+        str(run.epochs),
         "--precision",
         precision,
         "--threads",
@@ -341,7 +361,7 @@ def snapshot(runs: list[Run], out: Path, paused: Path = PAUSED) -> tuple[list[st
             ignored = shutil.ignore_patterns(*NOT_PAUSED)
             shutil.copytree(folder, target, ignore=ignored)
             epochs, _ = progress(folder)
-            lines.append(f"{run.name}: paused at epoch {epochs} of {EPOCHS} -> {target}")
+            lines.append(f"{run.name}: paused at epoch {epochs} of {run.epochs} -> {target}")
             copied += 1
     return lines, copied
 
@@ -413,7 +433,17 @@ def main() -> int:
         help="queue the diagnostic runs with the reference's neighbour window instead: the "
         "paper's two models, univ, papers' protocol, seeds 0-2 (never shipped as forecasters)",
     )
+    parser.add_argument(
+        "--baselines",
+        action="store_true",
+        help="queue the learned baselines instead: social-stgcnn and transformer on the five "
+        f"splits, backward derivatives, {BASELINE_EPOCHS} epochs",
+    )
     args = parser.parse_args()
+    if args.baselines and (args.variant or args.bf16_ab or args.look_ahead):
+        parser.error(
+            "--baselines is a queue of its own: not with --variant, --look-ahead or --bf16-ab"
+        )
     if args.look_ahead and (args.variant or args.bf16_ab):
         parser.error("--look-ahead is a queue of its own: not with --variant or --bf16-ab")
     if args.variant is not None and args.variant not in variant_models():
@@ -427,7 +457,9 @@ def main() -> int:
             available_device(args.device)
         except GrouptronError as exc:
             parser.error(f"--device: {exc}")
-    if args.look_ahead:
+    if args.baselines:
+        runs = baselines_queue()
+    elif args.look_ahead:
         runs = look_ahead_queue()
     else:
         runs = variant_queue(args.variant) if args.variant else queue(args.bf16_ab)

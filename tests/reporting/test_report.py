@@ -157,7 +157,18 @@ def test_report_statistics_on_hand_made_scores() -> None:
         [-0.05, -0.05]
     )
     assert loaded["seeds"][0]["fde_sd"] == pytest.approx(0.1 / np.sqrt(2))
-    assert set(loaded) == {"results", "paired", "seeds", "density", "ablations"}
+    assert set(loaded) == {"results", "paired", "seeds", "to_best", "density", "ablations"}
+    # Every model against the column's best (grouptron-robust, seed 0: 0.3 m below base)
+    to_best = {p.model: p for p in report.to_best if p.column == "eth" and p.mode == "ml"}
+    assert {p.baseline for p in to_best.values()} == {"grouptron-robust"}
+    assert to_best["grouptron-robust"].fde.mean == pytest.approx(0.0)
+    assert to_best["trajectron++"].fde.mean == pytest.approx(0.2)
+    assert to_best["constant-velocity"].fde.mean == pytest.approx(0.3)
+    assert to_best["grouptron"].fde.low == pytest.approx(0.2)  # the same on every sample
+    text = report_markdown(report, ("backward",), "grouptron report")
+    against = text.split("### Every model against the best")[1]
+    assert "**best**" in against
+    assert "| constant velocity | backward, ml | +0.300 [+0.300, +0.300]* |" in against
     assert loaded["density"] == [] and loaded["ablations"] == []  # no --diagnostics
     text = report_markdown(report, ("backward",), "grouptron report")
     per_seed = "-0.200 [-0.200, -0.200]*, -0.050 [-0.050, -0.050]*"

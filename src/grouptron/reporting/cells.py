@@ -22,6 +22,8 @@ DISPLAY = {
     **DISPLAY_NAMES,
     CONSTANT_VELOCITY: "constant velocity",
     MEAN_ROW: "AVG",
+    "social-stgcnn": "Social-STGCNN",  # the learned baselines (grouptron.baselines)
+    "transformer": "Transformer (small)",
 }
 OURS_MODELS = MODEL_NAMES
 TARGET_TOLERANCE = 0.05

@@ -110,6 +110,8 @@ class Report:
     rows: list[EvaluationResult]
     paired: list[PairedDifference]
     seeds: list[SeedSpread]
+    to_best: list[PairedDifference] = dataclasses.field(default_factory=list)
+    """Every model minus the best of its column (lowest mean FDE), per derivatives and mode."""
     density: list[DensityRow] = dataclasses.field(default_factory=list)
     ablations: list[AblationRow] = dataclasses.field(default_factory=list)
     out_of_domain: OutOfDomain | None = None
@@ -122,6 +124,7 @@ class Report:
             {
                 "results": [r.to_dict() for r in self.rows],
                 "paired": [p.to_dict() for p in self.paired],
+                "to_best": [p.to_dict() for p in self.to_best],
                 "seeds": [s.to_dict() for s in self.seeds],
                 "density": [d.to_dict() for d in self.density],
                 "ablations": [a.to_dict() for a in self.ablations],
@@ -255,6 +258,55 @@ def paired_differences(
     return out
 
 
+TO_BEST_MODES = ("ml", "best-of-20")
+"""The forecasts every model is compared with the best in: one forecast (constant
+velocity's among them), and the best of 20 (the sampling models only)."""
+
+
+def differences_to_best(
+    primary: dict[tuple[str, str, str], ScoredRun],
+    rows: Sequence[EvaluationResult],
+    columns: Sequence[str],
+) -> list[PairedDifference]:
+    """Each model minus the best of its column (the lowest mean FDE of that derivatives,
+    mode and column), on the same samples; the best one's own line is itself (0)."""
+    out = []
+    for (derivatives, mode, column), found in _cells_by_column(rows, columns).items():
+        best = min(found, key=lambda r: r.fde).model
+        for row in found:
+            diffs = []
+            for metric in ("fde", "ade"):
+                a = _per_split(primary, row.model, derivatives, mode, column=column, metric=metric)
+                b = _per_split(primary, best, derivatives, mode, column=column, metric=metric)
+                if a is None or b is None:
+                    break
+                pairs = [_minus(x, y, row.model, best) for x, y in zip(a, b, strict=True)]
+                diffs.append((_interval(pairs), sum(len(x[0]) for x in a)))
+            if len(diffs) == 2:
+                (fde, count), (ade, _) = diffs
+                out.append(
+                    PairedDifference(derivatives, mode, row.model, best, column, count, fde, ade)
+                )
+    return out
+
+
+def _cells_by_column(
+    rows: Sequence[EvaluationResult], columns: Sequence[str]
+) -> dict[tuple[str, str, str], list[EvaluationResult]]:
+    """The rows of each (derivatives, mode, column) of :data:`TO_BEST_MODES` with a mean
+    FDE: constant velocity (one forecast) only among the ``ml`` ones."""
+    found: dict[tuple[str, str, str], list[EvaluationResult]] = {}
+    for row in rows:
+        mode = row.mode or "ml"  # constant velocity's one forecast
+        column = _column(row)
+        if mode not in TO_BEST_MODES or column not in columns or math.isnan(row.fde):
+            continue
+        if row.model == CONSTANT_VELOCITY and mode != "ml":
+            continue
+        found.setdefault((row.derivatives or "", mode, column), []).append(row)
+    return found
+
+
 def seed_spreads(runs: Sequence[ScoredRun], columns: Sequence[str]) -> list[SeedSpread]:
     """ML scores per seed where a (model, split, derivatives) has several seed runs, and the
     difference of each group model and Trajectron++ for the seeds run for both."""
@@ -361,6 +413,7 @@ def build_report(runs: Sequence[ScoredRun], schemes: Sequence[str]) -> Report:
         rows=with_intervals(rows, primary),
         paired=paired_differences(primary, columns),
         seeds=seed_spreads(runs, columns),
+        to_best=differences_to_best(primary, rows, columns),
         density=density_rows(list(primary.values())),
         ablations=ablation_rows(list(primary.values())),
     )

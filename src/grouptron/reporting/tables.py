@@ -33,6 +33,7 @@ from grouptron.reporting.diagnostics import diagnostics_markdown
 from grouptron.reporting.metric_tables import metric_tables
 from grouptron.reporting.out_of_domain import out_of_domain_markdown
 from grouptron.reporting.published import (
+    BENCHMARK_ROWS,
     BEST_OF_20,
     MOST_LIKELY,
     TABLE_I,
@@ -179,7 +180,7 @@ def _mode_table(
 ) -> list[str]:
     """One line per (model, derivatives): ADE/FDE, or the NLL in nats for ``nll``; first the
     published rows of the mode's kind (best-of-20: Table I's)."""
-    lines = published_lines(TABLE_I_ROWS, mode, tuple(columns)) if mode == BEST_OF_20 else []
+    lines = published_lines(BENCHMARK_ROWS, mode, tuple(columns)) if mode == BEST_OF_20 else []
     models = (*ours_models(rows), CONSTANT_VELOCITY) if with_baseline else ours_models(rows)
     for derivatives in schemes:
         for model in models:
@@ -237,6 +238,24 @@ def paired_table(paired: Sequence[PairedDifference], columns: Sequence[str]) -> 
         )
     return markdown_table(
         ["difference", "derivatives, mode", *(display_name(c) for c in columns)], lines
+    )
+
+
+def to_best_table(to_best: Sequence[PairedDifference], columns: Sequence[str]) -> list[str]:
+    """Every model's mean FDE minus the best one's of each column (``best`` there), with
+    95% intervals on the same samples; a * marks an interval that excludes zero."""
+    index = {(p.derivatives, p.mode, p.model, p.column): p for p in to_best}
+    keys = dict.fromkeys((p.derivatives, p.mode, p.model) for p in to_best)
+    lines = []
+    for derivatives, mode, model in keys:
+        cells = []
+        for column in columns:
+            p = index.get((derivatives, mode, model, column))
+            best = p is not None and p.model == p.baseline
+            cells.append("-" if p is None else "**best**" if best else p.fde.signed_text())
+        lines.append([display_name(model), f"{derivatives}, {mode}", *cells])
+    return markdown_table(
+        ["model", "derivatives, mode", *(display_name(c) for c in columns)], lines
     )
 
 
@@ -333,6 +352,18 @@ def _certainty_sections(
             "",
             *paired_table(report.paired, columns),
         ]
+    if report.to_best:
+        out += [
+            "",
+            "### Every model against the best",
+            "",
+            "Mean FDE (m) minus that of the column's best model (lowest mean FDE) on the same",
+            "test samples, with its 95% interval over resampled time steps; one forecast",
+            "(constant velocity's among them) and the best of 20 (the models that sample);",
+            "`*`: the interval excludes zero.",
+            "",
+            *to_best_table(report.to_best, columns),
+        ]
     if report.seeds:
         out += ["", "## Seeds", "", SEEDS_NOTE, ""]
         out += seed_table(report.seeds)
@@ -362,7 +393,7 @@ def _other_modes(
         if mode in modes:
             table = _mode_table(rows, (*TABLE_I_COLUMNS, *TABLE_II_COLUMNS[1:]), mode, schemes)
             out += ["", f"## {title}", "", *table]
-            out += sources_note(TABLE_I_ROWS, mode)  # the published rows of its kind
+            out += sources_note(BENCHMARK_ROWS, mode)  # the published rows of its kind
     return out
 
 
