@@ -15,14 +15,13 @@ from grouptron.data.datasets.custom import read_dataset
 from grouptron.data.datasets.locate import score_cache_dir
 from grouptron.errors import GrouptronError
 from grouptron.evaluation.metrics import scoring
-from grouptron.evaluation.results import results_json
 from grouptron.geometry import DERIVATIVE_SCHEMES
 from grouptron.io import (
     refuse_folder,
     write_text_atomically,
 )
 from grouptron.model.factory import MODEL_NAMES
-from grouptron.reporting.datasets import dataset_markdown, dataset_report
+from grouptron.reporting.datasets import dataset_json, dataset_markdown, dataset_report
 from grouptron.reporting.report import ReportSettings
 from grouptron.reporting.tables import report_markdown
 from grouptron.workflows.report import ReportRequest, benchmark_report
@@ -95,7 +94,7 @@ def cmd_report_dataset(args: argparse.Namespace) -> int:
     dataset = read_dataset(args.dataset)
     torch.set_num_threads(args.threads)
     modes = tuple(m for m in eval_modes(args.mode) if m != "nll")
-    rows = dataset_report(
+    report = dataset_report(
         dataset,
         Path(args.checkpoints),
         modes=modes,
@@ -103,7 +102,8 @@ def cmd_report_dataset(args: argparse.Namespace) -> int:
         use_cache=not args.no_cache,
         score_cache=_score_cache(args),
     )
-    text = results_json(rows) + "\n" if args.format == "json" else dataset_markdown(dataset, rows)
+    json_text = args.format == "json"
+    text = dataset_json(report) + "\n" if json_text else dataset_markdown(dataset, report)
     return _emit(args, text)
 
 

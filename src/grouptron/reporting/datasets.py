@@ -1,19 +1,27 @@
-"""The report of a dataset of one's own: every checkpoint trained on it and constant velocity
-on its test part, with 95% intervals (time steps resampled)."""
+"""The report of a dataset of one's own (a benchmark of one's own, such as TrajNet's Stanford
+Drone scenes): every checkpoint trained on it and constant velocity on its test part, with 95%
+intervals (time steps resampled), and every row's paired FDE difference to the best row of its
+mode."""
 
 from __future__ import annotations
 
 import dataclasses
+import json
+import math
+from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from grouptron.constants import CONSTANT_VELOCITY
 from grouptron.data.datasets.custom import DatasetDescription, load_dataset_part
 from grouptron.data.datasets.subsets import time_step_ids
 from grouptron.errors import GrouptronError
 from grouptron.evaluation import metrics
-from grouptron.evaluation.evaluate import constant_velocity_scores
-from grouptron.evaluation.results import NAMED, EvaluationResult, score_rows
+from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores
+from grouptron.evaluation.results import NAMED, EvaluationResult, results_json, score_rows
 from grouptron.evaluation.score_cache import cached_score_samples
+from grouptron.evaluation.uncertainty import Interval, mean_interval
 from grouptron.model.checkpoint import load_trained_model, stored_checkpoints
 from grouptron.model.factory import groups_for_model
 
@@ -33,6 +41,35 @@ def checkpoints_of(dataset: DatasetDescription, root: Path) -> list[Path]:
     return found
 
 
+@dataclass(frozen=True)
+class ToBest:
+    """One row's mean FDE minus the best row's of its derivatives and mode, on the same
+    samples (the best row's own is 0).
+
+    Attributes:
+        row: the row's model and mode as the table names them.
+        best: the best row's.
+        fde: the mean difference in metres with its 95% interval (time steps resampled).
+    """
+
+    derivatives: str
+    row: str
+    best: str
+    fde: Interval
+
+
+@dataclass(frozen=True)
+class DatasetReport:
+    """The rows of a dataset's report and every row's difference to the best."""
+
+    rows: list[EvaluationResult]
+    to_best: list[ToBest]
+
+
+_Scored = dict[tuple[str, str], tuple[str, np.ndarray, np.ndarray]]
+"""(derivatives, row name) -> (its mode kind, (S,) per-sample FDE, (S,) time-step ids)."""
+
+
 def dataset_report(
     dataset: DatasetDescription,
     root: Path,
@@ -41,10 +78,12 @@ def dataset_report(
     seed: int = 0,
     use_cache: bool = True,
     score_cache: Path | None = None,
-) -> list[EvaluationResult]:
-    """Rows for constant velocity (once per kind of derivatives) and every checkpoint;
-    ``score_cache`` keeps per-sample scores between runs (None: not kept)."""
+) -> DatasetReport:
+    """Rows for constant velocity (once per kind of derivatives) and every checkpoint, and
+    every row's difference to the best; ``score_cache`` keeps per-sample scores between runs
+    (None: not kept)."""
     rows: list[EvaluationResult] = []
+    scored_fde: _Scored = {}
     paths = checkpoints_of(dataset, root)
     baselines_done: set[str] = set()
     for path in paths:
@@ -58,6 +97,7 @@ def dataset_report(
             baselines_done.add(data.derivatives)
             cv = constant_velocity_scores(samples, data.horizon_steps)
             rows += score_rows(template, cv, {None: None}, steps=steps)
+            _keep(scored_fde, data.derivatives, CONSTANT_VELOCITY, cv, steps)
         groups = groups_for_model(samples, experiment)
         ours = dataclasses.replace(template, model=experiment.model_name, checkpoint=str(path))
         scored = cached_score_samples(
@@ -65,12 +105,56 @@ def dataset_report(
         )
         for scores in scored:
             rows += score_rows(ours, scores, {None: None}, steps=steps)
-    return rows
+            label = f"{experiment.model_name} ({scores.mode}), {path.parent.name}"
+            _keep(scored_fde, data.derivatives, label, scores, steps)
+    return DatasetReport(rows, differences_to_best(scored_fde))
 
 
-def dataset_markdown(dataset: DatasetDescription, rows: list[EvaluationResult]) -> str:
+def _keep(
+    found: _Scored, derivatives: str, name: str, scores: SampleScores, steps: np.ndarray
+) -> None:
+    """Keep a row's per-sample FDE: one forecast (``ml``, any point forecast) or best-of-K."""
+    kind = scores.mode if scores.mode.startswith("best-of-") else "one forecast"
+    if scores.mode != metrics.NLL:
+        found[derivatives, name] = (kind, scores.fde, steps)
+
+
+def differences_to_best(scored: _Scored) -> list[ToBest]:
+    """Every row minus the row of lowest mean FDE among those of its derivatives and kind of
+    forecast (one forecast, constant velocity's included, or best-of-K), sample by sample."""
+    out = []
+    kinds = dict.fromkeys((d, kind) for (d, _), (kind, _, _) in scored.items())
+    for derivatives, kind in kinds:
+        mine = {n: v for (d, n), v in scored.items() if d == derivatives and v[0] == kind}
+        best = min(mine, key=lambda n: float(np.mean(mine[n][1])) if len(mine[n][1]) else math.inf)
+        _, best_fde, steps = mine[best]
+        for name, (_, fde, _) in mine.items():
+            interval = mean_interval(fde - best_fde, steps, seed=0)
+            out.append(ToBest(derivatives, name, best, interval))
+    return out
+
+
+def dataset_json(report: DatasetReport) -> str:
+    """The rows as ``results_json`` writes them, with ``to_best``: every row's FDE minus the
+    best's, its interval and the best row's name."""
+    document = json.loads(results_json(report.rows))
+    document["to_best"] = [
+        {
+            "derivatives": d.derivatives,
+            "row": d.row,
+            "best": d.best,
+            "fde": d.fde.mean,
+            "fde_ci": d.fde.to_list(),
+        }
+        for d in report.to_best
+    ]
+    return json.dumps(document, indent=2)
+
+
+def dataset_markdown(dataset: DatasetDescription, report: DatasetReport) -> str:
     """The rows as a Markdown table: every metric's mean with its 95% interval (ADE, FDE,
-    then the other registered metrics in order)."""
+    then the other registered metrics in order); then every row against the best."""
+    rows = report.rows
     extra = [m for m in metrics.METRICS.values() if m.name not in NAMED]
     headings = ["ADE m", "FDE m [95% interval]", *(f"{m.label} [95% interval]" for m in extra)]
     lines = [f"# {dataset.name}: test part of `{dataset.source}`", ""]
@@ -84,6 +168,21 @@ def dataset_markdown(dataset: DatasetDescription, rows: list[EvaluationResult]) 
             + " | ".join(cells)
             + " |"
         )
+    if report.to_best:
+        lines += [
+            "",
+            "Mean FDE (m) minus the best row's of the same kind of forecast (one forecast, or",
+            "best of K) on the same test samples, with its 95% interval over resampled time",
+            "steps; `*`: the interval excludes zero.",
+            "",
+        ]
+        lines += [
+            "| model (mode) | derivatives | best | FDE - best's [95% interval] |",
+            "|---|---|---|---|",
+        ]
+        for d in report.to_best:
+            cell = "**best**" if d.row == d.best else d.fde.signed_text()
+            lines.append(f"| {d.row} | {d.derivatives} | {d.best} | {cell} |")
     return "\n".join(lines) + "\n"
 
 
