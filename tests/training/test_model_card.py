@@ -35,3 +35,11 @@ def test_the_card_shows_the_final_selection_on_all_validation_samples() -> None:
     card = render_model_card("run", ExperimentConfig(), [{"epoch": 9}], selection)
     assert "epoch 7: best ML FDE on all 4148 validation samples" in card
     assert "0.400 / 0.900 m" in card
+
+
+def test_a_baselines_card_names_its_class_and_what_it_is() -> None:
+    config = ExperimentConfig(model_name="social-stgcnn")
+    card = render_model_card("run", config, [{"epoch": 1}])
+    assert "`grouptron.baselines.social_stgcnn:SocialSTGCNN`: Social-STGCNN (Mohamed" in card
+    assert "future encoder input" not in card  # a CVAE's input only
+    assert "future encoder input" in render_model_card("run", ExperimentConfig(), [{"epoch": 1}])

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import platform
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -16,9 +17,10 @@ import torch
 
 from grouptron.config import ExperimentConfig, non_default_settings
 from grouptron.constants import ALL_LOCATIONS
+from grouptron.errors import GrouptronError
 from grouptron.io import write_text_atomically
 from grouptron.model.factory import DISPLAY_NAMES
-from grouptron.model.forecaster import is_outside_name
+from grouptron.model.forecaster import is_outside_name, outside_forecaster
 from grouptron.presets import CUSTOM, model_label
 
 CARD = "README.md"
@@ -157,6 +159,21 @@ def _model_name(config: ExperimentConfig) -> str:
     return f"{shown} with switches of its own ({CUSTOM}: see the settings below)"
 
 
+def _architecture(config: ExperimentConfig) -> list[tuple[str, str]]:
+    """A model of the forecaster interface's class and what its module says it is (its
+    docstring's first paragraph); nothing for the shipped CVAEs (their settings say it)."""
+    if not is_outside_name(config.model_name):
+        return []
+    try:
+        found = outside_forecaster(config.model_name)
+    except GrouptronError:  # a card is written wherever the class went since
+        return [("architecture", "its class cannot be imported here")]
+    module = sys.modules.get(found.__module__)
+    text = (module.__doc__ or found.__doc__ or "").strip().split("\n\n")[0]
+    about = " ".join(text.split())
+    return [("architecture", f"`{found.__module__}:{found.__qualname__}`: {about}")]
+
+
 def _recipe(config: ExperimentConfig, records: list[dict[str, Any]]) -> str:
     train = config.train
     augmentation = "24-angle rotation augmentation, " if train.rotation_augmentation else ""
@@ -194,18 +211,26 @@ def render_model_card(
         else f"{config.split} (trained on the train parts of the other four locations, "
         "validated on their val parts)"
     )
+    cvae_only = (
+        []
+        if is_outside_name(config.model_name)
+        else [
+            (
+                "future encoder input",
+                f"future positions relative to now / {config.data.future_scale_m:g} m",
+            )
+        ]
+    )
     rows = [
         ("model", _model_name(config)),
+        *_architecture(config),
         ("split" if not config.dataset else "dataset", data),
         ("derivatives", DERIVATIVES_NOTES.get(config.data.derivatives, config.data.derivatives)),
         ("recipe", _recipe(config, records)),
         ("epochs trained", _epochs_trained(last, bool(train.init_from))),
         *_selection_rows(scored, selection),
         ("precision", _precision_ranges(records) if records else "-"),
-        (
-            "future encoder input",
-            f"future positions relative to now / {config.data.future_scale_m:g} m",
-        ),
+        *cvae_only,
         ("wall time", _wall_time(records)),
         ("machine", devices or "not recorded"),
         ("settings other than the defaults", _settings(config)),
