@@ -32,6 +32,8 @@ SKIPPED = {
     "grouptron train --split univ --derivatives central": HOURS,
     "grouptron train --split eth --model grouptron --set group_encoder.group_dim=16": HOURS,
     "grouptron train --split all-locations": HOURS,
+    "grouptron train --model social-stgcnn --split eth --derivatives backward --epochs 30": "30 "
+    "epochs; tests/baselines/test_learned_baselines.py trains each baseline for two on tiny data",
     "grouptron train --split univ --derivatives backward --epochs 6 --init-from "
     "runs/trajectron++-univ-central/last.safetensors": "continues the 100-epoch run skipped above",
     "grouptron evaluate --checkpoint CKPT --split univ --subset univ-45": "UNIV-45 needs the "
@@ -50,6 +52,7 @@ SHIPPED = {  # shipped names the docs use -> the tiny checkpoint that stands in 
     "grouptron-univ-backward": "grouptron-eth-backward",
     "grouptron-univ-central": "grouptron-eth-central",
     "trajectron++-univ-central": "trajectron++-eth-central",
+    "social-stgcnn-eth-backward": "trajectron++-eth-central",  # any model: the command's path
 }
 
 
