@@ -10,6 +10,7 @@ import pytest
 
 from grouptron.config import ExperimentConfig, experiment_from_stored
 from grouptron.model.factory import DISPLAY_NAMES, GROUP_MODELS, PAPER_MODELS, build_model
+from grouptron.model.forecaster import is_outside_name, outside_forecaster
 from grouptron.model.grouptron import GrouptronCVAE
 from grouptron.presets import CUSTOM, MODEL_NAMES, MODELS, experiment_preset, model_label
 from grouptron.reporting.stats import PAIRS
@@ -49,4 +50,7 @@ def test_every_shipped_checkpoint_is_named_by_its_own_model() -> None:
     assert len(shipped) > 20
     for path in shipped:
         config: ExperimentConfig = experiment_from_stored(json.loads(path.read_text()))
+        if is_outside_name(config.model_name):  # a learned baseline: named by its class
+            assert outside_forecaster(config.model_name).__module__.startswith("grouptron.")
+            continue
         assert model_label(config) == config.model_name, path.parent.name
