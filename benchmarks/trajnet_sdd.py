@@ -105,9 +105,9 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=REPO / "benchmarks" / "trajnet_sdd_runs")
     parser.add_argument("--counts-only", action="store_true", help="print the counts and stop")
     parser.add_argument("--models", default=",".join(MODELS), help="models to train and report")
-    parser.add_argument("--epochs", type=int, default=30, help="epochs of the learned baselines")
+    parser.add_argument("--epochs", type=int, default=15, help="epochs of the learned baselines")
     parser.add_argument(
-        "--cvae-epochs", type=int, default=10, help="epochs of Trajectron++ and Grouptron"
+        "--cvae-epochs", type=int, default=5, help="epochs of Trajectron++ and Grouptron"
     )
     parser.add_argument("--threads", type=int, default=1, help="CPU threads per training run")
     args = parser.parse_args()

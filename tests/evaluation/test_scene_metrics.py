@@ -69,6 +69,12 @@ def test_paths_that_cross_between_two_steps_collide() -> None:
     assert collisions_among_forecasts(scene).tolist() == [1.0, 1.0]
 
 
+def test_a_one_step_horizon_reads_that_step_alone() -> None:
+    here, near, far = np.zeros((1, 2)), np.array([[0.0, 0.15]]), np.array([[0.0, 0.5]])
+    scene = _scene([here, near, far], [here, near, far], [0, 0, 1])
+    assert collisions_among_forecasts(scene).tolist() == [1.0, 1.0, 0.0]
+
+
 def test_people_at_the_same_place_in_different_moments_do_not_collide() -> None:
     here = _walk((0.0, 0.0), (0.1, 0.0))
     scene = _scene([here, here], [here, here], [0, 1])

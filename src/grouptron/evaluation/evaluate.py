@@ -163,7 +163,8 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
     (coverage, area) per step too.
 
     Every sample is predicted independently of its batch, so means over a subset of these
-    scores equal an evaluation of that subset (UNIV-N is scored this way). Each sampling mode
+    scores equal an evaluation of that subset (UNIV-N is scored this way); a scene-level
+    metric's are the exception: its "others" are those of the whole set. Each sampling mode
     starts its own generator from ``seed``, so results are reproducible and a mode scores the
     same whichever other modes are asked with it. Grouptron needs the samples' ``groups``. The
     model must already be on ``device``.
@@ -242,7 +243,8 @@ class _SceneKeeper:
         if not self.wanted:
             return
         if self.forecasts is None:
-            self.forecasts = np.full((len(self.samples), *forecasts.shape[1:]), np.nan)
+            shape = (len(self.samples), *forecasts.shape[1:])
+            self.forecasts = np.full(shape, np.nan, dtype=np.float32)  # half the memory
         self.forecasts[index] = forecasts
 
     def scores(self) -> dict[str, np.ndarray]:
@@ -260,7 +262,7 @@ def scene_scores(forecasts: np.ndarray, samples: SampleSet) -> dict[str, np.ndar
         return {}
     now = samples.pos_now_scene_m.astype(np.float64)  # (S, 2) in the scene's own frame
     scene = SceneForecasts(
-        forecasts + now[:, None, None],
+        forecasts.astype(np.float64) + now[:, None, None],
         samples.fut_rel_m.astype(np.float64) + now[:, None],
         moment_ids(samples.scene_index, samples.step),
     )

@@ -99,7 +99,8 @@ def closest_approach_m(paths: np.ndarray, others: np.ndarray) -> np.ndarray:
     every step and halfway between consecutive steps: (..., H, 2), (..., H, 2) -> (...)."""
     gap = paths - others  # (..., H, 2); linear between steps, so halfway is the mean
     at_steps = np.linalg.norm(gap, axis=-1).min(axis=-1)
-    halfway = np.linalg.norm(0.5 * (gap[..., 1:, :] + gap[..., :-1, :]), axis=-1).min(axis=-1)
+    halfway_m = np.linalg.norm(0.5 * (gap[..., 1:, :] + gap[..., :-1, :]), axis=-1)
+    halfway = halfway_m.min(axis=-1, initial=np.inf)  # none for one step
     closest: np.ndarray = np.minimum(at_steps, halfway)
     return closest
 

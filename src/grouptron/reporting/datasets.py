@@ -6,6 +6,7 @@ mode."""
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import math
 from dataclasses import dataclass
@@ -16,6 +17,7 @@ import numpy as np
 from grouptron.constants import CONSTANT_VELOCITY
 from grouptron.data.datasets.custom import DatasetDescription, load_dataset_part
 from grouptron.data.datasets.subsets import time_step_ids
+from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
 from grouptron.evaluation import metrics
 from grouptron.evaluation.evaluate import SampleScores, constant_velocity_scores
@@ -47,6 +49,8 @@ class ToBest:
     samples (the best row's own is 0).
 
     Attributes:
+        derivatives: the rows' derivatives, numbered (``backward, sample set 2``) where runs
+            of the same derivatives differ in their test samples (other data settings).
         row: the row's model and mode as the table names them.
         best: the best row's.
         fde: the mean difference in metres with its 95% interval (time steps resampled).
@@ -67,7 +71,8 @@ class DatasetReport:
 
 
 _Scored = dict[tuple[str, str], tuple[str, np.ndarray, np.ndarray]]
-"""(derivatives, row name) -> (its mode kind, (S,) per-sample FDE, (S,) time-step ids)."""
+"""(sample set: the derivatives, numbered where runs differ in their test samples, row name)
+-> (its kind of forecast, (S,) per-sample FDE, (S,) time-step ids)."""
 
 
 def dataset_report(
@@ -79,25 +84,26 @@ def dataset_report(
     use_cache: bool = True,
     score_cache: Path | None = None,
 ) -> DatasetReport:
-    """Rows for constant velocity (once per kind of derivatives) and every checkpoint, and
-    every row's difference to the best; ``score_cache`` keeps per-sample scores between runs
-    (None: not kept)."""
+    """Rows for constant velocity (once per set of test samples: the runs' data settings
+    decide it) and every checkpoint, and every row's difference to the best row on the same
+    samples; ``score_cache`` keeps per-sample scores between runs (None: not kept)."""
     rows: list[EvaluationResult] = []
     scored_fde: _Scored = {}
-    paths = checkpoints_of(dataset, root)
-    baselines_done: set[str] = set()
-    for path in paths:
+    sample_sets: dict[str, str] = {}  # samples' digest -> the label rows on them share
+    for path in checkpoints_of(dataset, root):
         model, experiment = load_trained_model(path)
         data = experiment.data
         samples = load_dataset_part(dataset, "test", data, use_cache=use_cache).samples
         steps = time_step_ids(samples)
         template = EvaluationResult(dataset.name, CONSTANT_VELOCITY, None, 0, 0.0, 0.0)
         template = dataclasses.replace(template, derivatives=data.derivatives)
-        if data.derivatives not in baselines_done:
-            baselines_done.add(data.derivatives)
+        digest = _sample_digest(samples, data.derivatives)
+        if digest not in sample_sets:
+            same = sum(label.startswith(data.derivatives) for label in sample_sets.values())
+            sample_sets[digest] = data.derivatives + (f", sample set {same + 1}" if same else "")
             cv = constant_velocity_scores(samples, data.horizon_steps)
             rows += score_rows(template, cv, {None: None}, steps=steps)
-            _keep(scored_fde, data.derivatives, CONSTANT_VELOCITY, cv, steps)
+            _keep(scored_fde, sample_sets[digest], CONSTANT_VELOCITY, cv, steps)
         groups = groups_for_model(samples, experiment)
         ours = dataclasses.replace(template, model=experiment.model_name, checkpoint=str(path))
         scored = cached_score_samples(
@@ -106,21 +112,28 @@ def dataset_report(
         for scores in scored:
             rows += score_rows(ours, scores, {None: None}, steps=steps)
             label = f"{experiment.model_name} ({scores.mode}), {path.parent.name}"
-            _keep(scored_fde, data.derivatives, label, scores, steps)
+            _keep(scored_fde, sample_sets[digest], label, scores, steps)
     return DatasetReport(rows, differences_to_best(scored_fde))
 
 
+def _sample_digest(samples: SampleSet, derivatives: str) -> str:
+    """Which test samples these are, in order (their scene, step and person) and with which
+    derivatives: rows are paired sample by sample only within one digest."""
+    keys = np.stack([samples.scene_index, samples.step, samples.track]).astype(np.int64)
+    return hashlib.sha256(keys.tobytes() + derivatives.encode()).hexdigest()
+
+
 def _keep(
-    found: _Scored, derivatives: str, name: str, scores: SampleScores, steps: np.ndarray
+    found: _Scored, sample_set: str, name: str, scores: SampleScores, steps: np.ndarray
 ) -> None:
     """Keep a row's per-sample FDE: one forecast (``ml``, any point forecast) or best-of-K."""
     kind = scores.mode if scores.mode.startswith("best-of-") else "one forecast"
     if scores.mode != metrics.NLL:
-        found[derivatives, name] = (kind, scores.fde, steps)
+        found[sample_set, name] = (kind, scores.fde, steps)
 
 
 def differences_to_best(scored: _Scored) -> list[ToBest]:
-    """Every row minus the row of lowest mean FDE among those of its derivatives and kind of
+    """Every row minus the row of lowest mean FDE among those of its sample set and kind of
     forecast (one forecast, constant velocity's included, or best-of-K), sample by sample."""
     out = []
     kinds = dict.fromkeys((d, kind) for (d, _), (kind, _, _) in scored.items())
