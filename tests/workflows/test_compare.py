@@ -31,6 +31,24 @@ def test_two_checkpoints_differ_with_an_interval(
     assert "B - A FDE m (95% interval)" in capsys.readouterr().out
 
 
+def test_scene_metrics_are_compared_paired_too(
+    tiny_checkpoints: Path, synthetic_data_dir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    a = str(tiny_checkpoints / "trajectron++-eth-central")
+    b = str(tiny_checkpoints / "grouptron-eth-central")
+    data = ["--data-dir", str(synthetic_data_dir), "--mode", "best-of-20"]
+    metrics = ["--metrics", "col-i,jfde", "--format", "json"]
+    assert main(["compare", a, b, *data, *metrics]) == 0
+    (row,) = json.loads(capsys.readouterr().out)["rows"]
+    assert set(row["metrics"]) == {"col-i", "jfde"}
+    jfde = row["metrics"]["jfde"]
+    assert jfde["difference"]["mean"] == pytest.approx(jfde["b"] - jfde["a"])
+    assert jfde["b"] >= row["b"]["fde"] - 1e-12  # chosen per moment: no better than per person
+    assert main(["compare", a, a, *data, *metrics]) == 0  # a model against itself: nothing
+    (same,) = json.loads(capsys.readouterr().out)["rows"]
+    assert same["metrics"]["col-i"]["difference"] == {"mean": 0.0, "low": 0.0, "high": 0.0}
+
+
 def test_a_model_and_its_own_forecast_file_do_not_differ(
     tiny_checkpoints: Path, synthetic_data_dir: Path, tmp_path: Path
 ) -> None:

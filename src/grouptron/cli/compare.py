@@ -10,6 +10,7 @@ from pathlib import Path
 import torch
 
 from grouptron.cli.options import parse_splits
+from grouptron.evaluation.metrics import scoring
 from grouptron.workflows.compare import Side, compare, compared_table
 from grouptron.workflows.evaluate_files import ForecastFiles
 
@@ -30,9 +31,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
     torch.set_num_threads(args.threads)
     names = args.split.split(",") if args.split else []
     splits = tuple(s for name in names for s in parse_splits(name.strip())) or None
-    rows = compare(
-        side(args.a), side(args.b), splits, args.mode, data_dir=args.data_dir, seed=args.seed
-    )
+    with scoring(args.metrics):  # registered for this comparison only
+        rows = compare(
+            side(args.a), side(args.b), splits, args.mode, data_dir=args.data_dir, seed=args.seed
+        )
     if args.format == "json":
         print(json.dumps({"a": args.a, "b": args.b, "rows": [r.to_dict() for r in rows]}))
     else:

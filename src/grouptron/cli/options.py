@@ -181,12 +181,15 @@ def metric_names(value: str) -> tuple[str, ...]:
 METRICS_HELP = (
     "also score these metrics (comma-separated), beside ADE, FDE and the displacement error "
     "per step: miss-rate-Xm (the share of forecasts ending more than X m off; best-of-K: of "
-    "samples whose K forecasts all do), module:name (a function (..., H, 2) forecasts, "
+    "samples whose K forecasts all do), the scene-level col-i and col-ii (the share of "
+    "forecasts colliding with another forecast, or another person's true path, TrajNet++'s "
+    "0.2 m), jade and jfde (the best of K chosen per scene and time step), module:name (a "
+    "function (..., H, 2) forecasts, "
     "(..., H, 2) truths -> (...) scores, lower is better, or a Metric, of a module in the "
     "current folder or on PYTHONPATH), or the name of an installed package's "
     "grouptron.metrics entry point"
 )
-"""The help of ``--metrics`` (``evaluate`` and ``report``)."""
+"""The help of ``--metrics`` (``evaluate``, ``report`` and ``compare``)."""
 
 
 def int_list(value: str) -> list[int]:

@@ -8,7 +8,7 @@ samples, and the paired difference B - A with its 95% interval over resampled ti
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +20,7 @@ from grouptron.data.datasets.locate import resolve_data_dir, split_files
 from grouptron.data.datasets.subsets import time_step_ids
 from grouptron.data.prepare.samples import SampleSet
 from grouptron.errors import GrouptronError
+from grouptron.evaluation import metrics
 from grouptron.evaluation.evaluate import SampleScores, score_samples
 from grouptron.evaluation.test_sets import load_test_set
 from grouptron.evaluation.uncertainty import Interval, mean_interval, split_average_interval
@@ -52,6 +53,8 @@ class Compared:
         a, b: (ADE, FDE) in metres.
         ade, fde: B - A with its 95% interval over resampled time steps; below zero: B is
             closer to the truth.
+        others: every other metric registered while comparing (``--metrics``; each lower is
+            better): name -> (A's mean, B's mean, B - A with its interval).
     """
 
     split: str
@@ -61,6 +64,7 @@ class Compared:
     b: tuple[float, float]
     ade: Interval
     fde: Interval
+    others: dict[str, tuple[float, float, Interval]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready: the differences as ``{mean, low, high}``."""
@@ -73,6 +77,10 @@ class Compared:
             "difference": {
                 name: {"mean": d.mean, "low": d.low, "high": d.high}
                 for name, d in (("ade", self.ade), ("fde", self.fde))
+            },
+            "metrics": {
+                name: {"a": a, "b": b, "difference": {"mean": d.mean, "low": d.low, "high": d.high}}
+                for name, (a, b, d) in self.others.items()
             },
         }
 
@@ -146,7 +154,22 @@ def _paired(a: _Scored, b: _Scored) -> Compared:
         (float(np.mean(b.scores.ade)), float(np.mean(b.scores.fde))),
         mean_interval(b.scores.ade - a.scores.ade, steps),
         mean_interval(b.scores.fde - a.scores.fde, steps),
+        {
+            name: (
+                float(np.mean(a.scores.get(name))),
+                float(np.mean(b.scores.get(name))),
+                mean_interval(b.scores.get(name) - a.scores.get(name), steps),
+            )
+            for name in _other_metrics(a.scores)
+        },
     )
+
+
+def _other_metrics(scores: SampleScores) -> list[str]:
+    """The metrics scored beside ADE and FDE (those ``--metrics`` added)."""
+    return [
+        name for name in metrics.METRICS if name not in ("ade", "fde") and name in scores.values
+    ]
 
 
 def compare(
@@ -182,12 +205,20 @@ def _split_mean(rows: list[tuple[Compared, list[_Scored]]]) -> Compared:
     time steps on their own."""
     differences = {
         metric: [
-            (getattr(b.scores, metric) - getattr(a.scores, metric), time_step_ids(a.samples))
+            (b.scores.get(metric) - a.scores.get(metric), time_step_ids(a.samples))
             for _, (a, b) in rows
         ]
-        for metric in ("ade", "fde")
+        for metric in ("ade", "fde", *rows[0][0].others)
     }
     first = rows[0][0]
+    others = {
+        name: (
+            float(np.mean([r.others[name][0] for r, _ in rows])),
+            float(np.mean([r.others[name][1] for r, _ in rows])),
+            split_average_interval(differences[name]),
+        )
+        for name in first.others
+    }
     return Compared(
         SPLIT_MEAN,
         sum(row.samples for row, _ in rows),
@@ -196,6 +227,7 @@ def _split_mean(rows: list[tuple[Compared, list[_Scored]]]) -> Compared:
         (float(np.mean([r.b[0] for r, _ in rows])), float(np.mean([r.b[1] for r, _ in rows]))),
         split_average_interval(differences["ade"]),
         split_average_interval(differences["fde"]),
+        others,
     )
 
 
@@ -211,6 +243,12 @@ def compared_table(rows: list[Compared], names: tuple[str, str]) -> str:
         a, b = (f"{v[0]:.3f}/{v[1]:.3f}" for v in (row.a, row.b))
         ade, fde = (f"{d.mean:+.3f} [{d.low:+.3f}, {d.high:+.3f}]" for d in (row.ade, row.fde))
         lines.append(f"{row.split:<7} {row.samples:>7} {a:>14} {b:>14}   {ade:<28} {fde}")
+    for name in rows[0].others if rows else ():
+        lines.append(f"{metrics.metric_label(name)}:")
+        for row in rows:
+            a_mean, b_mean, d = row.others[name]
+            difference = f"{d.mean:+.4f} [{d.low:+.4f}, {d.high:+.4f}]"
+            lines.append(f"  {row.split:<7} A {a_mean:.4f}  B {b_mean:.4f}  B - A {difference}")
     modes = rows[0].modes if rows else ("", "")
     lines.append(f"modes: A {modes[0]}, B {modes[1]}; below zero: B is closer to the truth")
     return "\n".join(lines)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from grouptron.cli.options import Formatter, add_threads_option
+from grouptron.cli.options import METRICS_HELP, Formatter, add_threads_option, metric_names
 from grouptron.constants import SPLITS
 
 
@@ -22,6 +22,7 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         epilog="examples:\n"
         "  grouptron compare trajectron++-eth-central grouptron-eth-central\n"
         "  grouptron compare runs/a runs/b --mode best-of-20\n"
+        "  grouptron compare trajectron++-zara1-backward grouptron-zara1-backward --metrics col-i\n"
         "  grouptron compare grouptron-eth-backward theirs.csv --split eth",
     )
     compare.add_argument(
@@ -39,6 +40,9 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
         "--mode",
         help="the evaluation mode of both (ml, ml-argmax, mean, ml-topK, best-of-K; default: "
         "each one's own point forecast, a file's ml or best-of-K of its samples)",
+    )
+    compare.add_argument(
+        "--metrics", type=metric_names, default=(), metavar="NAME[,NAME...]", help=METRICS_HELP
     )
     compare.add_argument("--seed", type=int, default=0, help="seed of the sampling modes")
     compare.add_argument(
