@@ -173,9 +173,6 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
     if unknown:
         raise ValueError(f"unknown evaluation modes {sorted(unknown)}")
     model.eval()
-    horizon, dt = config.data.horizon_steps, config.data.dt_s
-    count = len(samples)
-    nll_batch = max(1, batch_size // 64)
     results: dict[str, SampleScores] = {}
     if all(mode in modes for mode in SHARED_DECODE) and isinstance(model, TrajectronCVAE):
         results = _score_shared_decode(
@@ -190,42 +187,70 @@ def score_samples(  # noqa: PLR0913 - the scoring options, all keyword-only
             regions=regions,
         )
     for mode in (m for m in modes if m not in results):
-        values: dict[str, np.ndarray] = {}
-        kept = _SceneKeeper(samples, mode)
-        generator = torch.Generator(device=device).manual_seed(seed)  # per mode: see above
-        size = nll_batch if mode == "nll" else batch_size
-        iterator = batches(samples, config, size, groups)
-        total = -(-count // size)
-        for index, batch in tqdm(
-            iterator, total=total, desc=mode, disable=not progress, leave=False
-        ):
-            batch = batch.to(device)
-            truth = batch.fut_rel_m.double().cpu().numpy()  # (B, H, 2)
-            if is_point_forecast(mode):
-                named = PointForecast.parse(mode)
-                decoded = model.forecast_point(batch, named, horizon, dt, ablate=ablate)
-                point = decoded.point.double().cpu().numpy()  # (B, H, 2)
-                made_from = _distribution(decoded, regions)
-                _store(values, index, count, _point_scores(point, made_from, truth, regions))
-                kept.keep(index, point[:, None])
-                continue
-            best_of = best_of_samples(mode)
-            draws = model.forecast_futures(
-                batch,
-                horizon,
-                dt,
-                num_samples=best_of or NLL_SAMPLES,
-                generator=generator,
-                ablate=ablate,
-            )
-            draws_np = draws.double().cpu().numpy()  # (B, K, H, 2)
-            if best_of is not None:
-                _store(values, index, count, _best_of_scores(draws_np, truth))
-                kept.keep(index, draws_np)
-            else:
-                _store(values, index, count, {metrics.NLL: metrics.kde_nll(draws_np, truth)})
-        results[mode] = _completed(mode, values | kept.scores(), count)
+        results[mode] = _mode_scores(
+            model,
+            config,
+            samples,
+            mode,
+            batch_size=max(1, batch_size // 64) if mode == metrics.NLL else batch_size,
+            seed=seed,
+            progress=progress,
+            groups=groups,
+            device=device,
+            ablate=ablate,
+            regions=regions,
+        )
     return [results[mode] for mode in modes]
+
+
+def _mode_scores(  # noqa: PLR0913 - score_samples's options, all keyword-only
+    model: Forecaster,
+    config: ExperimentConfig,
+    samples: SampleSet,
+    mode: str,
+    *,
+    batch_size: int,
+    seed: int,
+    progress: bool,
+    groups: SampleGroups | None,
+    device: torch.device | str,
+    ablate: Ablation,
+    regions: RegionScoring | None,
+) -> SampleScores:
+    """One mode's per-sample scores, batch by batch (``score_samples``)."""
+    horizon, dt, count = config.data.horizon_steps, config.data.dt_s, len(samples)
+    values: dict[str, np.ndarray] = {}
+    kept = _SceneKeeper(samples, mode)
+    generator = torch.Generator(device=device).manual_seed(seed)  # per mode: score_samples
+    iterator = batches(samples, config, batch_size, groups)
+    total = -(-count // batch_size)
+    for index, batch in tqdm(iterator, total=total, desc=mode, disable=not progress, leave=False):
+        batch = batch.to(device)
+        truth = batch.fut_rel_m.double().cpu().numpy()  # (B, H, 2)
+        if is_point_forecast(mode):
+            named = PointForecast.parse(mode)
+            decoded = model.forecast_point(batch, named, horizon, dt, ablate=ablate)
+            point = decoded.point.double().cpu().numpy()  # (B, H, 2)
+            made_from = _distribution(decoded, regions)
+            _store(values, index, count, _point_scores(point, made_from, truth, regions))
+            kept.keep(index, point[:, None])
+            continue
+        best_of = best_of_samples(mode)
+        draws = model.forecast_futures(
+            batch,
+            horizon,
+            dt,
+            num_samples=best_of or NLL_SAMPLES,
+            generator=generator,
+            ablate=ablate,
+        )
+        draws_np = draws.double().cpu().numpy()  # (B, K, H, 2)
+        if best_of is not None:
+            _store(values, index, count, _best_of_scores(draws_np, truth))
+            kept.keep(index, draws_np)
+        else:
+            _store(values, index, count, {metrics.NLL: metrics.kde_nll(draws_np, truth)})
+    return _completed(mode, values | kept.scores(), count)
 
 
 class _SceneKeeper:
