@@ -34,6 +34,7 @@ from grouptron.baselines.step_gaussians import RAW_VALUES, StepGaussianForecaste
 from grouptron.config import ExperimentConfig
 from grouptron.errors import GrouptronError
 from grouptron.model.batch import Batch, GroupBatch
+from grouptron.model.forecaster import model_settings
 
 NEAREST_M = 0.1
 """Distances below this count as this in the edge kernel (two people at one point would
@@ -55,13 +56,6 @@ class SocialSTGCNNSettings:
     extrapolator_layers: int = 5
     kernel: int = 3
     min_sigma_m: float = 0.01
-
-
-def _settings(config: ExperimentConfig) -> SocialSTGCNNSettings:
-    try:
-        return SocialSTGCNNSettings(**config.model_settings)
-    except TypeError as error:
-        raise GrouptronError(f"social-stgcnn: {error}") from None
 
 
 @dataclass(frozen=True)
@@ -163,7 +157,7 @@ class SocialSTGCNN(StepGaussianForecaster):
 
     def __init__(self, config: ExperimentConfig) -> None:
         super().__init__()
-        self.settings = _settings(config)
+        self.settings = model_settings(SocialSTGCNNSettings, config)
         self.config = config
         s, data = self.settings, config.data
         self.embed = _SpatioTemporalLayer(2, s.embedding, s.kernel)

@@ -26,8 +26,8 @@ from torch import nn
 
 from grouptron.baselines.step_gaussians import RAW_VALUES, StepGaussianForecaster, StepGaussians
 from grouptron.config import ExperimentConfig
-from grouptron.errors import GrouptronError
 from grouptron.model.batch import Batch
+from grouptron.model.forecaster import model_settings
 
 
 @dataclass(frozen=True)
@@ -52,19 +52,12 @@ class TransformerSettings:
     min_sigma_m: float = 0.01
 
 
-def _settings(config: ExperimentConfig) -> TransformerSettings:
-    try:
-        return TransformerSettings(**config.model_settings)
-    except TypeError as error:
-        raise GrouptronError(f"transformer: {error}") from None
-
-
 class TrajectoryTransformer(StepGaussianForecaster):
     """One person's history -> attention -> a Gaussian of each future displacement."""
 
     def __init__(self, config: ExperimentConfig) -> None:
         super().__init__()
-        s = self.settings = _settings(config)
+        s = self.settings = model_settings(TransformerSettings, config)
         history, horizon = config.data.history_steps, config.data.horizon_steps
         self.embed = nn.Linear(6, s.width)
         self.history_place = nn.Parameter(0.02 * torch.randn(history, s.width))

@@ -25,7 +25,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar, Protocol
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol, TypeVar
 
 import numpy as np
 import torch
@@ -40,6 +40,9 @@ from grouptron.presets import MODEL_NAMES
 
 if TYPE_CHECKING:
     from grouptron.config import ExperimentConfig
+
+SettingsT = TypeVar("SettingsT")
+"""A model's own settings dataclass (:func:`model_settings`)."""
 
 ENTRY_POINT_GROUP = "grouptron.models"
 """Packages name their forecasters under this entry-point group (``name = "pkg.mod:Class"``)."""
@@ -338,6 +341,15 @@ def _check_shape(
             f"{type(model).__name__}.{method} returned shape {tuple(made.shape)}, not "
             f"{expected} (samples, [futures,] steps, x/y)"
         )
+
+
+def model_settings(kind: type[SettingsT], config: ExperimentConfig) -> SettingsT:
+    """``config.model_settings`` read as the frozen dataclass ``kind`` (a model's own
+    settings); a name it does not have is refused in one line naming the model."""
+    try:
+        return kind(**config.model_settings)
+    except TypeError as error:
+        raise GrouptronError(f"{config.model_name}: {error}") from None
 
 
 def latent_values_of(config: ExperimentConfig) -> int:
