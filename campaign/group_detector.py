@@ -3,14 +3,16 @@ group labels, then trained on all four and shipped.
 
 Usage:
     python campaign/group_detector.py --labels-dir ../shared/data/groups [--data-dir DIR]
-                                      [--every 2] [--no-ship]
+                                      [--every 2] [--seed 0] [--no-ship]
 
 Each recording is held out in turn: the pair classifier (``grouptron.groups.learned``) is
 trained on the pairs of the other three (every ``--every``-th step), then the held-out
 recording is scored on every step beside the distance rule (``DETECTION_GROUPS``, chosen on all
 four): G-MITRE F1 and pair F1 scene-wide, pair F1 per ego, exact-match F1. Nothing is tuned on
-the held-out recording (the link threshold is ``LEARNED_LINK_PROBABILITY``). Prints a Markdown
-table; then (unless ``--no-ship``) trains on all four and writes
+the held-out recording (the link threshold is ``LEARNED_LINK_PROBABILITY``; the detector
+remembers each pair from step to step, ``grouptron.groups.pair_memory``). ``--seed`` seeds its
+first network (the others the next seeds), to see how much the scores owe to the seeds.
+Prints a Markdown table; then (unless ``--no-ship``) trains on all four and writes
 ``src/grouptron/groups/detector/best.safetensors`` (its card: README.md beside it).
 """
 
@@ -48,11 +50,13 @@ def scores(scene: Scene, labels: dict[int, int], rule: GroupConfig, every: int,
     }
 
 
-def fit(names: list[str], data: dict[str, tuple[np.ndarray, np.ndarray]]) -> PairClassifier:
+def fit(
+    names: list[str], data: dict[str, tuple[np.ndarray, np.ndarray]], seed: int
+) -> PairClassifier:
     """The classifier trained on the pairs of ``names``."""
     features = np.concatenate([data[n][0] for n in names])
     together = np.concatenate([data[n][1] for n in names])
-    return fit_classifier(features, together)
+    return fit_classifier(features, together, seed=seed)
 
 
 def main() -> None:
@@ -60,6 +64,7 @@ def main() -> None:
     parser.add_argument("--labels-dir", required=True)
     parser.add_argument("--data-dir")
     parser.add_argument("--every", type=int, default=2, help="training pairs of every k-th step")
+    parser.add_argument("--seed", type=int, default=0, help="the first network's seed")
     parser.add_argument("--no-ship", action="store_true", help="do not write the shipped file")
     args = parser.parse_args()
     data_dir = resolve_data_dir(args.data_dir)
@@ -72,7 +77,7 @@ def main() -> None:
     print("\n| held out | detector | G-MITRE F1 | pair F1 | per-ego pair F1 | exact F1 "
           "| T-DANTE G-MITRE F1 |\n|---|---|---|---|---|---|---|")  # fmt: skip
     for held in RECORDINGS:
-        classifier = fit([n for n in RECORDINGS if n != held], data)
+        classifier = fit([n for n in RECORDINGS if n != held], data, args.seed)
         for detector, rule, model in (
             ("learned", LEARNED_GROUPS, classifier),
             ("distance rule", DETECTION_GROUPS, None),
@@ -83,8 +88,9 @@ def main() -> None:
                   f"{T_DANTE_GMITRE[held]:.2f} |", flush=True)  # fmt: skip
     if args.no_ship:
         return
-    shipped = fit(list(RECORDINGS), data)
-    shipped.save(SHIPPED_DETECTOR, {"recordings": list(RECORDINGS), "every": args.every})
+    shipped = fit(list(RECORDINGS), data, args.seed)
+    about = {"recordings": list(RECORDINGS), "every": args.every, "seed": args.seed}
+    shipped.save(SHIPPED_DETECTOR, about)
     print(f"\nwrote {SHIPPED_DETECTOR}: trained on the pairs of all four")
 
 

@@ -17,6 +17,7 @@ from grouptron.groups.learned import fit_classifier, linked_groups, load_classif
 from grouptron.groups.pair_features import FEATURES, pair_features
 from grouptron.groups.scene import groups_per_step, labelled_pairs
 from grouptron.presets import LEARNED_GROUPS
+from grouptron.workflows.groups import GroupRule
 
 
 def _walkers(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -109,3 +110,27 @@ def test_the_commands_take_the_shipped_detector(
         == 0
     )
     assert out.read_text().count("\n") > 1
+
+
+def test_the_learned_detector_is_the_default_unless_the_rule_is_asked_for() -> None:
+    assert GroupRule().configs() == [LEARNED_GROUPS]
+    assert GroupRule(max_group_size=4).configs()[0].max_group_size == 4  # both take a limit
+    for rule in (
+        GroupRule(max_distance_m=1.2),
+        GroupRule(velocity_weight_s=0.0),
+        GroupRule(linkage="average"),
+        GroupRule(rule="count"),
+        GroupRule(distance="modified"),
+        GroupRule(detector="distance"),
+    ):
+        assert all(config.detector == "distance" for config in rule.configs()), rule
+
+
+def test_a_detector_file_of_one_network_is_refused(tmp_path: Path) -> None:
+    features = np.random.default_rng(0).normal(size=(40, len(FEATURES)))
+    classifier = fit_classifier(features, features[:, 0] > 0, steps=5, members=2)
+    single = {k: (v[0] if v.ndim > 1 and k != "mean" else v) for k, v in vars(classifier).items()}
+    path = tmp_path / "old.safetensors"
+    type(classifier)(**single).save(path, {})  # the layout before networks were averaged
+    with pytest.raises(GrouptronError, match="other features"):
+        load_classifier(path)

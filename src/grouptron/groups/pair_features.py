@@ -1,6 +1,6 @@
 """What a pair of people did over the observed window, as numbers a classifier of "walking
 together" reads: distance and its trend, speeds and headings and how steady they were,
-side by side versus one behind the other, and how many others are nearer than the partner.
+and side by side versus one behind the other.
 
 Every feature is symmetric in the pair, so (i, j) and (j, i) read the same. Lengths are in
 units of the crowd's own spacing now (the median distance to one's nearest neighbour) and
@@ -32,7 +32,6 @@ FEATURES = (
     "heading_cos_mean",
     "heading_cos_std",
     "seen_together",
-    "nearer_others",
     "rule_distance_m",
 )
 """The features, in column order."""
@@ -108,8 +107,8 @@ def pair_features(traj: np.ndarray, mask: np.ndarray, pairs: np.ndarray, dt_s: f
         hausdorff,
     ]
     speeds = [trend, np.minimum(mean_i, mean_j), np.maximum(mean_i, mean_j), difference, apart_mps]
-    rule_m = hausdorff + RULE_VELOCITY_WEIGHT_S * apart_mps  # what the classifier may correct
-    others = [cos_mean, cos_std, both.mean(axis=1), nearer_others(traj[:, -1], pairs), rule_m]
+    rule_m = np.maximum(hausdorff, RULE_VELOCITY_WEIGHT_S * apart_mps)  # as group_distances
+    others = [cos_mean, cos_std, both.mean(axis=1), rule_m]
     columns = [v / spacing for v in lengths] + [v / pace for v in speeds] + others
     return np.stack(columns, axis=1).astype(np.float32)
 
@@ -128,20 +127,3 @@ def crowd_units(traj: np.ndarray, mask: np.ndarray, dt_s: float) -> tuple[float,
     walking = speed[speed > MOVING_MPS]
     pace = max(float(np.median(walking)), MIN_WALKING_MPS) if len(walking) else MIN_WALKING_MPS
     return spacing, pace
-
-
-def nearer_others(pos_now: np.ndarray, pairs: np.ndarray, block: int = 2048) -> np.ndarray:
-    """(P,) how many others stand nearer to i or to j than i and j to each other now, of N
-    people at (N, 2) ``pos_now``: a partner with strangers between is rarely a companion.
-    Pairs are counted ``block`` at a time ((block, N) distances each)."""
-    counts = np.zeros(len(pairs))
-    for start in range(0, len(pairs), block):
-        i, j = pairs[start : start + block, 0], pairs[start : start + block, 1]
-        apart = np.linalg.norm(pos_now[i] - pos_now[j], axis=1)[:, None]  # (B, 1)
-        to_i = np.linalg.norm(pos_now[None] - pos_now[i][:, None], axis=-1)  # (B, N)
-        to_j = np.linalg.norm(pos_now[None] - pos_now[j][:, None], axis=-1)
-        nearer = (to_i < apart) | (to_j < apart)
-        rows = np.arange(len(i))
-        nearer[rows, i] = nearer[rows, j] = False  # each is at 0 from itself
-        counts[start : start + block] = nearer.sum(axis=1)
-    return counts

@@ -29,6 +29,7 @@ from grouptron.groups.learned import (
     near_pairs_now,
 )
 from grouptron.groups.pair_features import FEATURES, pair_features
+from grouptron.groups.pair_memory import PairMemory
 from grouptron.groups.partition_scores import PartitionCounts
 
 
@@ -51,6 +52,16 @@ class StepGroups:
     pos_now_m: np.ndarray
 
 
+@dataclass(frozen=True)
+class _Learned:
+    """A learned detector at work on a recording: its classifier, and its memory of pairs
+    keyed by the (A,) ids of the recording's tracks (None: none)."""
+
+    classifier: PairClassifier
+    memory: PairMemory | None = None
+    ids: np.ndarray | None = None
+
+
 def position_grid(scene: Scene, pad_before: int) -> tuple[np.ndarray, np.ndarray]:
     """(N, pad_before + num_steps, 2) positions and presence, left-padded for windows."""
     state, present = dense_grid(scene, pad_before, 0)
@@ -65,12 +76,22 @@ def groups_per_step(
     classifier: PairClassifier | None = None,
 ) -> Iterator[StepGroups]:
     """Cluster the pedestrians present at each step on their last ``history_steps`` positions
-    (a learned detector's ``classifier``: None, the shipped one)."""
+    (a learned detector's ``classifier``: None, the shipped one; it remembers each pair from
+    step to step, ``pair_memory``)."""
     pad = history_steps - 1
     pos, present = position_grid(scene, pad)
+    learned = None
+    if config.detector == "learned":
+        learned = _Learned(classifier or load_classifier(), PairMemory(), scene.ped_id)
     for step in range(0, scene.num_steps, every):  # one clustering per step
         found = _cluster_step(
-            pos, present, step, pad, config=config, dt_s=scene.dt_s, classifier=classifier
+            pos,
+            present,
+            step,
+            pad,
+            config=config,
+            dt_s=scene.dt_s,
+            learned=learned,
         )
         if found is not None:
             yield found
@@ -114,10 +135,12 @@ def _cluster_step(
     config: GroupConfig,
     dt_s: float,
     near_only: bool = False,
-    classifier: PairClassifier | None = None,
+    learned: _Learned | None = None,
 ) -> StepGroups | None:
     """The groups of the people present at ``step``; with ``near_only``, where the rule's
-    groups are its threshold's connected pieces, from near pairs only (``groups_at_step``)."""
+    groups are its threshold's connected pieces, from near pairs only (``groups_at_step``);
+    a learned rule's by the ``learned`` detector (the shipped one, without memory, where none
+    is given)."""
     tracks = np.flatnonzero(present[:, step + pad])
     if len(tracks) == 0:
         return None
@@ -125,7 +148,11 @@ def _cluster_step(
     traj, mask, now = pos[tracks, window], present[tracks, window], pos[tracks, step + pad]
     if config.detector == "learned":
         assert config.max_distance_m is not None
-        distances = learned_distances(traj, mask, dt_s, classifier or load_classifier())
+        learned = learned or _Learned(load_classifier())
+        track_ids = None if learned.ids is None else learned.ids[tracks]
+        distances = learned_distances(
+            traj, mask, dt_s, learned.classifier, learned.memory, track_ids
+        )
         labels = linked_groups(distances, config.max_distance_m, config.max_group_size)
         return StepGroups(step, tracks, labels, distances, now)
     if near_only and _connected_pieces_suffice(config):

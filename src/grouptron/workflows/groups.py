@@ -54,7 +54,8 @@ class GroupRule:
         max_group_size: the threshold rule's largest group (0: no limit; None:
             ``DETECTION_GROUPS``').
         detector: ``distance`` (the rules above) or ``learned`` (``LEARNED_GROUPS``: the
-            shipped pair classifier, docs/groups.md).
+            shipped pair classifier, docs/groups.md); None: ``learned`` unless an option of
+            the distance rule is given.
     """
 
     rule: Literal["threshold", "count"] = "threshold"
@@ -63,23 +64,21 @@ class GroupRule:
     max_distance_m: float | None = None
     velocity_weight_s: float | None = None
     max_group_size: int | None = None
-    detector: Literal["distance", "learned"] = "distance"
+    detector: Literal["distance", "learned"] | None = None
+
+    def chosen_detector(self) -> Literal["distance", "learned"]:
+        """The detector asked for; without one, the learned detector (better held out than
+        the distance rule, docs/groups.md) unless an option of the distance rule is set."""
+        if self.detector is not None:
+            return self.detector
+        distance_rule = (self.linkage, self.max_distance_m, self.velocity_weight_s)
+        chose_rule = self.rule != "threshold" or any(o is not None for o in distance_rule)
+        return "distance" if chose_rule or self.distance != GroupConfig().distance else "learned"
 
     def configs(self) -> list[GroupConfig]:
         """The grouping (one per linkage and distance where ``all`` compares them)."""
-        if self.detector == "learned":
-            given = (self.linkage, self.max_distance_m, self.velocity_weight_s)
-            if self.rule != "threshold" or any(g is not None for g in given):
-                raise GrouptronError(
-                    "--detector learned links the pairs its classifier finds probable enough; "
-                    "--rule, --linkage, --max-distance and --velocity-weight set the distance rule"
-                )
-            size = (
-                LEARNED_GROUPS.max_group_size
-                if self.max_group_size is None
-                else self.max_group_size
-            )
-            return [dataclasses.replace(LEARNED_GROUPS, max_group_size=size or None)]
+        if self.chosen_detector() == "learned":
+            return [_learned_rule(self)]
         by_threshold = self.rule == "threshold"
         threshold_options = (self.max_distance_m, self.velocity_weight_s, self.max_group_size)
         if not by_threshold and any(o is not None for o in threshold_options):

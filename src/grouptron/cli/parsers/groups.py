@@ -32,9 +32,10 @@ def _rule_options(parser: argparse.ArgumentParser, *, compare: bool) -> None:
     parser.add_argument(
         "--detector",
         choices=("distance", "learned"),
-        default="distance",
-        help="distance: the rule below (the default, better held out); learned: a small "
-        "classifier of pair features trained on four labelled recordings (docs/groups.md)",
+        help="learned: small classifiers of pair features trained on four labelled "
+        "recordings, remembering each pair from step to step (better held out, docs/groups.md); "
+        "distance: the rule below (default: learned, or distance where an option of the rule "
+        "is given)",
     )
     parser.add_argument(
         "--linkage",
@@ -73,9 +74,11 @@ def add_parser(commands: argparse._SubParsersAction) -> None:
     groups = commands.add_parser(
         "groups",
         help="detect pedestrian groups and score them against human labels",
-        description="Group detection as the Grouptron paper does it: agglomerative clustering "
-        "of trajectories (last 8 steps) on Hausdorff distances into C(N) = (N + 1) // 2 "
-        "groups for N pedestrians.",
+        description="Group detection: by default a learned detector (small classifiers of "
+        "who walks with whom over the last 8 steps, remembering each pair from step to step; "
+        "docs/groups.md), or a distance rule: agglomerative clustering of trajectories on "
+        "Hausdorff distances, cut at a threshold or, as the Grouptron paper does it, into "
+        "C(N) = (N + 1) // 2 groups for N pedestrians.",
         formatter_class=Formatter,
         epilog="examples:\n"
         "  grouptron groups detect --tracks biwi_eth.txt --out groups.csv --plot groups.png\n"
@@ -132,9 +135,10 @@ def _add_evaluate(group_commands: argparse._SubParsersAction) -> None:
         description="At every step with two or more pedestrians, compare the detected groups "
         "with human labels (one group per line of ids; overlapping lines merged; anyone "
         "unlisted walks alone): precision, recall and F1 of the pairwise 'same group' "
-        "decisions, and the paper's Dice score of identical groups. Protocol 'scene' "
-        "clusters everyone present; 'per_ego' clusters each pedestrian with those within "
-        "3 m, as the model does, and scores the ego's pairs.",
+        "decisions, and the paper's Dice score of identical groups; in the 'scene' protocol "
+        "also the field's G-MITRE precision, recall and F1 and exact and two-thirds group "
+        "matches. Protocol 'scene' clusters everyone present; 'per_ego' clusters each "
+        "pedestrian with those within 3 m, as the model does, and scores the ego's pairs.",
         formatter_class=Formatter,
         epilog="examples:\n"
         "  grouptron groups evaluate --tracks biwi_eth.txt --labels eth/groups.txt\n"
