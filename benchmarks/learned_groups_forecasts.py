@@ -8,8 +8,8 @@ Usage:
 
 A ``Predictor`` of a checkpoint whose model reads groups forecasts every ``--every``-th frame
 of a recording it did not train on twice: with the groups of its own rule (what it trained
-with) and with ``LEARNED_GROUPS`` (the shipped pair classifier's links, cut per person as the
-model's own rule is). Scored where a person has 8 observed and 12 future steps in the file:
+with) and with ``LEARNED_GROUPS`` (the shipped detector's links, remembering each pair over
+the frames, which are forecast in order; cut per person as the model's own rule is). Scored where a person has 8 observed and 12 future steps in the file:
 FDE of each, and the paired difference learned - own with its 95% interval over resampled
 frames, over all such people and over those at frames with at least ``--dense`` people.
 """
@@ -21,6 +21,7 @@ import argparse
 import numpy as np
 
 from grouptron.evaluation.uncertainty import mean_interval
+from grouptron.groups.pair_memory import PairMemory
 from grouptron.inference.predictor import Predictor
 from grouptron.presets import LEARNED_GROUPS
 
@@ -52,6 +53,7 @@ def main() -> None:
     own = Predictor.from_checkpoint(args.checkpoint, check_speed=False)
     learned = Predictor.from_checkpoint(args.checkpoint, check_speed=False)
     learned.group_rule = LEARNED_GROUPS  # the model reads the learned groups instead
+    learned.pair_memory = PairMemory()
     frames = sorted({f for f, _ in wanted})[:: args.every]
     fde: dict[str, list[float]] = {"own": [], "learned": []}
     at_frame, crowd = [], []

@@ -7,13 +7,20 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
 from grouptron.config import DataConfig, GroupConfig
 from grouptron.data.formats.reader import table_from_values
 from grouptron.data.prepare.scene import build_scene
 from grouptron.groups import scene as groups_scene
-from grouptron.groups.clustering import agglomerative_groups
-from grouptron.groups.distances import near_pairs, pairwise_distances
+from grouptron.groups.clustering import agglomerative_groups, canonical_labels, linked_pieces
+from grouptron.groups.distances import (
+    group_distances,
+    near_pairs,
+    pairwise_distances,
+    sparse_pair_distances,
+)
 
 RULE = GroupConfig(linkage="single", max_distance_m=1.5, velocity_weight_s=2.0)
 
@@ -74,3 +81,34 @@ def test_no_pair_left_out_could_be_within_the_threshold() -> None:
     full = pairwise_distances(traj, mask)
     close = np.argwhere(np.triu(full <= 1.5, k=1))
     assert len(close) and all(tuple(p) in pairs for p in close)
+
+
+def test_pairs_dropped_for_their_velocities_could_never_be_within_the_threshold() -> None:
+    rng = np.random.default_rng(1)
+    traj = rng.uniform(0, 6, (60, 1, 2)) + np.cumsum(rng.normal(0, 0.4, (60, 8, 2)), axis=1)
+    mask = np.ones((60, 8), bool)
+    pairs, distance = sparse_pair_distances(
+        traj, mask, traj[:, -1], within_m=1.5, velocity_weight_s=2.0, dt_s=0.4
+    )
+    full = group_distances(
+        traj, mask, kind="hausdorff", quantile=0.9, velocity_weight_s=2.0, dt_s=0.4
+    )
+    close = np.argwhere(np.triu(full <= 1.5, k=1))
+    found = dict(zip(map(tuple, pairs), distance, strict=True))
+    assert len(close) and all(np.isclose(found[tuple(p)], full[tuple(p)]) for p in close)
+    assert len(pairs) < len(near_pairs(traj, mask, traj[:, -1], 1.5))  # some were dropped
+
+
+def test_linked_pieces_are_the_connected_components() -> None:
+    rng = np.random.default_rng(2)
+    for trial in range(60):
+        n = int(rng.integers(1, 120))
+        linked = rng.integers(0, n, (int(rng.integers(0, 2 * n)), 2))
+        if trial % 3 == 0:  # a chain through everyone, in a random order
+            order = rng.permutation(n)
+            linked = np.stack([order[:-1], order[1:]], axis=1)
+        graph = csr_matrix((np.ones(len(linked)), (linked[:, 0], linked[:, 1])), shape=(n, n))
+        expected = connected_components(graph, directed=False)[1]
+        assert np.array_equal(
+            canonical_labels(linked_pieces(n, linked)), canonical_labels(expected)
+        )

@@ -140,7 +140,11 @@ def group_distances(
 
 
 def near_pairs(
-    traj: np.ndarray, mask: np.ndarray, pos_now: np.ndarray, within_m: float
+    traj: np.ndarray,
+    mask: np.ndarray,
+    pos_now: np.ndarray,
+    within_m: float,
+    alike: tuple[np.ndarray, float] | None = None,
 ) -> np.ndarray:
     """(P, 2) pairs i < j of the N trajectories that :func:`pairwise_distances` can put
     within ``within_m`` of each other, found with one k-d tree query on their (N, 2)
@@ -151,12 +155,19 @@ def near_pairs(
     far j's window reaches from j now (R_j). So a pair farther apart now than ``within_m``
     plus the largest reach R of anyone is never within ``within_m`` (the tree), and neither is
     one where i now or j now is farther than ``within_m`` from every point of the other (the
-    screen).
+    screen). With ``alike`` ((N, 2) mean velocities, the largest difference in m/s) pairs
+    that differ more are dropped before the screen (a rule that weighs velocity differences
+    never links them, and the screen is the costly part).
     """
     offsets = np.where(mask[..., None], traj - pos_now[:, None, :], 0.0)
     reach = float(np.sqrt((offsets**2).sum(-1)).max(initial=0.0))
     radius = (within_m + reach) * 1.0001 + 1e-9  # the tree screens with a margin
     pairs = cKDTree(pos_now).query_pairs(radius, output_type="ndarray").astype(np.int64)
+    if alike is not None:
+        velocity, most_mps = alike
+        apart = velocity[pairs[:, 0]] - velocity[pairs[:, 1]]  # (P, 2)
+        limit_mps = most_mps * (1 + 1e-9) + 1e-12  # rounding: keep ties
+        pairs = pairs[(apart * apart).sum(axis=1) <= limit_mps * limit_mps]
     if not len(pairs):
         return np.zeros((0, 2), dtype=np.int64)
     points = np.where(mask[..., None], traj, np.inf)  # (N, T, 2) unobserved: never nearest
@@ -195,6 +206,28 @@ def pair_hausdorff(traj: np.ndarray, mask: np.ndarray, pairs: np.ndarray) -> np.
     return distance
 
 
+def sparse_pair_distances(
+    traj: np.ndarray,
+    mask: np.ndarray,
+    pos_now: np.ndarray,
+    *,
+    within_m: float,
+    velocity_weight_s: float,
+    dt_s: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(P, 2) the pairs :func:`near_pairs` finds (those apart by more than ``within_m`` /
+    ``velocity_weight_s`` in mean velocity dropped first) and (P,) their
+    :func:`group_distances` (``hausdorff``): every pair within ``within_m`` and some beyond."""
+    velocity = mean_velocities(traj, mask, dt_s) if velocity_weight_s > 0 else None
+    alike = None if velocity is None else (velocity, within_m / velocity_weight_s)
+    pairs = near_pairs(traj, mask, pos_now, within_m, alike)
+    distance = pair_hausdorff(traj, mask, pairs)
+    if velocity is not None and len(pairs):
+        apart = np.linalg.norm(velocity[pairs[:, 0]] - velocity[pairs[:, 1]], axis=-1)
+        distance = np.maximum(distance, velocity_weight_s * apart)
+    return pairs, distance
+
+
 def sparse_group_distances(
     traj: np.ndarray,
     mask: np.ndarray,
@@ -204,19 +237,22 @@ def sparse_group_distances(
     velocity_weight_s: float,
     dt_s: float,
 ) -> np.ndarray:
-    """(N, N) :func:`group_distances` (``hausdorff``) for the pairs :func:`near_pairs` finds
-    and infinity for the rest: exact for every pair within ``within_m`` (and some beyond),
-    without the N^2 T^2 work of all pairs (a station's 300 people). What a clustering at
-    ``within_m`` with single linkage and no size cap decides (its connected pieces) is the
-    same as with all pairs; its merges beyond ``within_m`` are not."""
-    N = len(mask)
-    pairs = near_pairs(traj, mask, pos_now, within_m)
-    distance = pair_hausdorff(traj, mask, pairs)
-    if velocity_weight_s > 0 and len(pairs):
-        velocity = mean_velocities(traj, mask, dt_s)  # (N, 2)
-        apart = np.linalg.norm(velocity[pairs[:, 0]] - velocity[pairs[:, 1]], axis=-1)
-        distance = np.maximum(distance, velocity_weight_s * apart)
-    out = np.full((N, N), np.inf)
+    """(N, N) :func:`group_distances` (``hausdorff``) for the pairs
+    :func:`sparse_pair_distances` finds and infinity for the rest: exact for every pair within
+    ``within_m`` (and some beyond), without the N^2 T^2 work of all pairs (a station's 300
+    people). What a clustering at ``within_m`` with single linkage and no size cap decides
+    (its connected pieces) is the same as with all pairs; its merges beyond ``within_m`` are
+    not."""
+    pairs, distance = sparse_pair_distances(
+        traj, mask, pos_now, within_m=within_m, velocity_weight_s=velocity_weight_s, dt_s=dt_s
+    )
+    return pair_matrix(len(mask), pairs, distance)
+
+
+def pair_matrix(n: int, pairs: np.ndarray, distance: np.ndarray) -> np.ndarray:
+    """(n, n) symmetric ``distance`` of the (P, 2) ``pairs``, infinity elsewhere, 0 on the
+    diagonal."""
+    out = np.full((n, n), np.inf)
     out[pairs[:, 0], pairs[:, 1]] = distance
     out[pairs[:, 1], pairs[:, 0]] = distance
     np.fill_diagonal(out, 0.0)

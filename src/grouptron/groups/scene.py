@@ -6,15 +6,13 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components
 
 from grouptron.config import GroupConfig
 from grouptron.constants import HISTORY_STEPS, PERCEPTION_RADIUS_M
 from grouptron.data.prepare.samples import dense_grid
 from grouptron.data.prepare.scene import Scene
-from grouptron.groups.clustering import agglomerative_groups, canonical_labels
-from grouptron.groups.distances import group_distances, sparse_group_distances
+from grouptron.groups.clustering import agglomerative_groups, canonical_labels, linked_pieces
+from grouptron.groups.distances import group_distances, pair_matrix, sparse_pair_distances
 from grouptron.groups.labels import (
     PairCounts,
     dice_of_partitions,
@@ -102,17 +100,25 @@ def groups_at_step(
     config: GroupConfig,
     step: int,
     history_steps: int = HISTORY_STEPS,
+    memory: PairMemory | None = None,
 ) -> StepGroups | None:
-    """The scene-wide groups of one step (None when nobody is present). Under a distance
+    """The scene-wide groups of one step (None when nobody is present); a learned rule's with
+    its ``memory`` of the steps before, where given (fed in order). Under a distance
     threshold with single linkage and no size cap (the detection rule and the default
     model's), the groups are the connected pieces of the pairs within the threshold, and only
-    pairs that could be within the threshold are measured (a k-d tree, then a bound per pair):
+    pairs that could be within the threshold are measured (a k-d tree, their mean velocities,
+    then a bound per pair):
     the groups equal the all-pairs clustering's (a test checks), and ``distances`` hold every
     pair within the threshold exactly and infinity for most others, so that each person's own
     grouping (the same rule on a sub-matrix) decides as with all pairs."""
     pad = history_steps - 1
     pos, present = position_grid(scene, pad)
-    return _cluster_step(pos, present, step, pad, config=config, dt_s=scene.dt_s, near_only=True)
+    learned = None
+    if config.detector == "learned":
+        learned = _Learned(load_classifier(), memory, scene.ped_id)
+    return _cluster_step(
+        pos, present, step, pad, config=config, dt_s=scene.dt_s, near_only=True, learned=learned
+    )
 
 
 def _connected_pieces_suffice(config: GroupConfig) -> bool:
@@ -157,7 +163,7 @@ def _cluster_step(
         return StepGroups(step, tracks, labels, distances, now)
     if near_only and _connected_pieces_suffice(config):
         assert config.max_distance_m is not None
-        distances = sparse_group_distances(
+        pairs, distance = sparse_pair_distances(
             traj,
             mask,
             now,
@@ -165,9 +171,10 @@ def _cluster_step(
             velocity_weight_s=config.velocity_weight_s,
             dt_s=dt_s,
         )
-        linked = csr_matrix(np.isfinite(distances) & (distances <= config.max_distance_m))
-        labels = canonical_labels(connected_components(linked, directed=False)[1])
-        return StepGroups(step, tracks, labels, distances, now)
+        labels = canonical_labels(
+            linked_pieces(len(tracks), pairs[distance <= config.max_distance_m])
+        )
+        return StepGroups(step, tracks, labels, pair_matrix(len(tracks), pairs, distance), now)
     distances = group_distances(
         traj,
         mask,

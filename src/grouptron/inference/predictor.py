@@ -32,6 +32,7 @@ from grouptron.data.prepare.scene import Scene, build_scene
 from grouptron.devices import available_device, torch_threads
 from grouptron.errors import GrouptronError
 from grouptron.groups.assign import assign_groups_at_step
+from grouptron.groups.pair_memory import PairMemory
 from grouptron.groups.scene import groups_at_step
 from grouptron.inference.calibration import RegionCalibration, calibration_for
 from grouptron.inference.checkpoints import DEFAULT_CHECKPOINT, resolve_checkpoint
@@ -103,6 +104,7 @@ class Predictor:
     Attributes:
         group_rule: the rule behind ``Forecast.group``: the model's own for one that reads
             groups, otherwise ``DETECTION_GROUPS`` (the rule chosen on human labels).
+        pair_memory: a learned ``group_rule``'s memory of pairs for frames fed in order.
     """
 
     def __init__(  # noqa: PLR0913 - the predictor's settings, keyword-only after the forecast
@@ -145,6 +147,7 @@ class Predictor:
         self.learn = _learning_options(learn)
         self.threads = None if threads is None else integer_argument(threads, "threads", 1)
         self._warned_central = False
+        self.pair_memory: PairMemory | None = None
 
     @classmethod
     def from_checkpoint(
@@ -174,8 +177,7 @@ class Predictor:
         return self.forecast.latent_values(latent_values_of(self.config))
 
     @property
-    def history_steps(self) -> int:
-        """History steps the model reads (T, its ``data.history_steps``)."""
+    def history_steps(self) -> int:  # T, the model's ``data.history_steps``
         return self.config.data.history_steps
 
     @property
@@ -347,7 +349,7 @@ class Predictor:
     ) -> Forecast:
         data = self.config.data
         # The step's distances serve both the scene-wide groups and every sample's own.
-        found = groups_at_step(scene, self.group_rule, step, data.history_steps)
+        found = groups_at_step(scene, self.group_rule, step, data.history_steps, self.pair_memory)
         groups = None
         if uses_groups(self.config) and found is not None:
             groups = assign_groups_at_step(samples, found.tracks, found.distances, self.group_rule)
