@@ -6,12 +6,13 @@ Usage:
 
 (default: ``grouptron-robust-residual-univ-backward`` on ``univ/test/students003.txt``)
 
-A ``Predictor`` of a checkpoint whose model reads groups forecasts every ``--every``-th frame
-of a recording it did not train on twice: with the groups of its own rule (what it trained
-with) and with ``LEARNED_GROUPS`` (the shipped detector's links, remembering each pair over
-the frames, which are forecast in order; cut per person as the model's own rule is). Scored where a person has 8 observed and 12 future steps in the file:
-FDE of each, and the paired difference learned - own with its 95% interval over resampled
-frames, over all such people and over those at frames with at least ``--dense`` people.
+A ``Predictor`` of a checkpoint whose model reads groups forecasts every ``--every``-th frame of
+a recording it did not train on twice: with the groups of its own rule (what it trained with)
+and with ``LEARNED_GROUPS`` (the shipped detector's links, remembering each pair over the
+frames, which are forecast in order; cut per person as the model's own rule is). Scored where a
+person has 8 observed and 12 future steps in the file: FDE of each, and the paired difference
+learned - own with its 95% interval over resampled frames, over all such people and over those
+at frames with at least ``--dense`` people.
 """
 
 from __future__ import annotations

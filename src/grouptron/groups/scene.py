@@ -27,7 +27,7 @@ from grouptron.groups.learned import (
     near_pairs_now,
 )
 from grouptron.groups.pair_features import FEATURES, pair_features
-from grouptron.groups.pair_memory import PairMemory
+from grouptron.groups.pair_memory import MEMORY_WEIGHT, PairMemory
 from grouptron.groups.partition_scores import PartitionCounts
 
 
@@ -72,15 +72,18 @@ def groups_per_step(
     history_steps: int = HISTORY_STEPS,
     every: int = 1,
     classifier: PairClassifier | None = None,
+    memory_weight: float | None = MEMORY_WEIGHT,
 ) -> Iterator[StepGroups]:
     """Cluster the pedestrians present at each step on their last ``history_steps`` positions
     (a learned detector's ``classifier``: None, the shipped one; it remembers each pair from
-    step to step, ``pair_memory``)."""
+    step to step, ``pair_memory``, with ``memory_weight`` on the newest step; None: no
+    memory)."""
     pad = history_steps - 1
     pos, present = position_grid(scene, pad)
     learned = None
     if config.detector == "learned":
-        learned = _Learned(classifier or load_classifier(), PairMemory(), scene.ped_id)
+        memory = None if memory_weight is None else PairMemory(memory_weight)
+        learned = _Learned(classifier or load_classifier(), memory, scene.ped_id)
     for step in range(0, scene.num_steps, every):  # one clustering per step
         found = _cluster_step(
             pos,
@@ -200,6 +203,7 @@ def score_against_labels(
     *,
     every: int = 1,
     classifier: PairClassifier | None = None,
+    memory_weight: float | None = MEMORY_WEIGHT,
 ) -> dict[str, dict[str, float]]:
     """Pairwise precision/recall/F1 and Dice of detected against labelled groups, and in the
     ``scene`` scope G-MITRE and group matches (``partition_scores``).
@@ -212,9 +216,13 @@ def score_against_labels(
     Args:
         scene: the recording.
         labels: {pedestrian id: group label} (ids of the scene's file).
+        classifier, memory_weight: a learned rule's (:func:`groups_per_step`).
     """
     scene_counts, ego_counts, partitions = PairCounts(), PairCounts(), PartitionCounts()
-    for found in groups_per_step(scene, config, every=every, classifier=classifier):
+    steps = groups_per_step(
+        scene, config, every=every, classifier=classifier, memory_weight=memory_weight
+    )
+    for found in steps:
         if len(found.tracks) < 2:
             continue
         truth = partition_from_labels(scene.ped_id[found.tracks], labels)

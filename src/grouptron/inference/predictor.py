@@ -86,8 +86,7 @@ class Predictor:
         min_points: the fewest positions in a row (the last one at the forecast frame) an agent
             needs for a forecast, 2 to ``history_steps``; more history, better forecasts.
         max_missed_steps: missed detections of up to this many steps in a row are filled by
-            linear interpolation between the positions around them (0: a missed detection
-            restarts the agent's track).
+            linear interpolation (0: a missed detection restarts the agent's track).
         calibration: a ``grouptron calibrate`` file (or its ``RegionCalibration``) for this
             model and point forecast: ``Forecast.regions`` then takes its conformal radii.
             None (the default): the calibration the checkpoint ships with, where it has one
@@ -177,7 +176,8 @@ class Predictor:
         return self.forecast.latent_values(latent_values_of(self.config))
 
     @property
-    def history_steps(self) -> int:  # T, the model's ``data.history_steps``
+    def history_steps(self) -> int:
+        """History steps the model reads (T, its ``data.history_steps``)."""
         return self.config.data.history_steps
 
     @property
