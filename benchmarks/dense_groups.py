@@ -5,11 +5,11 @@ Usage:
     python benchmarks/dense_groups.py [--rules single,1.5,2.0 average,1.75,4.0 ...]
                                       [--ood-dir ../shared/data/ood] [--crowds-dir ...]
 
-Scene-wide groups (as ``grouptron groups detect`` and ``Forecast.group`` find them) at every
-5th step of two dense HERMES corridor experiments of the out-of-domain development set and of
-the first Grand Central file; prints, per rule and recording, the people per step, the biggest
-group (mean over steps / largest), the mean size of groups of two or more, and the share of
-those with at most 4 members (pedestrian groups have 2-4).
+Scene-wide groups (as ``grouptron groups detect --detector distance`` and ``Forecast.group``
+find them) at every 5th step of two dense HERMES corridor experiments of the out-of-domain
+development set and of the first Grand Central file; prints, per rule and recording, the people
+per step, the biggest group (mean over steps / largest), the mean size of groups of two or more,
+and the share of those with at most 4 members (pedestrian groups have 2-4).
 """
 
 from __future__ import annotations

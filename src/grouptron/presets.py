@@ -219,6 +219,9 @@ The live path keeps the model's own rule: at 300 people this one costs several t
 
 def describe_group_rule(groups: GroupConfig) -> str:
     """A few words naming the rule, e.g. ``single linkage, 1.5 m, 2 s x velocity``."""
+    if groups.detector == "learned":
+        size = "" if groups.max_group_size is None else f", at most {groups.max_group_size}"
+        return f"learned detector{size}"
     if groups.max_distance_m is None:
         rule = "C(N) rule"
     else:

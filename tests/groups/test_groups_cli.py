@@ -90,7 +90,8 @@ def test_the_threshold_rule_leaves_strangers_alone_where_c_of_n_merges_them(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Two walking pairs and two strangers standing 2.5 m apart: C(N) = 3 groups of 6 people
-    must merge someone; the threshold rule (the default) finds the labelled groups."""
+    must merge someone; the threshold rule finds the labelled groups, and so does the learned
+    detector (the default)."""
     rows = []
     for step in range(20):
         x = 0.5 * step
@@ -110,6 +111,10 @@ def test_the_threshold_rule_leaves_strangers_alone_where_c_of_n_merges_them(
         by_rule[rule] = scene["pair_f1"]
     assert by_rule["threshold"] == pytest.approx(1.0)
     assert by_rule["count"] < 0.9
+    results = evaluate_json(capsys, "--tracks", str(tracks), "--labels", str(labels))
+    scene = next(r for r in results if r["scope"] == "scene")
+    assert scene["detector"] == "learned" and scene["rule"] == "learned"
+    assert scene["pair_f1"] == pytest.approx(1.0)
     out = tmp_path / "groups.csv"
     assert main(["groups", "detect", "--tracks", str(tracks), "--out", str(out)]) == 0
     at_100 = {

@@ -6,6 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from grouptron.groups.learned import fit_classifier, learned_distances
+from grouptron.groups.pair_features import FEATURES
 from grouptron.groups.pair_memory import WALKING_PACE, PairMemory, pair_keys
 
 WALK, STAND = 1.0, 0.0  # mean speeds in the crowd's pace
@@ -54,3 +56,22 @@ def test_walking_is_measured_against_the_threshold() -> None:
     assert _step(memory, keys, [0.2], [slow], [slow]) == [0.9]
     with pytest.raises(ValueError, match="weight"):
         PairMemory(weight=0.0)
+
+
+def test_a_step_without_near_pairs_forgets_them_all() -> None:
+    traj = np.array([[[0.0, 0.0]] * 8, [[0.5, 0.0]] * 8, [[9.0, 9.0]] * 8])
+    traj[:2] += np.arange(8)[None, :, None] * np.array([0.5, 0.0])  # two walk side by side
+    mask = np.ones((3, 8), bool)
+    memory = PairMemory()
+    classifier = fit_classifier(
+        np.random.default_rng(0).normal(size=(30, len(FEATURES))),
+        np.arange(30) % 2 == 0,
+        steps=5,
+        members=1,
+    )
+    learned_distances(traj, mask, 0.4, classifier, memory, np.array([1, 2, 3]))
+    assert len(memory) == 1  # the walking pair
+    apart = traj.copy()
+    apart[1] += 20.0  # now nobody is within 3 m of anyone
+    learned_distances(apart, mask, 0.4, classifier, memory, np.array([1, 2, 3]))
+    assert len(memory) == 0

@@ -83,7 +83,7 @@ def test_geo_referenced_coordinates_shift_the_forecast_exactly(
 
 def test_groups_follow_the_model_or_the_detection_rule(predictor: Predictor) -> None:
     """A model that reads groups is shown its own groups; any other, the rule chosen on human
-    labels (``grouptron groups detect``'s)."""
+    labels (``grouptron groups detect --detector distance``'s)."""
     reads_groups = predictor.config.model_name.startswith("grouptron")
     expected = predictor.config.groups if reads_groups else DETECTION_GROUPS
     assert predictor.group_rule == expected

@@ -217,7 +217,10 @@ def sparse_pair_distances(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(P, 2) the pairs :func:`near_pairs` finds (those apart by more than ``within_m`` /
     ``velocity_weight_s`` in mean velocity dropped first) and (P,) their
-    :func:`group_distances` (``hausdorff``): every pair within ``within_m`` and some beyond."""
+    :func:`group_distances` (``hausdorff``): every pair within ``within_m`` and some beyond,
+    without the N^2 T^2 work of all pairs (a station's 300 people). What a clustering at
+    ``within_m`` with single linkage and no size cap decides (its connected pieces) is the
+    same as with all pairs; its merges beyond ``within_m`` are not."""
     velocity = mean_velocities(traj, mask, dt_s) if velocity_weight_s > 0 else None
     alike = None if velocity is None else (velocity, within_m / velocity_weight_s)
     pairs = near_pairs(traj, mask, pos_now, within_m, alike)
@@ -226,27 +229,6 @@ def sparse_pair_distances(
         apart = np.linalg.norm(velocity[pairs[:, 0]] - velocity[pairs[:, 1]], axis=-1)
         distance = np.maximum(distance, velocity_weight_s * apart)
     return pairs, distance
-
-
-def sparse_group_distances(
-    traj: np.ndarray,
-    mask: np.ndarray,
-    pos_now: np.ndarray,
-    *,
-    within_m: float,
-    velocity_weight_s: float,
-    dt_s: float,
-) -> np.ndarray:
-    """(N, N) :func:`group_distances` (``hausdorff``) for the pairs
-    :func:`sparse_pair_distances` finds and infinity for the rest: exact for every pair within
-    ``within_m`` (and some beyond), without the N^2 T^2 work of all pairs (a station's 300
-    people). What a clustering at ``within_m`` with single linkage and no size cap decides
-    (its connected pieces) is the same as with all pairs; its merges beyond ``within_m`` are
-    not."""
-    pairs, distance = sparse_pair_distances(
-        traj, mask, pos_now, within_m=within_m, velocity_weight_s=velocity_weight_s, dt_s=dt_s
-    )
-    return pair_matrix(len(mask), pairs, distance)
 
 
 def pair_matrix(n: int, pairs: np.ndarray, distance: np.ndarray) -> np.ndarray:

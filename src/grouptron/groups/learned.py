@@ -115,6 +115,8 @@ def learned_distances(
     np.fill_diagonal(distances, 0.0)
     pairs = near_pairs_now(traj[:, -1])
     if not len(pairs):
+        if memory is not None:
+            memory.forget()  # every pair parted
         return distances
     features = pair_features(traj, mask, pairs, dt_s)
     probability = classifier.probabilities(features)

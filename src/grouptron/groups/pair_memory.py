@@ -45,6 +45,10 @@ class PairMemory:
     def __len__(self) -> int:
         return len(self._keys)
 
+    def forget(self) -> None:
+        """Forget every pair (a step where no pair is near, or nobody is present)."""
+        self._keys, self._probability = np.zeros(0, _KEY), np.zeros(0)
+
     def step(
         self,
         keys: np.ndarray,

@@ -152,6 +152,8 @@ def _cluster_step(
     is given)."""
     tracks = np.flatnonzero(present[:, step + pad])
     if len(tracks) == 0:
+        if learned is not None and learned.memory is not None:
+            learned.memory.forget()
         return None
     window = slice(step, step + pad + 1)
     traj, mask, now = pos[tracks, window], present[tracks, window], pos[tracks, step + pad]

@@ -41,8 +41,8 @@ class Forecast:
             the predictor was made with ``mixture=True``).
         group: (N,) scene-wide group of every agent at ``frame`` (agglomerative clustering of
             everyone present on their histories by the predictor's ``group_rule``: the model's
-            own for a model that reads groups, else the distance threshold of ``grouptron
-            groups detect``; numbered from 0), or None.
+            own for a model that reads groups, else the distance rule ``DETECTION_GROUPS``
+            (``grouptron groups detect --detector distance``); numbered from 0), or None.
         observed_points: (N,) observed positions in the history each forecast read (at most
             ``history_steps``; fewer for agents seen only recently), or None.
         filled_points: (N,) positions of that history filled in for missed detections (not

@@ -30,7 +30,7 @@ from grouptron.groups.scene import (
     score_against_labels,
 )
 from grouptron.io import refuse_folder, write_csv_atomically
-from grouptron.presets import DETECTION_GROUPS, LEARNED_GROUPS
+from grouptron.presets import DETECTION_GROUPS, LEARNED_GROUPS, describe_group_rule
 from grouptron.viz.files import check_picture_path
 from grouptron.viz.groups import plot_step_groups
 
@@ -45,22 +45,24 @@ class GroupRule:
 
     Attributes:
         rule: ``threshold`` (merge while groups are at most ``max_distance_m`` apart, the
-            detection rule ``DETECTION_GROUPS``) or ``count`` (the paper's C(N) groups).
+            detection rule ``DETECTION_GROUPS``; None: this) or ``count`` (the paper's C(N)
+            groups).
         linkage: agglomerative linkage (None: the rule's own; ``all``: each of ``LINKAGES``).
-        distance: between two trajectories (``all``: each of ``DISTANCE_KINDS``).
+        distance: between two trajectories (``all``: each of ``DISTANCE_KINDS``; None:
+            Hausdorff).
         max_distance_m: the threshold rule's cut, metres (None: ``DETECTION_GROUPS``').
         velocity_weight_s: seconds per m/s of velocity difference added to a distance
             (threshold rule; None: ``DETECTION_GROUPS``').
-        max_group_size: the threshold rule's largest group (0: no limit; None:
-            ``DETECTION_GROUPS``').
+        max_group_size: the largest group of the threshold rule or the learned detector (0:
+            no limit; None: theirs, 6).
         detector: ``distance`` (the rules above) or ``learned`` (``LEARNED_GROUPS``: the
             shipped pair classifier, docs/groups.md); None: ``learned`` unless an option of
             the distance rule is given.
     """
 
-    rule: Literal["threshold", "count"] = "threshold"
+    rule: Literal["threshold", "count"] | None = None
     linkage: Linkage | Literal["all"] | None = None
-    distance: DistanceKind | Literal["all"] = GroupConfig().distance
+    distance: DistanceKind | Literal["all"] | None = None
     max_distance_m: float | None = None
     velocity_weight_s: float | None = None
     max_group_size: int | None = None
@@ -71,15 +73,15 @@ class GroupRule:
         the distance rule, docs/groups.md) unless an option of the distance rule is set."""
         if self.detector is not None:
             return self.detector
-        distance_rule = (self.linkage, self.max_distance_m, self.velocity_weight_s)
-        chose_rule = self.rule != "threshold" or any(o is not None for o in distance_rule)
-        return "distance" if chose_rule or self.distance != GroupConfig().distance else "learned"
+        distance_rule = (self.rule, self.linkage, self.distance, self.max_distance_m,
+                         self.velocity_weight_s)  # fmt: skip
+        return "distance" if any(o is not None for o in distance_rule) else "learned"
 
     def configs(self) -> list[GroupConfig]:
         """The grouping (one per linkage and distance where ``all`` compares them)."""
         if self.chosen_detector() == "learned":
             return [_learned_rule(self)]
-        by_threshold = self.rule == "threshold"
+        by_threshold = self.rule in (None, "threshold")
         threshold_options = (self.max_distance_m, self.velocity_weight_s, self.max_group_size)
         if not by_threshold and any(o is not None for o in threshold_options):
             raise GrouptronError(
@@ -88,7 +90,7 @@ class GroupRule:
             )
         base = DETECTION_GROUPS if by_threshold else GroupConfig()
         linkages = _one_or_all(self.linkage or base.linkage, LINKAGES, "linkage")
-        distances = _one_or_all(self.distance, DISTANCE_KINDS, "distance")
+        distances = _one_or_all(self.distance or base.distance, DISTANCE_KINDS, "distance")
         preset = DETECTION_GROUPS  # the threshold rule's settings where none is given
         max_m = preset.max_distance_m if self.max_distance_m is None else self.max_distance_m
         weight_s = self.velocity_weight_s
@@ -110,11 +112,11 @@ class GroupRule:
 
 def _learned_rule(rule: GroupRule) -> GroupConfig:
     """``LEARNED_GROUPS`` with ``rule``'s largest group; the distance rule's options refused."""
-    given = (rule.linkage, rule.max_distance_m, rule.velocity_weight_s)
-    if rule.rule != "threshold" or any(g is not None for g in given):
+    given = (rule.rule, rule.linkage, rule.distance, rule.max_distance_m, rule.velocity_weight_s)
+    if any(g is not None for g in given):
         raise GrouptronError(
             "--detector learned links the pairs its classifier finds probable enough; --rule, "
-            "--linkage, --max-distance and --velocity-weight set the distance rule"
+            "--linkage, --distance, --max-distance and --velocity-weight set the distance rule"
         )
     size = LEARNED_GROUPS.max_group_size if rule.max_group_size is None else rule.max_group_size
     return dataclasses.replace(LEARNED_GROUPS, max_group_size=size or None)
@@ -155,7 +157,8 @@ class GroupScores:
         config = self.config
         return {
             "scope": self.scope,
-            "rule": "count" if config.max_distance_m is None else "threshold",
+            "detector": config.detector,
+            "rule": _rule_name(config),
             "linkage": config.linkage,
             "distance": config.distance,
             "max_distance_m": config.max_distance_m,
@@ -163,6 +166,13 @@ class GroupScores:
             "max_group_size": config.max_group_size,
             **self.scores,
         }
+
+
+def _rule_name(config: GroupConfig) -> str:
+    """``learned``, ``threshold`` or ``count`` (the paper's C(N))."""
+    if config.detector == "learned":
+        return "learned"
+    return "count" if config.max_distance_m is None else "threshold"
 
 
 def score_groups(
@@ -326,7 +336,7 @@ def plot_detected(detected: DetectedGroups, out: Path) -> int:
         chosen.labels,
         scene.ped_id[chosen.tracks],
         title=f"{Path(detected.tracks).name}, frame {frame}: {len(chosen.tracks)} pedestrians, "
-        f"{len(np.unique(chosen.labels))} groups ({detected.config.linkage} linkage)",
+        f"{len(np.unique(chosen.labels))} groups ({describe_group_rule(detected.config)})",
         out=out,
     )
     return frame

@@ -14,7 +14,6 @@ from grouptron.cli.options import (
     positive_float,
     positive_int,
 )
-from grouptron.config import GroupConfig
 from grouptron.constants import DISTANCE_KINDS, LINKAGES
 from grouptron.presets import DETECTION_GROUPS
 
@@ -25,9 +24,9 @@ def _rule_options(parser: argparse.ArgumentParser, *, compare: bool) -> None:
     parser.add_argument(
         "--rule",
         choices=("threshold", "count"),
-        default="threshold",
-        help="threshold: merge while groups are at most --max-distance apart (chosen on human "
-        "labels, docs/groups.md); count: the paper's C(N) = (N + 1) // 2 groups of N people",
+        help="the distance rule: threshold (its default): merge while groups are at most "
+        "--max-distance apart (chosen on human labels, docs/groups.md); count: the paper's "
+        "C(N) = (N + 1) // 2 groups of N people",
     )
     parser.add_argument(
         "--detector",
@@ -46,9 +45,8 @@ def _rule_options(parser: argparse.ArgumentParser, *, compare: bool) -> None:
     parser.add_argument(
         "--distance",
         choices=(*DISTANCE_KINDS, "all") if compare else DISTANCE_KINDS,
-        default=GroupConfig().distance,
-        help="distance between two trajectories: Hausdorff, or its modified (quantile) form"
-        + every,
+        help="the distance rule's distance between two trajectories: Hausdorff (its default), "
+        "or its modified (quantile) form" + every,
     )
     parser.add_argument(
         "--max-distance",
@@ -64,8 +62,9 @@ def _rule_options(parser: argparse.ArgumentParser, *, compare: bool) -> None:
     parser.add_argument(
         "--max-group-size",
         type=non_negative_int,
-        help="the threshold rule makes no group larger than this, so that a dense crowd is not "
-        f"chained into one (0: no limit; default {DETECTION_GROUPS.max_group_size})",
+        help="the threshold rule or the learned detector makes no group larger than this, so "
+        "that a dense crowd is not chained into one (0: no limit; default "
+        f"{DETECTION_GROUPS.max_group_size})",
     )
 
 
@@ -149,6 +148,11 @@ def _add_evaluate(group_commands: argparse._SubParsersAction) -> None:
     score.add_argument("--labels", required=True, help="group label file")
     score.add_argument("--id-map", help="CSV 'track_id,label_id' when the ids differ")
     _rule_options(score, compare=True)
-    score.add_argument("--every", type=positive_int, default=1, help="score every k-th step")
+    score.add_argument(
+        "--every",
+        type=positive_int,
+        default=1,
+        help="score every k-th step (the learned detector's memory then sees those steps only)",
+    )
     score.add_argument("--format", choices=("table", "json"), default="table", help="output format")
     score.set_defaults(handler="grouptron.cli.groups:cmd_groups_evaluate")
