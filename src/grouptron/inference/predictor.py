@@ -103,7 +103,7 @@ class Predictor:
     Attributes:
         group_rule: the rule behind ``Forecast.group``: the model's own for one that reads
             groups, otherwise ``DETECTION_GROUPS`` (the rule chosen on human labels).
-        pair_memory: a learned ``group_rule``'s memory of pairs for frames fed in order.
+        pair_memory: a learned ``group_rule``'s memory of pairs, for one stream fed in order.
     """
 
     def __init__(  # noqa: PLR0913 - the predictor's settings, keyword-only after the forecast
