@@ -388,7 +388,8 @@ def prepare(run: Run, folder: Path) -> None:
             shutil.copy2(item, folder / item.name)
 
 
-def main() -> int:
+def build_parser() -> argparse.ArgumentParser:
+    """The command's options."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=REPO / "campaign" / "runs")
     parser.add_argument("--only", help="run only the runs whose name contains this")
@@ -439,7 +440,11 @@ def main() -> int:
         help="queue the learned baselines instead: social-stgcnn and transformer on the five "
         "splits, backward derivatives (social-stgcnn 30 epochs, transformer 20)",
     )
-    args = parser.parse_args()
+    return parser
+
+
+def checked_queue(parser: argparse.ArgumentParser, args: argparse.Namespace) -> list[Run]:
+    """The runs the options ask for (their combinations and the device checked first)."""
     if args.baselines and (args.variant or args.bf16_ab or args.look_ahead):
         parser.error(
             "--baselines is a queue of its own: not with --variant, --look-ahead or --bf16-ab"
@@ -465,13 +470,12 @@ def main() -> int:
         runs = variant_queue(args.variant) if args.variant else queue(args.bf16_ab)
     if args.only:
         runs = [run for run in runs if args.only in run.name]
-    if args.status:
-        print("\n".join(status(runs, args.out)))
-        return 0
-    if args.snapshot:
-        lines, copied = snapshot(runs, args.out)
-        print("\n".join(lines))
-        return 0 if copied else 2
+    return runs
+
+
+def work(runs: list[Run], args: argparse.Namespace) -> None:
+    """Train every unfinished run of ``runs`` not claimed by another worker, in order (with
+    ``--dry-run`` print the commands only)."""
     bf16 = resolve_precision("auto", torch.device(args.device), threads=args.threads)
     chosen = "bf16" if bf16 else "fp32"
     for run in runs:
@@ -506,6 +510,20 @@ def main() -> int:
         finally:
             os.close(lock)
         print(json.dumps({"finished": run.name}), flush=True)
+
+
+def main() -> int:
+    options = build_parser()
+    args = options.parse_args()
+    runs = checked_queue(options, args)
+    if args.status:
+        print("\n".join(status(runs, args.out)))
+        return 0
+    if args.snapshot:
+        lines, copied = snapshot(runs, args.out)
+        print("\n".join(lines))
+        return 0 if copied else 2
+    work(runs, args)
     return 0
 
 
