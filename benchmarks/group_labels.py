@@ -18,21 +18,16 @@ from __future__ import annotations
 
 import argparse
 from itertools import product
-from pathlib import Path
 
 import numpy as np
 
-from grouptron.config import DataConfig, GroupConfig
+from grouptron.config import GroupConfig
 from grouptron.data.datasets.locate import resolve_data_dir
-from grouptron.data.formats.reader import read_tracks
-from grouptron.data.prepare.scene import build_scene
 from grouptron.groups.clustering import LINKAGES
 from grouptron.groups.distances import DISTANCE_KINDS
-from grouptron.groups.labels import read_group_labels
-from grouptron.groups.scene import score_against_labels
+from grouptron.groups.scene import LABELLED_RECORDINGS, labelled_recordings, score_against_labels
 
-RECORDINGS = {"eth": "biwi_eth", "hotel": "biwi_hotel", "zara1": "crowds_zara01",
-              "zara2": "crowds_zara02"}  # fmt: skip
+RECORDINGS = LABELLED_RECORDINGS
 
 
 def main() -> None:
@@ -45,13 +40,7 @@ def main() -> None:
         "--max-group-sizes", default="0", help="largest groups swept with single linkage (0: none)"
     )
     args = parser.parse_args()
-    data_dir = resolve_data_dir(args.data_dir)
-    scenes = {
-        name: build_scene(read_tracks(data_dir / "all_data" / f"{file}.txt"), DataConfig())
-        for name, file in RECORDINGS.items()
-    }
-    labels = {name: read_group_labels(Path(args.labels_dir) / name / "groups.txt")
-              for name in RECORDINGS}  # fmt: skip
+    scenes, labels = labelled_recordings(args.labels_dir, resolve_data_dir(args.data_dir))
     if args.sweep:
         sizes = [int(n) or None for n in args.max_group_sizes.split(",")]
         sweep(scenes, labels, args.every, sizes)

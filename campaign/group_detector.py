@@ -22,22 +22,23 @@ table; then (unless ``--no-ship``) trains on all four and writes
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
-from grouptron.config import DataConfig, GroupConfig
+from grouptron.config import GroupConfig
 from grouptron.data.datasets.locate import resolve_data_dir
-from grouptron.data.formats.reader import read_tracks
-from grouptron.data.prepare.scene import Scene, build_scene
-from grouptron.groups.labels import read_group_labels
+from grouptron.data.prepare.scene import Scene
 from grouptron.groups.learned import SHIPPED_DETECTOR, PairClassifier, fit_classifier
 from grouptron.groups.pair_memory import MEMORY_WEIGHT
-from grouptron.groups.scene import labelled_pairs, score_against_labels
+from grouptron.groups.scene import (
+    LABELLED_RECORDINGS,
+    labelled_pairs,
+    labelled_recordings,
+    score_against_labels,
+)
 from grouptron.presets import DETECTION_GROUPS, LEARNED_GROUPS
 
-RECORDINGS = {"eth": "biwi_eth", "hotel": "biwi_hotel", "zara1": "crowds_zara01",
-              "zara2": "crowds_zara02"}  # fmt: skip
+RECORDINGS = LABELLED_RECORDINGS
 T_DANTE_GMITRE = {"eth": 0.66, "hotel": 0.54, "zara1": 0.84, "zara2": 0.87}
 """T-DANTE's G-MITRE F1 (5-fold cross-validation within each recording), read from its plots."""
 
@@ -102,10 +103,7 @@ def main() -> None:
                         "within each held-out fold instead (writes nothing)")  # fmt: skip
     parser.add_argument("--no-ship", action="store_true", help="do not write the shipped file")
     args = parser.parse_args()
-    data_dir = resolve_data_dir(args.data_dir)
-    scenes = {n: build_scene(read_tracks(data_dir / "all_data" / f"{f}.txt"), DataConfig())
-              for n, f in RECORDINGS.items()}  # fmt: skip
-    labels = {n: read_group_labels(Path(args.labels_dir) / n / "groups.txt") for n in RECORDINGS}
+    scenes, labels = labelled_recordings(args.labels_dir, resolve_data_dir(args.data_dir))
     data = {n: labelled_pairs(scenes[n], labels[n], every=args.every)[:2] for n in RECORDINGS}
     for name, (_, together) in data.items():
         print(f"{name}: {len(together)} pairs within 3 m, {int(together.sum())} together")

@@ -21,24 +21,20 @@ from __future__ import annotations
 import argparse
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from grouptron.config import DataConfig
 from grouptron.data.datasets.locate import resolve_data_dir
-from grouptron.data.formats.reader import read_tracks
-from grouptron.data.prepare.scene import Scene, build_scene
-from grouptron.groups.labels import partition_from_labels, read_group_labels
+from grouptron.data.prepare.scene import Scene
+from grouptron.groups.labels import partition_from_labels
 from grouptron.groups.learned import fit_classifier, linked_groups, near_pairs_now
 from grouptron.groups.pair_features import FEATURES, pair_features
 from grouptron.groups.pair_memory import WALKING_PACE, PairMemory, pair_keys
 from grouptron.groups.partition_scores import PartitionCounts
-from grouptron.groups.scene import position_grid
+from grouptron.groups.scene import LABELLED_RECORDINGS, labelled_recordings, position_grid
 from grouptron.presets import LEARNED_GROUPS
 
-RECORDINGS = {"eth": "biwi_eth", "hotel": "biwi_hotel", "zara1": "crowds_zara01",
-              "zara2": "crowds_zara02"}  # fmt: skip
+RECORDINGS = LABELLED_RECORDINGS
 SLOWER, FASTER = FEATURES.index("speed_low"), FEATURES.index("speed_high")
 
 
@@ -142,10 +138,7 @@ def main() -> None:
     parser.add_argument("--history", default="8,16,24,40", help="window lengths, steps")
     parser.add_argument("--standers", action="store_true", help="count the standers only")
     args = parser.parse_args()
-    data_dir = resolve_data_dir(args.data_dir)
-    scenes = {n: build_scene(read_tracks(data_dir / "all_data" / f"{f}.txt"), DataConfig())
-              for n, f in RECORDINGS.items()}  # fmt: skip
-    labels = {n: read_group_labels(Path(args.labels_dir) / n / "groups.txt") for n in RECORDINGS}
+    scenes, labels = labelled_recordings(args.labels_dir, resolve_data_dir(args.data_dir))
     if args.standers:
         for name in RECORDINGS:
             print(f"{name}: {standers(scenes[name], labels[name])}")

@@ -4,19 +4,22 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from grouptron.config import GroupConfig
+from grouptron.config import DataConfig, GroupConfig
 from grouptron.constants import HISTORY_STEPS, PERCEPTION_RADIUS_M
+from grouptron.data.formats.reader import read_tracks
 from grouptron.data.prepare.samples import dense_grid
-from grouptron.data.prepare.scene import Scene
+from grouptron.data.prepare.scene import Scene, build_scene
 from grouptron.groups.clustering import agglomerative_groups, canonical_labels, linked_pieces
 from grouptron.groups.distances import group_distances, pair_matrix, sparse_pair_distances
 from grouptron.groups.labels import (
     PairCounts,
     dice_of_partitions,
     partition_from_labels,
+    read_group_labels,
     same_group_pairs,
 )
 from grouptron.groups.learned import (
@@ -275,3 +278,21 @@ def labelled_pairs(
         return np.zeros((0, len(FEATURES)), np.float32), np.zeros(0, bool), np.zeros(0, int)
     features, together, steps = (np.concatenate(part) for part in zip(*parts, strict=True))
     return features, together, steps
+
+
+LABELLED_RECORDINGS = {"eth": "biwi_eth", "hotel": "biwi_hotel", "zara1": "crowds_zara01",
+                       "zara2": "crowds_zara02"}  # fmt: skip
+"""The ETH/UCY recordings with human group labels: their label folder's name, then their file
+in the benchmark's ``all_data/``."""
+
+
+def labelled_recordings(
+    labels_dir: str | Path, data_dir: Path
+) -> tuple[dict[str, Scene], dict[str, dict[int, int]]]:
+    """The scenes of :data:`LABELLED_RECORDINGS` (``data_dir/all_data``) and their labels
+    (``labels_dir/<name>/groups.txt``), by name."""
+    scenes = {name: build_scene(read_tracks(data_dir / "all_data" / f"{file}.txt"), DataConfig())
+              for name, file in LABELLED_RECORDINGS.items()}  # fmt: skip
+    labels = {name: read_group_labels(Path(labels_dir) / name / "groups.txt")
+              for name in LABELLED_RECORDINGS}  # fmt: skip
+    return scenes, labels
