@@ -20,12 +20,10 @@ import numpy as np
 import torch
 from safetensors import SafetensorError, safe_open
 from safetensors.numpy import load_file, save_file
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from grouptron.errors import GrouptronError
-from grouptron.groups.clustering import agglomerative_groups, canonical_labels
+from grouptron.groups.clustering import agglomerative_groups, canonical_labels, linked_pieces
 from grouptron.groups.pair_features import FEATURES, pair_features
 from grouptron.groups.pair_memory import PairMemory, pair_keys
 from grouptron.io import save_atomically
@@ -131,8 +129,7 @@ def learned_distances(
 def linked_groups(distances: np.ndarray, threshold: float, max_size: int | None) -> np.ndarray:
     """(N,) groups of the pairs at most ``threshold`` apart (connected pieces), a piece
     larger than ``max_size`` cut by single linkage with that limit."""
-    linked = csr_matrix(distances <= threshold)
-    labels = connected_components(linked, directed=False)[1]
+    labels = linked_pieces(len(distances), np.argwhere(distances <= threshold))
     if max_size is not None:
         sizes = np.bincount(labels)
         for piece in np.flatnonzero(sizes > max_size):  # rare: a chain through a crowd
