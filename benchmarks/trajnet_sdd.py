@@ -27,12 +27,16 @@ one that has. So the runs stay in ``OUT``, never in ``checkpoints/``.
 from __future__ import annotations
 
 import argparse
+import json
 import subprocess
 import sys
 from pathlib import Path
 
 from grouptron.config import DataConfig
 from grouptron.data.datasets.custom import load_dataset_part, read_dataset
+from grouptron.model.forecaster import is_outside_name
+from grouptron.training.run_state import LAST
+from grouptron.training.selection import SELECTION
 
 REPO = Path(__file__).resolve().parents[1]
 SPLIT = {
@@ -42,7 +46,6 @@ SPLIT = {
 }
 """The scenes of each part: every file of a scene goes to the same part."""
 MODELS = ("social-stgcnn", "transformer", "trajectron++", "grouptron")
-CVAE_MODELS = ("trajectron++", "grouptron")
 
 
 def description(data_dir: Path, out: Path) -> Path:
@@ -53,10 +56,11 @@ def description(data_dir: Path, out: Path) -> Path:
         files = sorted(f for scene in scenes for f in data_dir.glob(f"{scene}_*.txt"))
         if not files:
             sys.exit(f"trajnet_sdd: no {'/'.join(scenes)} files in {data_dir}")
-        lines.append(f"{part} = [{', '.join(repr(str(f.resolve())) for f in files)}]")
+        # A JSON string is a TOML basic string: any path, quotes and backslashes included.
+        lines.append(f"{part} = [{', '.join(json.dumps(str(f.resolve())) for f in files)}]")
     out.mkdir(parents=True, exist_ok=True)
     path = out / "trajnet-sdd.toml"
-    path.write_text("\n".join(lines).replace("'", '"') + "\n")
+    path.write_text("\n".join(lines) + "\n")
     return path
 
 
@@ -78,13 +82,13 @@ def counts(path: Path) -> list[str]:
 def train(path: Path, runs: Path, model: str, epochs: int, threads: int) -> None:
     """Train ``model`` into ``runs/model`` unless finished; resume a stopped run."""
     folder = runs / model
-    if (folder / "selection.json").exists():
+    if (folder / SELECTION).exists():
         print(f"{model}: finished", flush=True)
         return
     argv = [sys.executable, "-m", "grouptron", "train", "--dataset", str(path), "--model", model]
     argv += ["--derivatives", "backward", "--epochs", str(epochs), "--out", str(folder)]
     argv += ["--threads", str(threads), "--precision", "auto", "--quiet"]
-    if (folder / "last.safetensors").exists():
+    if (folder / LAST).exists():
         argv.append("--resume")
     print(" ".join(argv), flush=True)
     subprocess.run(argv, check=True)
@@ -117,7 +121,7 @@ def main() -> int:
         return 0
     runs = args.out / "runs"
     for model in args.models.split(","):
-        epochs = args.cvae_epochs if model in CVAE_MODELS else args.epochs
+        epochs = args.epochs if is_outside_name(model) else args.cvae_epochs
         train(path, runs, model, epochs, args.threads)
     report(path, runs, args.out / "report.md")
     return 0
