@@ -31,12 +31,12 @@ def cmd_compare(args: argparse.Namespace) -> int:
     torch.set_num_threads(args.threads)
     names = args.split.split(",") if args.split else []
     splits = tuple(s for name in names for s in parse_splits(name.strip())) or None
-    with scoring(args.metrics):  # registered for this comparison only
+    with scoring(args.metrics):  # registered for this comparison only (and its labels)
         rows = compare(
             side(args.a), side(args.b), splits, args.mode, data_dir=args.data_dir, seed=args.seed
         )
-    if args.format == "json":
-        print(json.dumps({"a": args.a, "b": args.b, "rows": [r.to_dict() for r in rows]}))
-    else:
-        print(compared_table(rows, (args.a, args.b)))
+        if args.format == "json":
+            print(json.dumps({"a": args.a, "b": args.b, "rows": [r.to_dict() for r in rows]}))
+        else:
+            print(compared_table(rows, (args.a, args.b)))
     return 0

@@ -17,7 +17,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Final
 
-from grouptron.reporting.cells import DISPLAY, display_name, published_pair
+from grouptron.reporting.cells import OURS_MODELS, display_name, published_pair
 
 MOST_LIKELY: Final = "ml"
 """One forecast per person: the most likely (Trajectron++, Grouptron) or the one a
@@ -154,7 +154,7 @@ TRAJECTRON_BEST_OF_20 = PublishedRow(
     "no best-of-20 row, of Trajectron++ or of its own",
 )
 SOCIAL_STGCNN = PublishedRow(
-    "social-stgcnn",
+    "Social-STGCNN",
     BEST_OF_20,
     {
         "eth": (1.11, 0.64),
@@ -168,7 +168,7 @@ SOCIAL_STGCNN = PublishedRow(
     "on their own; only people present in all 20 steps of a window are in its graph)",
 )
 TRANSFORMER_BEST_OF_20 = PublishedRow(
-    "transformer",
+    "Transformer TF_q",  # not our small Transformer: the paper's, far larger
     BEST_OF_20,
     {
         "eth": (1.12, 0.61),
@@ -211,7 +211,7 @@ TABLE_II: Final = of_kind(TABLE_II_ROWS, MOST_LIKELY)
 
 def _name(method: str) -> str:
     """A published row's method as the tables print it (ours by their display names)."""
-    return display_name(method) if method in DISPLAY else method
+    return display_name(method) if method in OURS_MODELS else method
 
 
 def published_lines(
