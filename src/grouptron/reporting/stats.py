@@ -228,34 +228,36 @@ def paired_differences(
         for model, baseline in PAIRS:
             modes = ("ml",) if baseline == CONSTANT_VELOCITY else ("ml", "best-of-20")
             for mode in modes:
+                base_mode = "ml" if baseline == CONSTANT_VELOCITY else mode
                 for column in columns:
-                    base_mode = "ml" if baseline == CONSTANT_VELOCITY else mode
-                    diffs = {}
-                    for metric in ("fde", "ade"):
-                        a = _per_split(
-                            primary, model, derivatives, mode, column=column, metric=metric
-                        )
-                        b = _per_split(
-                            primary, baseline, derivatives, base_mode, column=column, metric=metric
-                        )
-                        if a is None or b is None:
-                            break
-                        pairs = [_minus(x, y, model, baseline) for x, y in zip(a, b, strict=True)]
-                        diffs[metric] = (_interval(pairs), sum(len(x[0]) for x in a))
-                    if len(diffs) == 2:
-                        out.append(
-                            PairedDifference(
-                                derivatives,
-                                mode,
-                                model,
-                                baseline,
-                                column,
-                                diffs["fde"][1],
-                                diffs["fde"][0],
-                                diffs["ade"][0],
-                            )
-                        )
+                    found = _difference(
+                        primary, (model, mode), (baseline, base_mode), derivatives, column
+                    )
+                    out += [found] if found is not None else []
     return out
+
+
+def _difference(
+    primary: dict[tuple[str, str, str], ScoredRun],
+    model: tuple[str, str],
+    baseline: tuple[str, str],
+    derivatives: str,
+    column: str,
+) -> PairedDifference | None:
+    """``model - baseline`` ((name, mode) each) in FDE and ADE on the samples both scored in
+    ``column``, with intervals; None where either has no per-sample scores."""
+    diffs = {}
+    for metric in ("fde", "ade"):
+        a = _per_split(primary, model[0], derivatives, model[1], column=column, metric=metric)
+        b = _per_split(primary, baseline[0], derivatives, baseline[1], column=column, metric=metric)
+        if a is None or b is None:
+            return None
+        pairs = [_minus(x, y, model[0], baseline[0]) for x, y in zip(a, b, strict=True)]
+        diffs[metric] = (_interval(pairs), sum(len(x[0]) for x in a))
+    fde, count = diffs["fde"]
+    return PairedDifference(
+        derivatives, model[1], model[0], baseline[0], column, count, fde, diffs["ade"][0]
+    )
 
 
 TO_BEST_MODES = ("ml", "best-of-20")
@@ -274,19 +276,8 @@ def differences_to_best(
     for (derivatives, mode, column), found in _cells_by_column(rows, columns).items():
         best = min(found, key=lambda r: r.fde).model
         for row in found:
-            diffs = []
-            for metric in ("fde", "ade"):
-                a = _per_split(primary, row.model, derivatives, mode, column=column, metric=metric)
-                b = _per_split(primary, best, derivatives, mode, column=column, metric=metric)
-                if a is None or b is None:
-                    break
-                pairs = [_minus(x, y, row.model, best) for x, y in zip(a, b, strict=True)]
-                diffs.append((_interval(pairs), sum(len(x[0]) for x in a)))
-            if len(diffs) == 2:
-                (fde, count), (ade, _) = diffs
-                out.append(
-                    PairedDifference(derivatives, mode, row.model, best, column, count, fde, ade)
-                )
+            difference = _difference(primary, (row.model, mode), (best, mode), derivatives, column)
+            out += [difference] if difference is not None else []
     return out
 
 
