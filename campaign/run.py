@@ -87,12 +87,12 @@ repeats ``metrics.jsonl``)."""
 EPOCHS = 100
 SPLITS = ("univ", "eth", "hotel", "zara1", "zara2")
 MODELS = ("trajectron++", "grouptron")
-BASELINES = ("social-stgcnn", "transformer")
-"""The learned baselines of other families (``grouptron.baselines``), by their model names."""
 BASELINE_EPOCHS = {"social-stgcnn": 30, "transformer": 20}
-"""The baselines' epochs: their validation error levels off after about 10; an epoch of the
+"""The learned baselines of other families (``grouptron.baselines``) by their model names,
+and their epochs: their validation error levels off after about 10; an epoch of the
 Transformer costs three of Social-STGCNN's, so it gets fewer and all ten runs fit into about
 an hour and a half of 2 cores."""
+BASELINES = tuple(BASELINE_EPOCHS)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -420,7 +420,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="torch device of the runs (default cpu); e.g. cuda: several workers may share one "
         "GPU, and a run may move between devices (metrics.jsonl records each epoch's)",
     )
-    parser.add_argument(
+    queues = parser.add_mutually_exclusive_group()  # each a queue of its own
+    queues.add_argument(
         "--variant",
         nargs="?",
         const="grouptron-robust",
@@ -428,29 +429,27 @@ def build_parser() -> argparse.ArgumentParser:
         help="queue the runs of a named group variant instead (grouptron-robust when no MODEL "
         "is given, or grouptron-robust-residual)",
     )
-    parser.add_argument(
+    queues.add_argument(
         "--look-ahead",
         action="store_true",
         help="queue the diagnostic runs with the reference's neighbour window instead: the "
         "paper's two models, univ, papers' protocol, seeds 0-2 (never shipped as forecasters)",
     )
-    parser.add_argument(
+    epochs = ", ".join(f"{model} {n} epochs" for model, n in BASELINE_EPOCHS.items())
+    queues.add_argument(
         "--baselines",
         action="store_true",
-        help="queue the learned baselines instead: social-stgcnn and transformer on the five "
-        "splits, backward derivatives (social-stgcnn 30 epochs, transformer 20)",
+        help=f"queue the learned baselines instead on the five splits, backward derivatives "
+        f"({epochs})",
     )
     return parser
 
 
 def checked_queue(parser: argparse.ArgumentParser, args: argparse.Namespace) -> list[Run]:
     """The runs the options ask for (their combinations and the device checked first)."""
-    if args.baselines and (args.variant or args.bf16_ab or args.look_ahead):
-        parser.error(
-            "--baselines is a queue of its own: not with --variant, --look-ahead or --bf16-ab"
-        )
-    if args.look_ahead and (args.variant or args.bf16_ab):
-        parser.error("--look-ahead is a queue of its own: not with --variant or --bf16-ab")
+    if args.bf16_ab and (args.variant or args.look_ahead or args.baselines):
+        parser.error("--bf16-ab adds to the default queue: not with --variant, --look-ahead or "
+                     "--baselines")  # fmt: skip
     if args.variant is not None and args.variant not in variant_models():
         parser.error(f"--variant: one of {', '.join(variant_models())}, not {args.variant!r}")
     if args.device != "cpu":
