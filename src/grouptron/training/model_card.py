@@ -169,7 +169,7 @@ def _architecture(config: ExperimentConfig) -> list[tuple[str, str]]:
     except GrouptronError:  # a card is written wherever the class went since
         return [("architecture", "its class cannot be imported here")]
     module = sys.modules.get(found.__module__)
-    text = (module.__doc__ or found.__doc__ or "").strip().split("\n\n")[0]
+    text = ((module and module.__doc__) or found.__doc__ or "").strip().split("\n\n")[0]
     about = " ".join(text.split())
     return [("architecture", f"`{found.__module__}:{found.__qualname__}`: {about}")]
 
