@@ -5,8 +5,9 @@ Usage:
 
 ``--people`` walkers (pairs and threes among singles, 1.2 m/s, random headings) spread at the
 density of a busy station (about 1 person per 3 m^2), 8 observed steps of 0.4 s; prints the
-median and 90th percentile time of ``groups_at_step`` under ``DETECTION_GROUPS`` (the default,
-the live path's) and ``LEARNED_GROUPS`` (the shipped pair classifier), one thread.
+median and 90th percentile time of ``groups_at_step`` under ``DETECTION_GROUPS`` (the distance
+rule with its size limit) and ``LEARNED_GROUPS`` (the shipped detector; one step alone, so
+without its memory of pairs), one thread.
 """
 
 from __future__ import annotations
