@@ -7,7 +7,7 @@ published) / published in percent for ADE / FDE; negative is better.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from grouptron.constants import CONSTANT_VELOCITY, DEFAULT_CHECKPOINT
 from grouptron.evaluation.results import EvaluationResult
@@ -225,17 +225,16 @@ def interval_table(
 def paired_table(paired: Sequence[PairedDifference], columns: Sequence[str]) -> list[str]:
     """Mean FDE differences (model - baseline, same samples) with 95% intervals; a * marks an
     interval that excludes zero."""
-    index = {(p.derivatives, p.mode, p.model, p.baseline, p.column): p for p in paired}
-    keys = dict.fromkeys((p.derivatives, p.mode, p.model, p.baseline) for p in paired)
-    lines = []
-    for derivatives, mode, model, baseline in keys:
-        cells = []
-        for column in columns:
-            p = index.get((derivatives, mode, model, baseline, column))
-            cells.append(p.fde.signed_text() if p else "-")
-        lines.append(
-            [f"{display_name(model)} - {display_name(baseline)}", f"{derivatives}, {mode}", *cells]
+    lines = [
+        [
+            f"{display_name(model)} - {display_name(baseline)}",
+            f"{derivatives}, {mode}",
+            *(p.fde.signed_text() if p else "-" for p in found),
+        ]
+        for (derivatives, mode, model, baseline), found in _rows_of(
+            paired, columns, lambda p: (p.derivatives, p.mode, p.model, p.baseline)
         )
+    ]
     return markdown_table(
         ["difference", "derivatives, mode", *(display_name(c) for c in columns)], lines
     )
@@ -244,19 +243,26 @@ def paired_table(paired: Sequence[PairedDifference], columns: Sequence[str]) -> 
 def to_best_table(to_best: Sequence[PairedDifference], columns: Sequence[str]) -> list[str]:
     """Every model's mean FDE minus the best one's of each column (``best`` there), with
     95% intervals on the same samples; a * marks an interval that excludes zero."""
-    index = {(p.derivatives, p.mode, p.model, p.column): p for p in to_best}
-    keys = dict.fromkeys((p.derivatives, p.mode, p.model) for p in to_best)
-    lines = []
-    for derivatives, mode, model in keys:
-        cells = []
-        for column in columns:
-            p = index.get((derivatives, mode, model, column))
-            best = p is not None and p.model == p.baseline
-            cells.append("-" if p is None else "**best**" if best else p.fde.signed_text())
-        lines.append([display_name(model), f"{derivatives}, {mode}", *cells])
+
+    def cell(p: PairedDifference | None) -> str:
+        return "-" if p is None else "**best**" if p.model == p.baseline else p.fde.signed_text()
+
+    rows = _rows_of(to_best, columns, lambda p: (p.derivatives, p.mode, p.model))
+    lines = [[display_name(m), f"{d}, {mode}", *map(cell, found)] for (d, mode, m), found in rows]
     return markdown_table(
         ["model", "derivatives, mode", *(display_name(c) for c in columns)], lines
     )
+
+
+def _rows_of(
+    diffs: Sequence[PairedDifference],
+    columns: Sequence[str],
+    row: Callable[[PairedDifference], tuple[str, ...]],
+) -> list[tuple[tuple[str, ...], list[PairedDifference | None]]]:
+    """The table rows ``row`` names, in order of first appearance, each with its difference in
+    every column (None where it has none)."""
+    index = {(row(p), p.column): p for p in diffs}
+    return [(key, [index.get((key, c)) for c in columns]) for key in dict.fromkeys(map(row, diffs))]
 
 
 def seed_table(seeds: Sequence[SeedSpread]) -> list[str]:
